@@ -1,0 +1,32 @@
+# Quick start: `make run` and `make test`. Both create .venv and install into it when needed.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed-stamp
+INSTALL_INPUTS := pyproject.toml setup.py rtcore/_build.py $(wildcard csrc/*.c csrc/*.h)
+
+.PHONY: run test bench lint clean
+
+$(STAMP): $(INSTALL_INPUTS)
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip setuptools wheel cffi
+	$(PY) -m pip install --quiet --no-build-isolation --editable '.[test]'
+	@touch $(STAMP)
+
+run: $(STAMP)
+	$(VENV)/bin/hand-service run
+
+test: $(STAMP)
+	$(VENV)/bin/ruff check .
+	$(PY) -m pytest -q -m "not slow"
+
+bench: $(STAMP)
+	$(VENV)/bin/hand-service bench --json bench.json
+	$(PY) -m pytest -q tests/bench --benchmark-enable --benchmark-only
+	$(PY) -m pytest -q -m slow
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+clean:
+	rm -rf $(VENV) build *.egg-info rtcore/_rtcore.c rtcore/*.so csrc/*.o

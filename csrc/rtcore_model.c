@@ -1,0 +1,134 @@
+/* The PRBM and its effects: torque model, feedforward by model inversion, and the
+ * Moore-Penrose force estimate (physics.md sections 1, 3 and 4). */
+#include <math.h>
+
+#include "rtcore_internal.h"
+
+/* k, or k * ratio when bending backwards (asymmetric_stiffness). */
+static double linear_stiffness_nm_per_rad(const rtcore_finger_config *c, double angle_rad)
+{
+    if (angle_rad < 0.0) {
+        return c->stiffness_nm_per_rad * c->effects.asymmetric_stiffness_ratio;
+    }
+    return c->stiffness_nm_per_rad;
+}
+
+/* Torque the finger's structure resists with at (angle, velocity), beyond A*th'':
+ * B is not included (the callers add B*th' where the dynamics call for it). */
+double rtcore_model_torque_nm(const rtcore_finger_config *c, double angle_rad,
+                              double velocity_rad_per_s)
+{
+    const rtcore_effects *e = &c->effects;
+    double torque = linear_stiffness_nm_per_rad(c, angle_rad) * angle_rad;
+
+    torque += e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad;
+    torque += e->quadratic_damping_nms2_per_rad2 * fabs(velocity_rad_per_s) * velocity_rad_per_s;
+    if (e->coulomb_torque_nm != 0.0) {
+        const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
+        torque += e->coulomb_torque_nm * tanh(velocity_rad_per_s / smoothing_rad_per_s);
+    }
+    if (e->gravity_torque_nm != 0.0) {
+        torque += e->gravity_torque_nm * (1.0 - cos(angle_rad));
+    }
+    return torque;
+}
+
+/* d tau / d theta: the local stiffness, with velocity held fixed. */
+double rtcore_model_stiffness_nm_per_rad(const rtcore_finger_config *c, double angle_rad)
+{
+    const rtcore_effects *e = &c->effects;
+    double stiffness = linear_stiffness_nm_per_rad(c, angle_rad)
+                       + 3.0 * e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad;
+    if (e->gravity_torque_nm != 0.0) {
+        stiffness += e->gravity_torque_nm * sin(angle_rad);
+    }
+    return stiffness;
+}
+
+/* d/dt of rtcore_model_torque_nm along a trajectory. */
+double rtcore_model_torque_rate_nm_per_s(const rtcore_finger_config *c, double angle_rad,
+                                         double velocity_rad_per_s, double accel_rad_per_s2)
+{
+    const rtcore_effects *e = &c->effects;
+    double d_velocity = 2.0 * e->quadratic_damping_nms2_per_rad2 * fabs(velocity_rad_per_s);
+    if (e->coulomb_torque_nm != 0.0) {
+        const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
+        const double th = tanh(velocity_rad_per_s / smoothing_rad_per_s);
+        d_velocity += e->coulomb_torque_nm * (1.0 - th * th) / smoothing_rad_per_s;
+    }
+    return rtcore_model_stiffness_nm_per_rad(c, angle_rad) * velocity_rad_per_s
+           + d_velocity * accel_rad_per_s2;
+}
+
+/* Pressure that produces a wanted effective pressure through the dead zone. */
+double rtcore_deadzone_invert_kpa(const rtcore_finger_config *c, double pressure_kpa)
+{
+    if (c->effects.pressure_deadzone_kpa > 0.0 && pressure_kpa > 0.0) {
+        return pressure_kpa + c->effects.pressure_deadzone_kpa;
+    }
+    return pressure_kpa;
+}
+
+/* The part of the chamber pressure that makes torque: max(p - p0, 0) with a dead zone. */
+double rtcore_effective_pressure_kpa(const rtcore_finger_config *c, double pressure_kpa)
+{
+    const double p0 = c->effects.pressure_deadzone_kpa;
+    if (p0 > 0.0) {
+        return pressure_kpa > p0 ? pressure_kpa - p0 : 0.0;
+    }
+    return pressure_kpa;
+}
+
+/* Position feedforward from the held references in s (deg based). Quasi-static:
+ * N p = tau(th, 0). Dynamic: N p = A th'' + B th' + tau(th, th'). Both add the lead
+ * (valve lag + dead time) * dp/dt, with dp/dt from the reference's own derivatives. */
+double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtcore_finger_state *s)
+{
+    const double angle = s->angle_ref_deg * RTCORE_RAD_PER_DEG;
+    const double velocity = s->velocity_ref_deg_per_s * RTCORE_RAD_PER_DEG;
+    const double accel = s->accel_ref_deg_per_s2 * RTCORE_RAD_PER_DEG;
+    const double jerk = s->jerk_ref_deg_per_s3 * RTCORE_RAD_PER_DEG;
+    const double lead_s = c->effects.valve_lag_tau_s + c->effects.dead_time_s;
+    const double gain = c->pressure_gain_nm_per_kpa;
+    double torque;
+    double torque_rate;
+
+    if (c->feedforward == RTCORE_FF_DYNAMIC) {
+        torque = c->inertia_kgm2 * accel + c->damping_nms_per_rad * velocity
+                 + rtcore_model_torque_nm(c, angle, velocity);
+        torque_rate = c->inertia_kgm2 * jerk + c->damping_nms_per_rad * accel
+                      + rtcore_model_torque_rate_nm_per_s(c, angle, velocity, accel);
+    } else if (c->feedforward == RTCORE_FF_QUASI_STATIC) {
+        /* the quasi-static torque depends on th only: d/dt = (d tau / d th) th' */
+        torque = rtcore_model_torque_nm(c, angle, 0.0);
+        torque_rate = rtcore_model_stiffness_nm_per_rad(c, angle) * velocity;
+    } else {
+        return 0.0;
+    }
+    return rtcore_deadzone_invert_kpa(c, torque / gain) + lead_s * torque_rate / gain;
+}
+
+/* Force feedforward (paper Eq. 4): N p = tau(th, 0) + r F_n, since J^T F = r F_n. */
+double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
+                                    double force_ref_n)
+{
+    const double torque = rtcore_model_torque_nm(c, angle_rad, 0.0) + c->lever_arm_m * force_ref_n;
+    return rtcore_deadzone_invert_kpa(c, torque / c->pressure_gain_nm_per_kpa);
+}
+
+/* Signed normal force at the force point (paper Eq. 5 with (J^T)+ = J / r^2):
+ * F_n = (N p_eff - tau) / r, static or dynamic. */
+double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_pressure_kpa,
+                             double angle_rad, double velocity_rad_per_s,
+                             double accel_rad_per_s2)
+{
+    double torque = c->pressure_gain_nm_per_kpa
+                    * rtcore_effective_pressure_kpa(c, chamber_pressure_kpa);
+    if (c->force_estimate_dynamic) {
+        torque -= c->inertia_kgm2 * accel_rad_per_s2 + c->damping_nms_per_rad * velocity_rad_per_s
+                  + rtcore_model_torque_nm(c, angle_rad, velocity_rad_per_s);
+    } else {
+        torque -= rtcore_model_torque_nm(c, angle_rad, 0.0);
+    }
+    return torque / c->lever_arm_m;
+}

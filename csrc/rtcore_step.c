@@ -1,0 +1,403 @@
+/* Configuration, reset and the control step for the whole hand. */
+#include <math.h>
+#include <string.h>
+
+#include "rtcore_internal.h"
+
+static int finite_at_least(double x, double lowest)
+{
+    return isfinite(x) && x >= lowest;
+}
+
+static int finite_above(double x, double lowest)
+{
+    return isfinite(x) && x > lowest;
+}
+
+static int32_t validate_finger(const rtcore_finger_config *c, double sample_rate_hz)
+{
+    const rtcore_effects *e = &c->effects;
+    rtcore_biquad sections[RTCORE_MAX_SECTIONS];
+    int32_t n_sections;
+
+    if (!isfinite(c->sensor_gain_deg_per_mv) || c->sensor_gain_deg_per_mv == 0.0
+        || !isfinite(c->sensor_offset_deg)) {
+        return RTCORE_ERR_SENSOR;
+    }
+    n_sections = rtcore_butter_sections(sections, RTCORE_MAX_SECTIONS, c->filter_order,
+                                        c->filter_cutoff_hz, sample_rate_hz);
+    if (n_sections < 0) {
+        return n_sections;
+    }
+    if (!finite_above(c->velocity_cutoff_hz, 0.0)) {
+        return RTCORE_ERR_VELOCITY_CUTOFF;
+    }
+    if (!finite_at_least(c->inertia_kgm2, 0.0) || !finite_at_least(c->damping_nms_per_rad, 0.0)
+        || !finite_above(c->stiffness_nm_per_rad, 0.0)
+        || !finite_above(c->pressure_gain_nm_per_kpa, 0.0) || !finite_above(c->lever_arm_m, 0.0)) {
+        return RTCORE_ERR_MODEL;
+    }
+    if (!finite_at_least(e->valve_lag_tau_s, 0.0) || !finite_at_least(e->dead_time_s, 0.0)
+        || !finite_at_least(e->coulomb_torque_nm, 0.0)
+        || (e->coulomb_torque_nm > 0.0 && !finite_above(e->coulomb_smoothing_deg_per_s, 0.0))
+        || !isfinite(e->cubic_stiffness_nm_per_rad3) || !isfinite(e->gravity_torque_nm)
+        || !finite_above(e->asymmetric_stiffness_ratio, 0.0)
+        || !finite_at_least(e->quadratic_damping_nms2_per_rad2, 0.0)
+        || !finite_at_least(e->pressure_deadzone_kpa, 0.0)) {
+        return RTCORE_ERR_EFFECTS;
+    }
+    if (c->feedforward < RTCORE_FF_NONE || c->feedforward > RTCORE_FF_DYNAMIC
+        || (c->force_estimate_dynamic != 0 && c->force_estimate_dynamic != 1)) {
+        return RTCORE_ERR_FEEDFORWARD;
+    }
+    if (!finite_at_least(c->kp_kpa_per_deg, 0.0) || !finite_at_least(c->ki_kpa_per_deg_s, 0.0)
+        || !finite_at_least(c->kd_kpa_s_per_deg, 0.0)
+        || !finite_above(c->derivative_cutoff_hz, 0.0)
+        || !finite_at_least(c->integrator_limit_kpa, 0.0)
+        || !finite_at_least(c->force_kp_kpa_per_n, 0.0)
+        || !finite_at_least(c->force_ki_kpa_per_n_s, 0.0)) {
+        return RTCORE_ERR_GAINS;
+    }
+    if (!isfinite(c->pressure_min_kpa) || !isfinite(c->pressure_max_kpa)
+        || c->pressure_min_kpa > c->pressure_max_kpa
+        || fabs(c->pressure_min_kpa) > RTCORE_SANE_LIMIT
+        || fabs(c->pressure_max_kpa) > RTCORE_SANE_LIMIT
+        || !finite_above(c->pressure_rate_max_kpa_per_s, 0.0)) {
+        return RTCORE_ERR_PRESSURE_LIMITS;
+    }
+    return RTCORE_OK;
+}
+
+void rtcore_finger_reset(rtcore_hand *hand, int32_t finger)
+{
+    rtcore_finger_state *s;
+    int32_t k;
+
+    if (hand == 0 || finger < 0 || finger >= RTCORE_MAX_FINGERS) {
+        return;
+    }
+    s = &hand->finger[finger];
+    for (k = 0; k < RTCORE_MAX_SECTIONS; ++k) {
+        s->section[k].z1 = 0.0;
+        s->section[k].z2 = 0.0;
+    }
+    s->filter_primed = 0;
+    s->mode = RTCORE_MODE_VENT;
+    s->last_good_mv = s->rest_mv;
+    s->angle_filt_deg = 0.0;
+    s->velocity_deg_per_s = 0.0;
+    s->accel_deg_per_s2 = 0.0;
+    s->integrator_kpa = 0.0;
+    s->derivative_deg_per_s = 0.0;
+    s->pressure_cmd_kpa = 0.0;
+    s->chamber_model_kpa = 0.0;
+    s->angle_ref_deg = 0.0;
+    s->velocity_ref_deg_per_s = 0.0;
+    s->accel_ref_deg_per_s2 = 0.0;
+    s->jerk_ref_deg_per_s3 = 0.0;
+    s->force_ref_n = 0.0;
+    s->pressure_ref_kpa = 0.0;
+}
+
+void rtcore_hand_reset(rtcore_hand *hand)
+{
+    int32_t i;
+    if (hand == 0) {
+        return;
+    }
+    for (i = 0; i < RTCORE_MAX_FINGERS; ++i) {
+        rtcore_finger_reset(hand, i);
+    }
+    hand->ticks = 0u;
+}
+
+int32_t rtcore_hand_configure(rtcore_hand *hand, const rtcore_hand_config *config)
+{
+    int32_t i;
+    double dt_s;
+
+    if (hand == 0 || config == 0) {
+        return RTCORE_ERR_NULL;
+    }
+    hand->configured = 0;
+    hand->error_finger = -1;
+    if (config->n_fingers < 1 || config->n_fingers > RTCORE_MAX_FINGERS) {
+        return RTCORE_ERR_FINGER_COUNT;
+    }
+    if (!finite_above(config->sample_rate_hz, 0.0) || config->sample_rate_hz > 1.0e5) {
+        return RTCORE_ERR_SAMPLE_RATE;
+    }
+    for (i = 0; i < config->n_fingers; ++i) {
+        const int32_t err = validate_finger(&config->finger[i], config->sample_rate_hz);
+        if (err != RTCORE_OK) {
+            hand->error_finger = i;
+            return err;
+        }
+    }
+    memcpy(&hand->config, config, sizeof(*config));
+    dt_s = 1.0 / config->sample_rate_hz;
+    hand->dt_s = dt_s;
+    for (i = 0; i < config->n_fingers; ++i) {
+        const rtcore_finger_config *c = &hand->config.finger[i];
+        rtcore_finger_state *s = &hand->finger[i];
+
+        s->n_sections = rtcore_butter_sections(s->section, RTCORE_MAX_SECTIONS, c->filter_order,
+                                               c->filter_cutoff_hz, config->sample_rate_hz);
+        s->velocity_alpha = rtcore_first_order_alpha(c->velocity_cutoff_hz, dt_s);
+        s->derivative_alpha = rtcore_first_order_alpha(c->derivative_cutoff_hz, dt_s);
+        s->chamber_alpha = c->effects.valve_lag_tau_s > 0.0
+                               ? exp(-dt_s / c->effects.valve_lag_tau_s) : 0.0;
+        s->rest_mv = -c->sensor_offset_deg / c->sensor_gain_deg_per_mv;
+    }
+    rtcore_hand_reset(hand);
+    hand->configured = 1;
+    return RTCORE_OK;
+}
+
+/* Keep value as the held reference when it is usable; report 1 when it is not. */
+static uint32_t hold_reference(double *held, double value)
+{
+    if (isfinite(value) && fabs(value) <= RTCORE_SANE_LIMIT) {
+        *held = value;
+        return 0u;
+    }
+    return 1u;
+}
+
+static double clamp_symmetric(double x, double limit)
+{
+    if (x > limit) {
+        return limit;
+    }
+    if (x < -limit) {
+        return -limit;
+    }
+    return x;
+}
+
+/* Calibrate, filter and differentiate the sensor; returns the calibrated angle. */
+static double update_angle(const rtcore_finger_config *c, rtcore_finger_state *s, double mv,
+                           double dt_s, uint32_t *flags)
+{
+    double angle = c->sensor_gain_deg_per_mv * mv + c->sensor_offset_deg;
+    double filtered;
+    double velocity;
+    int32_t k;
+
+    if (!isfinite(angle) || fabs(angle) > RTCORE_SANE_LIMIT) {
+        *flags |= (uint32_t)RTCORE_FLAG_SENSOR_REJECTED;
+        angle = c->sensor_gain_deg_per_mv * s->last_good_mv + c->sensor_offset_deg;
+    } else {
+        s->last_good_mv = mv;
+    }
+    if (!s->filter_primed) {
+        double x = angle;
+        for (k = 0; k < s->n_sections; ++k) {
+            rtcore_biquad *bq = &s->section[k];
+            rtcore_biquad_prime(bq, x);
+            x = (bq->b0 + bq->b1 + bq->b2) / (1.0 + bq->a1 + bq->a2) * x;
+        }
+        s->angle_filt_deg = x;
+        s->velocity_deg_per_s = 0.0;
+        s->accel_deg_per_s2 = 0.0;
+        s->filter_primed = 1;
+    }
+    filtered = angle;
+    for (k = 0; k < s->n_sections; ++k) {
+        filtered = rtcore_biquad_run(&s->section[k], filtered);
+    }
+    velocity = s->velocity_alpha * s->velocity_deg_per_s
+               + (1.0 - s->velocity_alpha) * (filtered - s->angle_filt_deg) / dt_s;
+    s->accel_deg_per_s2 = s->velocity_alpha * s->accel_deg_per_s2
+                          + (1.0 - s->velocity_alpha) * (velocity - s->velocity_deg_per_s) / dt_s;
+    s->velocity_deg_per_s = velocity;
+    s->angle_filt_deg = filtered;
+    return angle;
+}
+
+static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *in,
+                            rtcore_outputs *out)
+{
+    const rtcore_finger_config *c = &hand->config.finger[i];
+    rtcore_finger_state *s = &hand->finger[i];
+    const double dt_s = hand->dt_s;
+    const double previous_kpa = s->pressure_cmd_kpa;
+    const int32_t previous_mode = s->mode;
+    uint32_t flags = 0u;
+    int32_t mode = in->mode[i];
+    uint32_t rejected_position;
+    uint32_t rejected_force;
+    uint32_t rejected_pressure;
+    double angle_deg;
+    double angle_rad;
+    double chamber_kpa;
+    double force_n;
+    double feedforward_kpa = 0.0;
+    double pid_kpa = 0.0;
+    double command_kpa = 0.0;
+    int32_t changed;
+
+    if (mode < RTCORE_MODE_VENT || mode > RTCORE_MODE_FORCE) {
+        mode = RTCORE_MODE_VENT;
+        flags |= (uint32_t)RTCORE_FLAG_MODE_REJECTED;
+    }
+    changed = mode != previous_mode;
+    if (changed) {
+        flags |= (uint32_t)RTCORE_FLAG_MODE_CHANGED;
+    }
+    s->mode = mode;
+
+    angle_deg = update_angle(c, s, in->sensor_mv[i], dt_s, &flags);
+    angle_rad = s->angle_filt_deg * RTCORE_RAD_PER_DEG;
+
+    rejected_position = hold_reference(&s->angle_ref_deg, in->angle_ref_deg[i])
+                        | hold_reference(&s->velocity_ref_deg_per_s, in->velocity_ref_deg_per_s[i])
+                        | hold_reference(&s->accel_ref_deg_per_s2, in->accel_ref_deg_per_s2[i])
+                        | hold_reference(&s->jerk_ref_deg_per_s3, in->jerk_ref_deg_per_s3[i]);
+    rejected_force = hold_reference(&s->force_ref_n, in->force_ref_n[i]);
+    rejected_pressure = hold_reference(&s->pressure_ref_kpa, in->pressure_ref_kpa[i]);
+    if ((mode == RTCORE_MODE_POSITION && rejected_position)
+        || (mode == RTCORE_MODE_FORCE && rejected_force)
+        || (mode == RTCORE_MODE_PRESSURE && rejected_pressure)) {
+        flags |= (uint32_t)RTCORE_FLAG_REFERENCE_REJECTED;
+    }
+
+    /* chamber pressure: measured when the board reports it, else a first-order model
+     * of the valve driven by the command in force since the last tick */
+    s->chamber_model_kpa = previous_kpa + (s->chamber_model_kpa - previous_kpa) * s->chamber_alpha;
+    chamber_kpa = in->pressure_meas_kpa[i];
+    if (!isfinite(chamber_kpa) || fabs(chamber_kpa) > RTCORE_SANE_LIMIT) {
+        chamber_kpa = s->chamber_model_kpa;
+    }
+    force_n = rtcore_force_normal_n(c, chamber_kpa, angle_rad,
+                                    s->velocity_deg_per_s * RTCORE_RAD_PER_DEG,
+                                    s->accel_deg_per_s2 * RTCORE_RAD_PER_DEG);
+    if (!isfinite(force_n)) {
+        force_n = 0.0;
+        flags |= (uint32_t)RTCORE_FLAG_OUTPUT_REJECTED;
+    }
+
+    if (mode == RTCORE_MODE_VENT) {
+        s->integrator_kpa = 0.0;
+        s->derivative_deg_per_s = 0.0;
+    } else if (mode == RTCORE_MODE_PRESSURE) {
+        const rtcore_limited lim = rtcore_limit_command(c, s->pressure_ref_kpa, previous_kpa, dt_s,
+                                                        0.0, 0.0, 0.0);
+        s->integrator_kpa = 0.0;
+        s->derivative_deg_per_s = 0.0;
+        feedforward_kpa = s->pressure_ref_kpa;
+        command_kpa = lim.command_kpa;
+        flags |= lim.flags;
+    } else {
+        double error;
+        double proportional_kpa;
+        double derivative_kpa = 0.0;
+        double integrator_new_kpa;
+        double integral_gain;
+        rtcore_limited lim;
+
+        if (mode == RTCORE_MODE_POSITION) {
+            const double rate_error = s->velocity_ref_deg_per_s - s->velocity_deg_per_s;
+            feedforward_kpa = rtcore_position_feedforward_kpa(c, s);
+            error = s->angle_ref_deg - s->angle_filt_deg;
+            proportional_kpa = c->kp_kpa_per_deg * error;
+            s->derivative_deg_per_s = changed ? rate_error
+                                              : s->derivative_alpha * s->derivative_deg_per_s
+                                                    + (1.0 - s->derivative_alpha) * rate_error;
+            derivative_kpa = c->kd_kpa_s_per_deg * s->derivative_deg_per_s;
+            integral_gain = c->ki_kpa_per_deg_s;
+        } else {
+            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, s->force_ref_n);
+            error = s->force_ref_n - force_n;
+            proportional_kpa = c->force_kp_kpa_per_n * error;
+            s->derivative_deg_per_s = 0.0;
+            integral_gain = c->force_ki_kpa_per_n_s;
+        }
+        if (changed) {
+            /* bumpless: between active modes the integrator takes up the difference so
+             * the command is continuous; out of VENT it starts empty and the rate limit
+             * ramps the command up from 0 kPa */
+            s->integrator_kpa = previous_mode == RTCORE_MODE_VENT
+                                    ? 0.0
+                                    : clamp_symmetric(previous_kpa - feedforward_kpa
+                                                          - proportional_kpa - derivative_kpa,
+                                                      c->integrator_limit_kpa);
+        }
+        integrator_new_kpa = s->integrator_kpa + integral_gain * error * dt_s;
+        pid_kpa = proportional_kpa + integrator_new_kpa + derivative_kpa;
+        lim = rtcore_limit_command(c, feedforward_kpa + pid_kpa, previous_kpa, dt_s, error,
+                                   s->integrator_kpa, integrator_new_kpa);
+        s->integrator_kpa = lim.integrator_kpa;
+        command_kpa = lim.command_kpa;
+        flags |= lim.flags;
+    }
+
+    if (!isfinite(command_kpa) || !isfinite(s->integrator_kpa)
+        || !isfinite(s->derivative_deg_per_s) || !isfinite(feedforward_kpa)
+        || !isfinite(pid_kpa)) {
+        command_kpa = 0.0;
+        feedforward_kpa = 0.0;
+        pid_kpa = 0.0;
+        s->integrator_kpa = 0.0;
+        s->derivative_deg_per_s = 0.0;
+        flags |= (uint32_t)RTCORE_FLAG_OUTPUT_REJECTED;
+    }
+    s->pressure_cmd_kpa = command_kpa;
+
+    out->pressure_cmd_kpa[i] = command_kpa;
+    out->angle_deg[i] = angle_deg;
+    out->angle_filt_deg[i] = s->angle_filt_deg;
+    out->velocity_deg_per_s[i] = s->velocity_deg_per_s;
+    out->accel_deg_per_s2[i] = s->accel_deg_per_s2;
+    out->feedforward_kpa[i] = feedforward_kpa;
+    out->pid_kpa[i] = pid_kpa;
+    out->chamber_pressure_kpa[i] = chamber_kpa;
+    out->force_normal_n[i] = force_n;
+    out->force_est_x_n[i] = -force_n * sin(angle_rad);
+    out->force_est_y_n[i] = force_n * cos(angle_rad);
+    out->force_est_n[i] = fabs(force_n);
+    out->flags[i] = flags;
+    return flags;
+}
+
+uint32_t rtcore_hand_step(rtcore_hand *hand, const rtcore_inputs *in, rtcore_outputs *out)
+{
+    uint32_t all_flags = 0u;
+    int32_t i;
+
+    if (hand == 0 || in == 0 || out == 0) {
+        return (uint32_t)RTCORE_FLAG_NOT_CONFIGURED;
+    }
+    if (!hand->configured) {
+        for (i = 0; i < RTCORE_MAX_FINGERS; ++i) {
+            out->pressure_cmd_kpa[i] = 0.0;
+            out->flags[i] = (uint32_t)RTCORE_FLAG_NOT_CONFIGURED;
+        }
+        return (uint32_t)RTCORE_FLAG_NOT_CONFIGURED;
+    }
+    for (i = 0; i < hand->config.n_fingers; ++i) {
+        all_flags |= step_finger(hand, i, in, out);
+    }
+    hand->ticks += 1u;
+    return all_flags;
+}
+
+const char *rtcore_error_name(int32_t code)
+{
+    switch (code) {
+    case RTCORE_OK: return "ok";
+    case RTCORE_ERR_NULL: return "null pointer";
+    case RTCORE_ERR_FINGER_COUNT: return "finger count must be 1 to 8";
+    case RTCORE_ERR_SAMPLE_RATE: return "sample rate must be positive and at most 100 kHz";
+    case RTCORE_ERR_FILTER_ORDER: return "filter order must be 2 or 4";
+    case RTCORE_ERR_FILTER_CUTOFF: return "filter cutoff must lie between 0 and half the sample rate";
+    case RTCORE_ERR_VELOCITY_CUTOFF: return "velocity cutoff must be positive";
+    case RTCORE_ERR_SENSOR: return "sensor calibration must be finite with a non-zero gain";
+    case RTCORE_ERR_MODEL: return "model: inertia and damping >= 0; stiffness, pressure gain and lever arm > 0";
+    case RTCORE_ERR_GAINS: return "controller gains, limits and the derivative cutoff must be finite and non-negative";
+    case RTCORE_ERR_PRESSURE_LIMITS: return "pressure limits: min <= max and a positive rate limit";
+    case RTCORE_ERR_EFFECTS: return "effects: parameters out of range";
+    case RTCORE_ERR_FEEDFORWARD: return "feedforward must be none, quasi-static or dynamic";
+    default: return "unknown error";
+    }
+}

@@ -1,0 +1,62 @@
+"""`hand-service`: one command line for the service and the scientist's tools.
+
+Each subcommand lives in hand_service/commands/<name>.py with HELP, add_arguments()
+and main(). Their module-level imports stay light so that `--help` is instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from hand_service import __version__
+from hand_service.errors import UserError
+
+COMMANDS: dict[str, str] = {
+    "bench": "hand_service.commands.bench",
+}
+
+DESCRIPTION = """\
+Real-time control and model tools for pneumatic soft hands (PRBM + LDM).
+
+Start with `hand-service run`: it drives the simulated five-finger hand of
+firmware_profiles/sim.yaml, with no hardware. Every command has its own --help.
+"""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="hand-service", description=DESCRIPTION,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"hand-service {__version__}")
+    parser.add_argument("--log-level", default="info",
+                        choices=["debug", "info", "warning", "error"],
+                        help="how much to log to stderr (default: info)")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, module_name in COMMANDS.items():
+        module = importlib.import_module(module_name)
+        command = sub.add_parser(name, help=module.HELP, description=module.DESCRIPTION,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_arguments(command)
+        command.set_defaults(handler=module.main)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
+                        format="%(asctime)s %(levelname)-7s %(name)s: %(message)s")
+    try:
+        return int(args.handler(args) or 0)
+    except UserError as exc:
+        print(f"hand-service {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"hand-service {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,159 @@
+"""The finger model of formats.md: PRBM parameters, geometry and effects, in YAML.
+
+A model file holds one finger. A firmware profile holds five under `hand:`; wherever a
+model is asked for, `--model PROFILE.yaml --finger NAME` works too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from hand_service import effects as fx
+from hand_service.errors import UserError
+from hand_service.schema import Key, Section, expect_mapping, validate
+from hand_service.yamlio import LineDict, dump_yaml, load_yaml
+
+GRAVITY_M_PER_S2 = 9.81
+
+MODEL_SECTION = Section(
+    "Finger model",
+    "A finger's PRBM (physics.md §1). Model files hold these keys at the top level; a "
+    "profile's finger blocks hold them too.",
+    (
+        Key("finger", "finger name (optional in a model file)", "str", default=None),
+        Key("inertia_kgm2", "A, effective inertia; computed as (7/12)·m·γ³·l² when absent",
+            unit="kg·m²", default=None, min=0.0, min_exclusive=True),
+        Key("damping_nms_per_rad", "B, viscous damping (from identify)", unit="N·m·s/rad",
+            default=None, min=0.0),
+        Key("stiffness_nm_per_rad", "k, torsional stiffness (from identify)", unit="N·m/rad",
+            default=None, min=0.0, min_exclusive=True),
+        Key("pressure_gain_nm_per_kpa", "N, torque per kPa of chamber pressure (calibrate gain)",
+            unit="N·m/kPa", default=None, min=0.0, min_exclusive=True),
+        Key("mass_kg", "finger mass m (for A)", unit="kg", default=None, min=0.0,
+            min_exclusive=True),
+        Key("length_m", "finger length l (for A and the lever arm)", unit="m", default=None,
+            min=0.0, min_exclusive=True),
+        Key("gamma", "γ, the rotating segment's share of the length", default=None, min=0.0,
+            max=1.0, min_exclusive=True),
+        Key("lever_arm_m", "r, pivot to force point; default γ·l/2", unit="m", default=None,
+            min=0.0, min_exclusive=True),
+        Key("effects", "physics the model already includes (formats.md effect table)",
+            "mapping", default=None),
+    ),
+)
+MODEL_KEYS = tuple(k.name for k in MODEL_SECTION.keys)
+
+
+def inertia_from_geometry(mass_kg: float, length_m: float, gamma: float) -> float:
+    """The paper's Lagrangian inertia A = (7/12)·m·γ³·l² (physics.md §1)."""
+    return 7.0 / 12.0 * mass_kg * gamma**3 * length_m**2
+
+
+@dataclass
+class FingerModel:
+    inertia_kgm2: float
+    stiffness_nm_per_rad: float | None = None
+    damping_nms_per_rad: float | None = None
+    pressure_gain_nm_per_kpa: float | None = None
+    lever_arm_m: float | None = None
+    finger: str | None = None
+    mass_kg: float | None = None
+    length_m: float | None = None
+    gamma: float | None = None
+    effects: fx.EffectParams = field(default_factory=dict)
+    source: str = "model"
+
+    def require(self, *names: str, purpose: str = "") -> None:
+        """UserError naming the first absent parameter, and what needs it."""
+        for name in names:
+            if getattr(self, name) is None:
+                why = f" for {purpose}" if purpose else ""
+                raise UserError(f"{self.source}: the model has no '{name}', needed{why}")
+
+    @property
+    def natural_freq_rad_per_s(self) -> float:
+        self.require("stiffness_nm_per_rad")
+        return math.sqrt(self.stiffness_nm_per_rad / self.inertia_kgm2)  # type: ignore[operator]
+
+    @property
+    def damping_ratio(self) -> float:
+        self.require("stiffness_nm_per_rad", "damping_nms_per_rad")
+        return self.damping_nms_per_rad / (2.0 * math.sqrt(  # type: ignore[operator]
+            self.stiffness_nm_per_rad * self.inertia_kgm2))  # type: ignore[operator]
+
+    def with_changes(self, **changes: Any) -> FingerModel:
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The formats.md keys in a stable order, absent ones left out."""
+        data: dict[str, Any] = {}
+        for name in MODEL_KEYS:
+            value = getattr(self, name)
+            if name == "effects":
+                if value:
+                    data[name] = {k: dict(v) for k, v in value.items()}
+            elif value is not None:
+                data[name] = value
+        return data
+
+
+def model_from_mapping(data: LineDict, source: str | Path, context: str = "",
+                       extra: tuple[str, ...] = ()) -> tuple[FingerModel, dict[str, Any]]:
+    """Validate the model keys of a mapping; returns the model and the `extra` values."""
+    values = validate(data, MODEL_SECTION, source, context, extra=extra)
+    effects = fx.parse_effects(values.pop("effects"), source,
+                               f"{context}.effects" if context else "effects")
+    inertia = values.pop("inertia_kgm2")
+    geometry = [values["mass_kg"], values["length_m"], values["gamma"]]
+    if inertia is None:
+        if any(v is None for v in geometry):
+            label = f"{context}: " if context else ""
+            raise UserError(f"{source}:{getattr(data, 'line', '?')}: {label}give inertia_kgm2, or "
+                            "mass_kg, length_m and gamma to compute it")
+        inertia = inertia_from_geometry(*geometry)  # type: ignore[arg-type]
+    if values["lever_arm_m"] is None and values["length_m"] is not None and values["gamma"] is not None:
+        values["lever_arm_m"] = values["gamma"] * values["length_m"] / 2.0
+    rest = {k: data[k] for k in extra if k in data}
+    model = FingerModel(inertia_kgm2=inertia, effects=effects, source=str(source),
+                        **{k: v for k, v in values.items() if k in MODEL_KEYS})
+    return model, rest
+
+
+def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
+    """A model file, or one finger of a profile (`hand:` block) chosen by `finger`."""
+    data = load_yaml(path)
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: a model file is a mapping of keys (formats.md), not {type(data).__name__}")
+    if "hand" in data:
+        from hand_service.profile import load_profile
+
+        return load_profile(path).finger(finger).model
+    model, _ = model_from_mapping(data, path)
+    if finger is not None and model.finger is not None and model.finger != finger:
+        raise UserError(f"{path}: this model is for finger '{model.finger}', not '{finger}'")
+    if model.finger is None and finger is not None:
+        model.finger = finger
+    return model
+
+
+def save_model(model: FingerModel, path: str | Path, header: str = "") -> None:
+    """Write a model file in the formats.md format (readable by load_model)."""
+    text = "".join(f"# {line}\n" for line in header.splitlines()) + dump_yaml(model.to_dict())
+    try:
+        Path(path).write_text(text)
+    except OSError as exc:
+        raise UserError(f"{path}: cannot write: {exc.strerror or exc}") from None
+
+
+def gravity_torque_nm(model: FingerModel) -> float:
+    """G = m·g·r_c with the centre of mass at the middle of the moving segment."""
+    model.require("mass_kg", "length_m", "gamma", purpose="the gravity torque")
+    return model.mass_kg * GRAVITY_M_PER_S2 * model.gamma * model.length_m / 2.0  # type: ignore[operator]
+
+
+__all__ = ["MODEL_KEYS", "MODEL_SECTION", "FingerModel", "expect_mapping", "gravity_torque_nm",
+           "inertia_from_geometry", "load_model", "model_from_mapping", "save_model"]

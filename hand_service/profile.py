@@ -1,0 +1,255 @@
+"""Firmware profiles (firmware_profiles/*.yaml): one rig, validated on load.
+
+A profile names the transport and its settings, the wire-protocol version the firmware
+must report, control settings, safety limits, the simulated truth (for `sim` and the
+mock firmware) and the hand: one block per finger with the model keys of formats.md
+plus the sensor calibration, pressure limits and gains. Unknown keys are refused with
+the file, line and nearest known key; every key is documented in docs/profiles.md,
+which is generated from the sections below.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import rtcore
+from hand_service import effects as fx
+from hand_service.errors import UserError, where
+from hand_service.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
+from hand_service.schema import Key, Section, expect_mapping, fail, validate
+from hand_service.yamlio import load_yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+PROFILE_DIR = ROOT / "firmware_profiles"
+DEFAULT_PROFILE = PROFILE_DIR / "sim.yaml"
+
+TOP_SECTION = Section("Profile", "The top level of a profile.", (
+    Key("profile", "the profile's name", "str"),
+    Key("description", "one line for people", "str", default=""),
+    Key("protocol_version", "wire-protocol version the firmware must report", "int", min=1,
+        max=65535),
+    Key("transport", "how to reach the valve board (see Transport)", "mapping"),
+    Key("control", "control settings (see Control)", "mapping", default=None),
+    Key("safety", "safety limits and watchdog times (see Safety)", "mapping", default=None),
+    Key("simulation", "the simulated truth for `sim` and the mock firmware", "mapping",
+        default=None),
+    Key("hand", "one block per finger, keyed by finger name (see Finger)", "mapping"),
+))
+
+CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
+    Key("rate_hz", "control rate", "float", "Hz", 100.0, 10.0, 1000.0),
+    Key("filter_order", "Butterworth order on the angle", "int", "", 2, 2, 4),
+    Key("filter_cutoff_hz", "Butterworth cutoff; keep above the fingers' 9–14 Hz", "float", "Hz",
+        25.0, 0.0, None, True),
+    Key("velocity_cutoff_hz", "low-pass on the velocity and acceleration estimates", "float", "Hz",
+        25.0, 0.0, None, True),
+    Key("derivative_cutoff_hz", "low-pass on the PID's derivative term", "float", "Hz", 10.0, 0.0,
+        None, True),
+    Key("feedforward", "model inversion in position mode", "choice",
+        default="dynamic", choices=("none", "quasi_static", "dynamic")),
+    Key("force_estimate", "static: (J^T)+(Np − kθ); dynamic adds −Bθ' − Aθ''", "choice",
+        default="static", choices=("static", "dynamic")),
+    Key("integrator_limit_kpa", "bound on the PID and force-PI integrators", "float", "kPa", 50.0,
+        0.0),
+))
+
+SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces; any breach vents.", (
+    Key("stale_sensor_ticks", "ticks without a fresh sensor frame before a fault", "int", "ticks",
+        5, 1, 1000),
+    Key("angle_min_deg", "lowest plausible angle", "float", "deg", -60.0, -360.0, 360.0),
+    Key("angle_max_deg", "highest plausible angle", "float", "deg", 200.0, -360.0, 360.0),
+    Key("overrun_streak", "consecutive deadline misses before a fault", "int", "ticks", 10, 1,
+        100000),
+    Key("leak_tolerance_kpa", "measured pressure may trail the command by this much", "float",
+        "kPa", 30.0, 0.0, None, True),
+    Key("leak_ticks", "ticks the measured pressure may stay outside the tolerance", "int",
+        "ticks", 50, 1, 100000),
+    Key("firmware_watchdog_ms", "the firmware vents when no valid command comes for this long",
+        "float", "ms", 100.0, 1.0, 10000.0),
+    Key("transport_timeout_ms", "no frame at all for this long: transport lost", "float", "ms",
+        500.0, 1.0, 60000.0),
+))
+
+SIMULATION_SECTION = Section(
+    "Simulation", "`simulation:` — the simulated hand's truth (the hand's own model plus these).", (
+        Key("seed", "random seed: the same seed gives the same run", "int", "", 1, 0, 2**63 - 1),
+        Key("sensor_noise_deg", "flex-sensor noise, one standard deviation", "float", "deg", 0.3,
+            0.0, 20.0),
+        Key("adc_step_mv", "ADC quantisation step (0: none)", "float", "mV", 1.22, 0.0, 100.0),
+        Key("pressure_noise_kpa", "noise on the measured chamber pressure", "float", "kPa", 0.5,
+            0.0, 100.0),
+        Key("substeps", "integration sub-steps per sample (1 ms or finer at 100 Hz)", "int", "",
+            10, 1, 1000),
+    ))
+
+FINGER_EXTRA_SECTION = Section(
+    "Finger", "`hand.<name>:` — the model keys of formats.md (below) plus these.", (
+        Key("sensor_gain_deg_per_mv", "flex sensor calibration: deg = gain·mV + offset", "float",
+            "deg/mV", 0.1),
+        Key("sensor_offset_deg", "flex sensor calibration offset", "float", "deg", 0.0),
+        Key("pressure_min_kpa", "lowest pressure command", "float", "kPa", 0.0, -100.0, 1000.0),
+        Key("pressure_max_kpa", "highest pressure command (the finger's limit)", "float", "kPa",
+            min=0.0, max=1000.0, min_exclusive=True),
+        Key("pressure_rate_max_kpa_per_s", "fastest change of the command", "float", "kPa/s",
+            2000.0, 0.0, None, True),
+        Key("kp_kpa_per_deg", "position PID: proportional gain", "float", "kPa/deg", 0.2, 0.0),
+        Key("ki_kpa_per_deg_s", "position PID: integral gain", "float", "kPa/(deg·s)", 2.0, 0.0),
+        Key("kd_kpa_s_per_deg", "position PID: derivative gain", "float", "kPa·s/deg", 0.0, 0.0),
+        Key("force_kp_kpa_per_n", "force PI: proportional gain", "float", "kPa/N", 2.0, 0.0),
+        Key("force_ki_kpa_per_n_s", "force PI: integral gain", "float", "kPa/(N·s)", 20.0, 0.0),
+    ))
+FINGER_EXTRA_KEYS = tuple(k.name for k in FINGER_EXTRA_SECTION.keys)
+
+SIM_TRANSPORT_SECTION = Section("Transport: sim", "`transport: {kind: sim}` — the in-process "
+                                "simulated hand; no hardware, no bus.", (
+    Key("kind", "transport kind", "choice", default="sim", choices=("sim",)),
+))
+
+# Transport kinds register their section here (hand_service.transports adds can and serial).
+TRANSPORT_SECTIONS: dict[str, Section] = {"sim": SIM_TRANSPORT_SECTION}
+
+
+@dataclass
+class FingerProfile:
+    name: str
+    model: FingerModel
+    sensor_gain_deg_per_mv: float
+    sensor_offset_deg: float
+    pressure_min_kpa: float
+    pressure_max_kpa: float
+    pressure_rate_max_kpa_per_s: float
+    kp_kpa_per_deg: float
+    ki_kpa_per_deg_s: float
+    kd_kpa_s_per_deg: float
+    force_kp_kpa_per_n: float
+    force_ki_kpa_per_n_s: float
+
+    def rtcore_config(self, control: dict[str, Any]) -> rtcore.FingerConfig:
+        m = self.model
+        m.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa",
+                  "lever_arm_m", purpose=f"controlling finger '{self.name}'")
+        return rtcore.FingerConfig(
+            inertia_kgm2=m.inertia_kgm2,
+            damping_nms_per_rad=m.damping_nms_per_rad,  # type: ignore[arg-type]
+            stiffness_nm_per_rad=m.stiffness_nm_per_rad,  # type: ignore[arg-type]
+            pressure_gain_nm_per_kpa=m.pressure_gain_nm_per_kpa,  # type: ignore[arg-type]
+            lever_arm_m=m.lever_arm_m,  # type: ignore[arg-type]
+            sensor_gain_deg_per_mv=self.sensor_gain_deg_per_mv,
+            sensor_offset_deg=self.sensor_offset_deg,
+            filter_order=control["filter_order"],
+            filter_cutoff_hz=control["filter_cutoff_hz"],
+            velocity_cutoff_hz=control["velocity_cutoff_hz"],
+            effects=fx.to_rtcore(m.effects),
+            feedforward=rtcore.config.FEEDFORWARD_BY_NAME[control["feedforward"]],
+            force_estimate_dynamic=int(control["force_estimate"] == "dynamic"),
+            kp_kpa_per_deg=self.kp_kpa_per_deg,
+            ki_kpa_per_deg_s=self.ki_kpa_per_deg_s,
+            kd_kpa_s_per_deg=self.kd_kpa_s_per_deg,
+            derivative_cutoff_hz=control["derivative_cutoff_hz"],
+            integrator_limit_kpa=control["integrator_limit_kpa"],
+            force_kp_kpa_per_n=self.force_kp_kpa_per_n,
+            force_ki_kpa_per_n_s=self.force_ki_kpa_per_n_s,
+            pressure_min_kpa=self.pressure_min_kpa,
+            pressure_max_kpa=self.pressure_max_kpa,
+            pressure_rate_max_kpa_per_s=self.pressure_rate_max_kpa_per_s,
+        )
+
+
+@dataclass
+class Profile:
+    path: Path
+    name: str
+    description: str
+    protocol_version: int
+    transport: dict[str, Any]
+    control: dict[str, Any]
+    safety: dict[str, Any]
+    simulation: dict[str, Any]
+    fingers: list[FingerProfile] = field(default_factory=list)
+
+    @property
+    def finger_names(self) -> list[str]:
+        return [f.name for f in self.fingers]
+
+    def finger(self, name: str | None) -> FingerProfile:
+        if name is None:
+            raise UserError(f"{self.path}: a profile holds several fingers; pick one with "
+                            f"--finger ({', '.join(self.finger_names)})")
+        for f in self.fingers:
+            if f.name == name:
+                return f
+        raise UserError(f"{self.path}: no finger '{name}' (fingers: {', '.join(self.finger_names)})")
+
+    def hand_config(self) -> rtcore.HandConfig:
+        return rtcore.HandConfig([f.rtcore_config(self.control) for f in self.fingers],
+                                 sample_rate_hz=self.control["rate_hz"])
+
+
+def _section(data: Any, key: str, section: Section, source: Path) -> dict[str, Any]:
+    block = data.get(key)
+    if block is None:
+        block = {}
+    return validate(expect_mapping(block, source, data, key, key), section, source, key)
+
+
+def _finger(name: str, block: Any, source: Path, hand: Any) -> FingerProfile:
+    context = f"hand.{name}"
+    block = expect_mapping(block, source, hand, name, context)
+    model, rest = model_from_mapping(block, source, context, extra=FINGER_EXTRA_KEYS)
+    if model.finger not in (None, name):
+        raise fail(source, block, "finger", f"{context}.finger says '{model.finger}'")
+    model.finger = name
+    extra = validate(rest, FINGER_EXTRA_SECTION, source, context)
+    if extra["pressure_min_kpa"] >= extra["pressure_max_kpa"]:
+        raise fail(source, block, "pressure_min_kpa",
+                   f"{context}: pressure_min_kpa must be below pressure_max_kpa")
+    return FingerProfile(name=name, model=model, **extra)
+
+
+def load_profile(path: str | Path | None = None) -> Profile:
+    """Load and validate a profile; any mistake is a one-line UserError naming the line."""
+    source = Path(path) if path is not None else DEFAULT_PROFILE
+    if not source.exists() and source.parent == Path(".") and (PROFILE_DIR / source).exists():
+        source = PROFILE_DIR / source  # `--profile sim.yaml` finds the shipped profiles
+    data = load_yaml(source)
+    top = validate(data, TOP_SECTION, source)
+    transport_block = expect_mapping(top["transport"], source, data, "transport", "transport")
+    kind = transport_block.get("kind")
+    if kind not in TRANSPORT_SECTIONS:
+        _register_transports()
+    if kind not in TRANSPORT_SECTIONS:
+        raise fail(source, transport_block, "kind",
+                   f"transport.kind must be one of {', '.join(sorted(TRANSPORT_SECTIONS))}, not {kind!r}")
+    transport = validate(transport_block, TRANSPORT_SECTIONS[kind], source, "transport")
+    control = _section(data, "control", CONTROL_SECTION, source)
+    safety = _section(data, "safety", SAFETY_SECTION, source)
+    if safety["angle_min_deg"] >= safety["angle_max_deg"]:
+        raise fail(source, data["safety"], "angle_min_deg",
+                   "safety.angle_min_deg must be below safety.angle_max_deg")
+    simulation = _section(data, "simulation", SIMULATION_SECTION, source)
+    hand = expect_mapping(top["hand"], source, data, "hand", "hand")
+    if not 1 <= len(hand) <= rtcore.MAX_FINGERS:
+        raise fail(source, data, "hand", f"hand must have 1 to {rtcore.MAX_FINGERS} fingers, not {len(hand)}")
+    fingers = [_finger(str(name), block, source, hand) for name, block in hand.items()]
+    return Profile(path=source, name=top["profile"], description=top["description"],
+                   protocol_version=top["protocol_version"], transport=transport, control=control,
+                   safety=safety, simulation=simulation, fingers=fingers)
+
+
+def _register_transports() -> None:
+    """Import the transports package, which registers its sections, if it exists yet."""
+    with contextlib.suppress(ImportError):
+        import hand_service.transports  # noqa: F401
+
+
+def all_sections() -> list[Section]:
+    _register_transports()
+    return [TOP_SECTION, *TRANSPORT_SECTIONS.values(), CONTROL_SECTION, SAFETY_SECTION,
+            SIMULATION_SECTION, FINGER_EXTRA_SECTION, MODEL_SECTION]
+
+
+__all__ = ["DEFAULT_PROFILE", "MODEL_KEYS", "MODEL_SECTION", "PROFILE_DIR", "TRANSPORT_SECTIONS",
+           "FingerProfile", "Profile", "all_sections", "load_profile", "where"]

@@ -1,0 +1,118 @@
+"""Typed configuration of the control step, field for field the C structs of csrc/rtcore.h.
+
+The field names are the C names, so the wrapper copies them by name and a test checks
+that the two sets stay equal.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+MAX_FINGERS = 8
+
+MODE_VENT = 0
+MODE_PRESSURE = 1
+MODE_POSITION = 2
+MODE_FORCE = 3
+MODE_NAMES = {MODE_VENT: "vent", MODE_PRESSURE: "pressure", MODE_POSITION: "position",
+              MODE_FORCE: "force"}
+MODES_BY_NAME = {name: mode for mode, name in MODE_NAMES.items()}
+
+FF_NONE = 0
+FF_QUASI_STATIC = 1
+FF_DYNAMIC = 2
+FEEDFORWARD_BY_NAME = {"none": FF_NONE, "quasi_static": FF_QUASI_STATIC, "dynamic": FF_DYNAMIC}
+
+FLAG_SATURATED = 1
+FLAG_RATE_LIMITED = 2
+FLAG_SENSOR_REJECTED = 4
+FLAG_REFERENCE_REJECTED = 8
+FLAG_INTEGRATOR_HELD = 16
+FLAG_MODE_REJECTED = 32
+FLAG_OUTPUT_REJECTED = 64
+FLAG_NOT_CONFIGURED = 128
+FLAG_MODE_CHANGED = 256
+FLAG_NAMES = {
+    FLAG_SATURATED: "saturated",
+    FLAG_RATE_LIMITED: "rate_limited",
+    FLAG_SENSOR_REJECTED: "sensor_rejected",
+    FLAG_REFERENCE_REJECTED: "reference_rejected",
+    FLAG_INTEGRATOR_HELD: "integrator_held",
+    FLAG_MODE_REJECTED: "mode_rejected",
+    FLAG_OUTPUT_REJECTED: "output_rejected",
+    FLAG_NOT_CONFIGURED: "not_configured",
+    FLAG_MODE_CHANGED: "mode_changed",
+}
+
+
+def flag_names(flags: int) -> list[str]:
+    """The names of the bits set in a flags word, lowest bit first."""
+    return [name for bit, name in FLAG_NAMES.items() if flags & bit]
+
+
+@dataclass
+class Effects:
+    """Physics beyond the plain PRBM that the controller compensates (formats.md effects)."""
+
+    valve_lag_tau_s: float = 0.0
+    dead_time_s: float = 0.0
+    coulomb_torque_nm: float = 0.0
+    coulomb_smoothing_deg_per_s: float = 2.0
+    cubic_stiffness_nm_per_rad3: float = 0.0
+    gravity_torque_nm: float = 0.0
+    asymmetric_stiffness_ratio: float = 1.0
+    quadratic_damping_nms2_per_rad2: float = 0.0
+    pressure_deadzone_kpa: float = 0.0
+
+
+@dataclass
+class FingerConfig:
+    """One finger: sensor calibration, filters, PRBM, controller and pressure limits."""
+
+    inertia_kgm2: float
+    damping_nms_per_rad: float
+    stiffness_nm_per_rad: float
+    pressure_gain_nm_per_kpa: float
+    lever_arm_m: float
+    sensor_gain_deg_per_mv: float = 1.0
+    sensor_offset_deg: float = 0.0
+    filter_order: int = 2
+    filter_cutoff_hz: float = 25.0
+    velocity_cutoff_hz: float = 25.0
+    effects: Effects = field(default_factory=Effects)
+    feedforward: int = FF_DYNAMIC
+    force_estimate_dynamic: int = 0
+    kp_kpa_per_deg: float = 0.2
+    ki_kpa_per_deg_s: float = 2.0
+    kd_kpa_s_per_deg: float = 0.0
+    derivative_cutoff_hz: float = 10.0
+    integrator_limit_kpa: float = 50.0
+    force_kp_kpa_per_n: float = 2.0
+    force_ki_kpa_per_n_s: float = 20.0
+    pressure_min_kpa: float = 0.0
+    pressure_max_kpa: float = 200.0
+    pressure_rate_max_kpa_per_s: float = 2000.0
+
+    def replace(self, **changes: object) -> FingerConfig:
+        return dataclasses.replace(self, **changes)
+
+
+@dataclass
+class HandConfig:
+    """A hand of 1 to 8 fingers stepped together at one sample rate."""
+
+    fingers: list[FingerConfig]
+    sample_rate_hz: float = 100.0
+
+    @property
+    def n_fingers(self) -> int:
+        return len(self.fingers)
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.sample_rate_hz
+
+
+class ConfigError(ValueError):
+    """The C core refused a configuration; the message names the finger and the rule."""

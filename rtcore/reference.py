@@ -1,0 +1,386 @@
+"""A readable pure-Python implementation of exactly the C control step.
+
+It exists to be read and to check the C core: the equivalence tests drive both with the
+same random configurations and inputs and require agreement to 1e-9. The arithmetic is
+written in the same order as csrc/ so the two round alike.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from rtcore import config as cfg
+from rtcore.arrays import Inputs, Outputs, allocate
+from rtcore.config import ConfigError, Effects, FingerConfig, HandConfig
+
+RAD_PER_DEG = math.pi / 180.0
+SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT
+POSITION_REFERENCES = ("angle_ref_deg", "velocity_ref_deg_per_s", "accel_ref_deg_per_s2",
+                       "jerk_ref_deg_per_s3")
+REFERENCES = (*POSITION_REFERENCES, "force_ref_n", "pressure_ref_kpa")
+
+
+def usable(x: float) -> bool:
+    return math.isfinite(x) and abs(x) <= SANE_LIMIT
+
+
+# --- filters -------------------------------------------------------------------------
+
+@dataclass
+class Biquad:
+    """One second-order section, direct form II transposed, a0 = 1."""
+
+    b0: float
+    b1: float
+    b2: float
+    a1: float
+    a2: float
+    z1: float = 0.0
+    z2: float = 0.0
+
+    @classmethod
+    def lowpass(cls, tan_half: float, q: float) -> Biquad:
+        k2 = tan_half * tan_half
+        a0 = 1.0 + tan_half / q + k2
+        return cls(k2 / a0, 2.0 * k2 / a0, k2 / a0, 2.0 * (k2 - 1.0) / a0,
+                   (1.0 - tan_half / q + k2) / a0)
+
+    @property
+    def dc_gain(self) -> float:
+        return (self.b0 + self.b1 + self.b2) / (1.0 + self.a1 + self.a2)
+
+    def prime(self, x: float) -> None:
+        y = self.dc_gain * x
+        self.z2 = self.b2 * x - self.a2 * y
+        self.z1 = self.b1 * x - self.a1 * y + self.z2
+
+    def run(self, x: float) -> float:
+        y = self.b0 * x + self.z1
+        self.z1 = self.b1 * x - self.a1 * y + self.z2
+        self.z2 = self.b2 * x - self.a2 * y
+        return y
+
+
+def butter_sections(order: int, cutoff_hz: float, sample_rate_hz: float) -> list[Biquad]:
+    """Butterworth low-pass by the bilinear transform with the cutoff prewarped."""
+    tan_half = math.tan(math.pi * cutoff_hz / sample_rate_hz)
+    return [
+        Biquad.lowpass(tan_half, 1.0 / (2.0 * math.sin(math.pi * float(2 * k + 1) / float(2 * order))))
+        for k in range(order // 2)
+    ]
+
+
+def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
+    return math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
+
+
+# --- the PRBM with its effects -------------------------------------------------------
+
+def linear_stiffness(c: FingerConfig, angle_rad: float) -> float:
+    if angle_rad < 0.0:
+        return c.stiffness_nm_per_rad * c.effects.asymmetric_stiffness_ratio
+    return c.stiffness_nm_per_rad
+
+
+def model_torque(c: FingerConfig, angle_rad: float, velocity: float) -> float:
+    """k th + k3 th^3 + c2 |th'| th' + Tc tanh(th'/w) + G (1 - cos th)."""
+    e = c.effects
+    torque = linear_stiffness(c, angle_rad) * angle_rad
+    torque += e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad
+    torque += e.quadratic_damping_nms2_per_rad2 * abs(velocity) * velocity
+    if e.coulomb_torque_nm != 0.0:
+        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
+        torque += e.coulomb_torque_nm * math.tanh(velocity / smoothing)
+    if e.gravity_torque_nm != 0.0:
+        torque += e.gravity_torque_nm * (1.0 - math.cos(angle_rad))
+    return torque
+
+
+def model_stiffness(c: FingerConfig, angle_rad: float) -> float:
+    e = c.effects
+    stiffness = linear_stiffness(c, angle_rad) + 3.0 * e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad
+    if e.gravity_torque_nm != 0.0:
+        stiffness += e.gravity_torque_nm * math.sin(angle_rad)
+    return stiffness
+
+
+def model_torque_rate(c: FingerConfig, angle_rad: float, velocity: float, accel: float) -> float:
+    e = c.effects
+    d_velocity = 2.0 * e.quadratic_damping_nms2_per_rad2 * abs(velocity)
+    if e.coulomb_torque_nm != 0.0:
+        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
+        th = math.tanh(velocity / smoothing)
+        d_velocity += e.coulomb_torque_nm * (1.0 - th * th) / smoothing
+    return model_stiffness(c, angle_rad) * velocity + d_velocity * accel
+
+
+def deadzone_invert(e: Effects, pressure_kpa: float) -> float:
+    if e.pressure_deadzone_kpa > 0.0 and pressure_kpa > 0.0:
+        return pressure_kpa + e.pressure_deadzone_kpa
+    return pressure_kpa
+
+
+def effective_pressure(e: Effects, pressure_kpa: float) -> float:
+    p0 = e.pressure_deadzone_kpa
+    if p0 > 0.0:
+        return pressure_kpa - p0 if pressure_kpa > p0 else 0.0
+    return pressure_kpa
+
+
+def position_feedforward(c: FingerConfig, s: FingerState) -> float:
+    angle = s.angle_ref_deg * RAD_PER_DEG
+    velocity = s.velocity_ref_deg_per_s * RAD_PER_DEG
+    accel = s.accel_ref_deg_per_s2 * RAD_PER_DEG
+    jerk = s.jerk_ref_deg_per_s3 * RAD_PER_DEG
+    lead_s = c.effects.valve_lag_tau_s + c.effects.dead_time_s
+    gain = c.pressure_gain_nm_per_kpa
+    if c.feedforward == cfg.FF_DYNAMIC:
+        torque = (c.inertia_kgm2 * accel + c.damping_nms_per_rad * velocity
+                  + model_torque(c, angle, velocity))
+        torque_rate = (c.inertia_kgm2 * jerk + c.damping_nms_per_rad * accel
+                       + model_torque_rate(c, angle, velocity, accel))
+    elif c.feedforward == cfg.FF_QUASI_STATIC:
+        torque = model_torque(c, angle, 0.0)
+        torque_rate = model_stiffness(c, angle) * velocity
+    else:
+        return 0.0
+    return deadzone_invert(c.effects, torque / gain) + lead_s * torque_rate / gain
+
+
+def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float) -> float:
+    torque = model_torque(c, angle_rad, 0.0) + c.lever_arm_m * force_ref_n
+    return deadzone_invert(c.effects, torque / c.pressure_gain_nm_per_kpa)
+
+
+def force_normal(c: FingerConfig, chamber_kpa: float, angle_rad: float, velocity: float,
+                 accel: float) -> float:
+    """Signed normal force (J^T)+ (N p - tau): F_n = (N p_eff - tau) / r."""
+    torque = c.pressure_gain_nm_per_kpa * effective_pressure(c.effects, chamber_kpa)
+    if c.force_estimate_dynamic:
+        torque -= (c.inertia_kgm2 * accel + c.damping_nms_per_rad * velocity
+                   + model_torque(c, angle_rad, velocity))
+    else:
+        torque -= model_torque(c, angle_rad, 0.0)
+    return torque / c.lever_arm_m
+
+
+# --- limits and anti-windup ----------------------------------------------------------
+
+def limit_command(c: FingerConfig, unsat: float, previous: float, dt_s: float, error: float,
+                  integrator_old: float, integrator_new: float) -> tuple[float, float, int]:
+    step = c.pressure_rate_max_kpa_per_s * dt_s
+    lowest, highest = previous - step, previous + step
+    command, integrator, flags = unsat, integrator_new, 0
+    if command > c.pressure_max_kpa:
+        command, flags = c.pressure_max_kpa, flags | cfg.FLAG_SATURATED
+    elif command < c.pressure_min_kpa:
+        command, flags = c.pressure_min_kpa, flags | cfg.FLAG_SATURATED
+    if command > highest:
+        command, flags = highest, flags | cfg.FLAG_RATE_LIMITED
+    elif command < lowest:
+        command, flags = lowest, flags | cfg.FLAG_RATE_LIMITED
+    if (unsat > command and error > 0.0) or (unsat < command and error < 0.0):
+        integrator, flags = integrator_old, flags | cfg.FLAG_INTEGRATOR_HELD
+    integrator = min(max(integrator, -c.integrator_limit_kpa), c.integrator_limit_kpa)
+    return command, integrator, flags
+
+
+def clamp_symmetric(x: float, limit: float) -> float:
+    return limit if x > limit else (-limit if x < -limit else x)
+
+
+# --- the step ------------------------------------------------------------------------
+
+@dataclass
+class FingerState:
+    sections: list[Biquad]
+    velocity_alpha: float
+    derivative_alpha: float
+    chamber_alpha: float
+    rest_mv: float
+    filter_primed: bool = False
+    mode: int = cfg.MODE_VENT
+    last_good_mv: float = 0.0
+    angle_filt_deg: float = 0.0
+    velocity_deg_per_s: float = 0.0
+    accel_deg_per_s2: float = 0.0
+    integrator_kpa: float = 0.0
+    derivative_deg_per_s: float = 0.0
+    pressure_cmd_kpa: float = 0.0
+    chamber_model_kpa: float = 0.0
+    angle_ref_deg: float = 0.0
+    velocity_ref_deg_per_s: float = 0.0
+    accel_ref_deg_per_s2: float = 0.0
+    jerk_ref_deg_per_s3: float = 0.0
+    force_ref_n: float = 0.0
+    pressure_ref_kpa: float = 0.0
+
+
+class ReferenceHand:
+    """Same interface as rtcore.Hand: fill .inputs, call step(), read .outputs."""
+
+    def __init__(self, config: HandConfig) -> None:
+        if not 1 <= config.n_fingers <= cfg.MAX_FINGERS:
+            raise ConfigError(f"a hand has 1 to {cfg.MAX_FINGERS} fingers, not {config.n_fingers}")
+        self.config = config
+        self.dt_s = 1.0 / config.sample_rate_hz
+        self.ticks = 0
+        self.inputs: Inputs = allocate(Inputs, config.n_fingers)  # type: ignore[assignment]
+        self.outputs: Outputs = allocate(Outputs, config.n_fingers)  # type: ignore[assignment]
+        self.states = [self._new_state(c) for c in config.fingers]
+
+    def _new_state(self, c: FingerConfig) -> FingerState:
+        lag = c.effects.valve_lag_tau_s
+        rest_mv = -c.sensor_offset_deg / c.sensor_gain_deg_per_mv
+        return FingerState(
+            sections=butter_sections(c.filter_order, c.filter_cutoff_hz, self.config.sample_rate_hz),
+            velocity_alpha=first_order_alpha(c.velocity_cutoff_hz, self.dt_s),
+            derivative_alpha=first_order_alpha(c.derivative_cutoff_hz, self.dt_s),
+            chamber_alpha=math.exp(-self.dt_s / lag) if lag > 0.0 else 0.0,
+            rest_mv=rest_mv,
+            last_good_mv=rest_mv,
+        )
+
+    def reset(self) -> None:
+        self.states = [self._new_state(c) for c in self.config.fingers]
+        self.ticks = 0
+
+    def reset_finger(self, finger: int) -> None:
+        self.states[finger] = self._new_state(self.config.fingers[finger])
+
+    def step(self) -> int:
+        all_flags = 0
+        for i, (c, s) in enumerate(zip(self.config.fingers, self.states, strict=True)):
+            all_flags |= self._step_finger(i, c, s)
+        self.ticks += 1
+        return all_flags
+
+    def _update_angle(self, c: FingerConfig, s: FingerState, mv: float) -> tuple[float, int]:
+        flags = 0
+        angle = c.sensor_gain_deg_per_mv * mv + c.sensor_offset_deg
+        if not usable(angle):
+            flags |= cfg.FLAG_SENSOR_REJECTED
+            angle = c.sensor_gain_deg_per_mv * s.last_good_mv + c.sensor_offset_deg
+        else:
+            s.last_good_mv = mv
+        if not s.filter_primed:
+            x = angle
+            for section in s.sections:
+                section.prime(x)
+                x = section.dc_gain * x
+            s.angle_filt_deg, s.velocity_deg_per_s, s.accel_deg_per_s2 = x, 0.0, 0.0
+            s.filter_primed = True
+        filtered = angle
+        for section in s.sections:
+            filtered = section.run(filtered)
+        a = s.velocity_alpha
+        velocity = a * s.velocity_deg_per_s + (1.0 - a) * (filtered - s.angle_filt_deg) / self.dt_s
+        s.accel_deg_per_s2 = (a * s.accel_deg_per_s2
+                              + (1.0 - a) * (velocity - s.velocity_deg_per_s) / self.dt_s)
+        s.velocity_deg_per_s = velocity
+        s.angle_filt_deg = filtered
+        return angle, flags
+
+    def _hold_references(self, i: int, s: FingerState) -> dict[str, bool]:
+        rejected = {}
+        for name in REFERENCES:
+            value = float(getattr(self.inputs, name)[i])
+            rejected[name] = not usable(value)
+            if usable(value):
+                setattr(s, name, value)
+        return rejected
+
+    def _step_finger(self, i: int, c: FingerConfig, s: FingerState) -> int:
+        dt_s = self.dt_s
+        previous_kpa, previous_mode = s.pressure_cmd_kpa, s.mode
+        flags = 0
+        mode = int(self.inputs.mode[i])
+        if mode not in cfg.MODE_NAMES:
+            mode, flags = cfg.MODE_VENT, flags | cfg.FLAG_MODE_REJECTED
+        changed = mode != previous_mode
+        if changed:
+            flags |= cfg.FLAG_MODE_CHANGED
+        s.mode = mode
+
+        angle_deg, sensor_flags = self._update_angle(c, s, float(self.inputs.sensor_mv[i]))
+        flags |= sensor_flags
+        angle_rad = s.angle_filt_deg * RAD_PER_DEG
+
+        rejected = self._hold_references(i, s)
+        position_rejected = any(rejected[name] for name in POSITION_REFERENCES)
+        if ((mode == cfg.MODE_POSITION and position_rejected)
+                or (mode == cfg.MODE_FORCE and rejected["force_ref_n"])
+                or (mode == cfg.MODE_PRESSURE and rejected["pressure_ref_kpa"])):
+            flags |= cfg.FLAG_REFERENCE_REJECTED
+
+        s.chamber_model_kpa = previous_kpa + (s.chamber_model_kpa - previous_kpa) * s.chamber_alpha
+        chamber_kpa = float(self.inputs.pressure_meas_kpa[i])
+        if not usable(chamber_kpa):
+            chamber_kpa = s.chamber_model_kpa
+        force_n = force_normal(c, chamber_kpa, angle_rad, s.velocity_deg_per_s * RAD_PER_DEG,
+                               s.accel_deg_per_s2 * RAD_PER_DEG)
+        if not math.isfinite(force_n):
+            force_n, flags = 0.0, flags | cfg.FLAG_OUTPUT_REJECTED
+
+        feedforward_kpa = pid_kpa = command_kpa = 0.0
+        if mode == cfg.MODE_VENT:
+            s.integrator_kpa = s.derivative_deg_per_s = 0.0
+        elif mode == cfg.MODE_PRESSURE:
+            command_kpa, _, limit_flags = limit_command(c, s.pressure_ref_kpa, previous_kpa, dt_s,
+                                                        0.0, 0.0, 0.0)
+            s.integrator_kpa = s.derivative_deg_per_s = 0.0
+            feedforward_kpa = s.pressure_ref_kpa
+            flags |= limit_flags
+        else:
+            derivative_kpa = 0.0
+            if mode == cfg.MODE_POSITION:
+                rate_error = s.velocity_ref_deg_per_s - s.velocity_deg_per_s
+                feedforward_kpa = position_feedforward(c, s)
+                error = s.angle_ref_deg - s.angle_filt_deg
+                proportional_kpa = c.kp_kpa_per_deg * error
+                s.derivative_deg_per_s = rate_error if changed else (
+                    s.derivative_alpha * s.derivative_deg_per_s
+                    + (1.0 - s.derivative_alpha) * rate_error)
+                derivative_kpa = c.kd_kpa_s_per_deg * s.derivative_deg_per_s
+                integral_gain = c.ki_kpa_per_deg_s
+            else:
+                feedforward_kpa = force_feedforward(c, angle_rad, s.force_ref_n)
+                error = s.force_ref_n - force_n
+                proportional_kpa = c.force_kp_kpa_per_n * error
+                s.derivative_deg_per_s = 0.0
+                integral_gain = c.force_ki_kpa_per_n_s
+            if changed:
+                # bumpless: continue the command between active modes; out of VENT, start empty
+                s.integrator_kpa = 0.0 if previous_mode == cfg.MODE_VENT else clamp_symmetric(
+                    previous_kpa - feedforward_kpa - proportional_kpa - derivative_kpa,
+                    c.integrator_limit_kpa)
+            integrator_new = s.integrator_kpa + integral_gain * error * dt_s
+            pid_kpa = proportional_kpa + integrator_new + derivative_kpa
+            command_kpa, s.integrator_kpa, limit_flags = limit_command(
+                c, feedforward_kpa + pid_kpa, previous_kpa, dt_s, error, s.integrator_kpa,
+                integrator_new)
+            flags |= limit_flags
+
+        if not all(math.isfinite(x) for x in (command_kpa, s.integrator_kpa,
+                                               s.derivative_deg_per_s, feedforward_kpa, pid_kpa)):
+            command_kpa = feedforward_kpa = pid_kpa = 0.0
+            s.integrator_kpa = s.derivative_deg_per_s = 0.0
+            flags |= cfg.FLAG_OUTPUT_REJECTED
+        s.pressure_cmd_kpa = command_kpa
+
+        out = self.outputs
+        out.pressure_cmd_kpa[i] = command_kpa
+        out.angle_deg[i] = angle_deg
+        out.angle_filt_deg[i] = s.angle_filt_deg
+        out.velocity_deg_per_s[i] = s.velocity_deg_per_s
+        out.accel_deg_per_s2[i] = s.accel_deg_per_s2
+        out.feedforward_kpa[i] = feedforward_kpa
+        out.pid_kpa[i] = pid_kpa
+        out.chamber_pressure_kpa[i] = chamber_kpa
+        out.force_normal_n[i] = force_n
+        out.force_est_x_n[i] = -force_n * math.sin(angle_rad)
+        out.force_est_y_n[i] = force_n * math.cos(angle_rad)
+        out.force_est_n[i] = abs(force_n)
+        out.flags[i] = flags
+        return flags
