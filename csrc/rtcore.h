@@ -229,6 +229,97 @@ int32_t rtcore_butter_design(int32_t order, double cutoff_hz, double sample_rate
 
 /* A short English name for a return code. */
 const char *rtcore_error_name(int32_t code);
+
+/* ---- The simulated hand (csrc/rtcore_sim.c) -----------------------------------------
+ * The PRBM of every finger with the same torque model and effects as the controller,
+ * integrated with RK4 at sample_period/substeps; the valve is a first-order lag behind a
+ * dead time, integrated exactly (the dead time's breakpoints split the sub-steps); an
+ * optional object is a spring-damper at the force point; the flex sensor reads the angle
+ * through the inverse calibration with noise and ADC quantisation.
+ */
+#define RTCORE_SIM_HISTORY 1024
+#define RTCORE_ERR_SIM_HISTORY -13
+
+typedef struct {
+    double inertia_kgm2;
+    double damping_nms_per_rad;
+    double stiffness_nm_per_rad;
+    double pressure_gain_nm_per_kpa;
+    double lever_arm_m;
+    rtcore_effects effects;
+    /* the valve regulates within what the supply allows */
+    double supply_min_kpa;
+    double supply_max_kpa;
+    /* an object touched past contact_angle_deg; stiffness 0 means no object */
+    double contact_angle_deg;
+    double contact_stiffness_n_per_m;
+    double contact_damping_ns_per_m;
+    /* the sensor: mv = (angle_deg + noise - offset) / gain, quantised to adc_step_mv */
+    double sensor_gain_deg_per_mv;
+    double sensor_offset_deg;
+    double sensor_noise_deg;
+    double adc_step_mv;
+    double pressure_noise_kpa;
+} rtcore_sim_finger;
+
+typedef struct {
+    int32_t n_fingers;
+    double sample_rate_hz;
+    int32_t substeps;
+    uint64_t seed;
+    rtcore_sim_finger finger[RTCORE_MAX_FINGERS];
+} rtcore_sim_config;
+
+typedef struct {
+    double angle_rad;
+    double velocity_rad_per_s;
+    double chamber_kpa;
+    double contact_force_n;
+    /* commands of the last samples, newest at head, for the dead time */
+    double command_kpa[RTCORE_SIM_HISTORY];
+    int32_t head;
+    int32_t delay_samples;
+    double delay_fraction;
+} rtcore_sim_finger_state;
+
+typedef struct {
+    rtcore_sim_config config;
+    rtcore_sim_finger_state finger[RTCORE_MAX_FINGERS];
+    double dt_s;
+    double time_s;
+    uint64_t rng_state;
+    double rng_spare;
+    int32_t rng_has_spare;
+    int32_t configured;
+    int32_t error_finger;
+} rtcore_sim;
+
+typedef struct {
+    double sensor_mv[RTCORE_MAX_FINGERS];
+    double pressure_meas_kpa[RTCORE_MAX_FINGERS];
+    double angle_deg[RTCORE_MAX_FINGERS];
+    double velocity_deg_per_s[RTCORE_MAX_FINGERS];
+    double chamber_pressure_kpa[RTCORE_MAX_FINGERS];
+    double contact_force_n[RTCORE_MAX_FINGERS];
+} rtcore_sim_outputs;
+
+/* Validate and apply a configuration; every finger at rest, vented. */
+int32_t rtcore_sim_configure(rtcore_sim *sim, const rtcore_sim_config *config);
+/* Place a finger (e.g. a pushed tip before release); the valve history is filled with
+ * chamber_kpa, as if it had been commanded for ever. */
+void rtcore_sim_set_state(rtcore_sim *sim, int32_t finger, double angle_deg,
+                          double velocity_deg_per_s, double chamber_kpa);
+/* Read the sensors now, without advancing time. */
+void rtcore_sim_sample(rtcore_sim *sim, rtcore_sim_outputs *out);
+/* Hold pressure_cmd_kpa[i] for one sample period, then read the sensors. */
+void rtcore_sim_step(rtcore_sim *sim, const double *pressure_cmd_kpa, rtcore_sim_outputs *out);
+/* Noise-free batch run of one finger, for fitting: angle_out_deg[0] = angle0_deg and
+ * angle_out_deg[k+1] follows command k. chamber_out_kpa may be NULL. Returns RTCORE_OK
+ * or a negative RTCORE_ERR_*. */
+int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, int32_t substeps,
+                       int32_t n_samples, const double *pressure_cmd_kpa, double angle0_deg,
+                       double velocity0_deg_per_s, double chamber0_kpa, double *angle_out_deg,
+                       double *chamber_out_kpa);
 /* END CDEF */
 
 #ifdef __cplusplus

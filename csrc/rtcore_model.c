@@ -4,22 +4,35 @@
 
 #include "rtcore_internal.h"
 
+int rtcore_effects_valid(const rtcore_effects *e)
+{
+    return isfinite(e->valve_lag_tau_s) && e->valve_lag_tau_s >= 0.0
+           && isfinite(e->dead_time_s) && e->dead_time_s >= 0.0
+           && isfinite(e->coulomb_torque_nm) && e->coulomb_torque_nm >= 0.0
+           && (e->coulomb_torque_nm == 0.0
+               || (isfinite(e->coulomb_smoothing_deg_per_s) && e->coulomb_smoothing_deg_per_s > 0.0))
+           && isfinite(e->cubic_stiffness_nm_per_rad3) && isfinite(e->gravity_torque_nm)
+           && isfinite(e->asymmetric_stiffness_ratio) && e->asymmetric_stiffness_ratio > 0.0
+           && isfinite(e->quadratic_damping_nms2_per_rad2) && e->quadratic_damping_nms2_per_rad2 >= 0.0
+           && isfinite(e->pressure_deadzone_kpa) && e->pressure_deadzone_kpa >= 0.0;
+}
+
 /* k, or k * ratio when bending backwards (asymmetric_stiffness). */
-static double linear_stiffness_nm_per_rad(const rtcore_finger_config *c, double angle_rad)
+static double linear_stiffness_nm_per_rad(const rtcore_effects *e, double stiffness_nm_per_rad,
+                                          double angle_rad)
 {
     if (angle_rad < 0.0) {
-        return c->stiffness_nm_per_rad * c->effects.asymmetric_stiffness_ratio;
+        return stiffness_nm_per_rad * e->asymmetric_stiffness_ratio;
     }
-    return c->stiffness_nm_per_rad;
+    return stiffness_nm_per_rad;
 }
 
 /* Torque the finger's structure resists with at (angle, velocity), beyond A*th'':
  * B is not included (the callers add B*th' where the dynamics call for it). */
-double rtcore_model_torque_nm(const rtcore_finger_config *c, double angle_rad,
-                              double velocity_rad_per_s)
+double rtcore_model_torque_nm(const rtcore_effects *e, double stiffness_nm_per_rad,
+                              double angle_rad, double velocity_rad_per_s)
 {
-    const rtcore_effects *e = &c->effects;
-    double torque = linear_stiffness_nm_per_rad(c, angle_rad) * angle_rad;
+    double torque = linear_stiffness_nm_per_rad(e, stiffness_nm_per_rad, angle_rad) * angle_rad;
 
     torque += e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad;
     torque += e->quadratic_damping_nms2_per_rad2 * fabs(velocity_rad_per_s) * velocity_rad_per_s;
@@ -34,10 +47,10 @@ double rtcore_model_torque_nm(const rtcore_finger_config *c, double angle_rad,
 }
 
 /* d tau / d theta: the local stiffness, with velocity held fixed. */
-double rtcore_model_stiffness_nm_per_rad(const rtcore_finger_config *c, double angle_rad)
+double rtcore_model_stiffness_nm_per_rad(const rtcore_effects *e, double stiffness_nm_per_rad,
+                                         double angle_rad)
 {
-    const rtcore_effects *e = &c->effects;
-    double stiffness = linear_stiffness_nm_per_rad(c, angle_rad)
+    double stiffness = linear_stiffness_nm_per_rad(e, stiffness_nm_per_rad, angle_rad)
                        + 3.0 * e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad;
     if (e->gravity_torque_nm != 0.0) {
         stiffness += e->gravity_torque_nm * sin(angle_rad);
@@ -46,17 +59,17 @@ double rtcore_model_stiffness_nm_per_rad(const rtcore_finger_config *c, double a
 }
 
 /* d/dt of rtcore_model_torque_nm along a trajectory. */
-double rtcore_model_torque_rate_nm_per_s(const rtcore_finger_config *c, double angle_rad,
-                                         double velocity_rad_per_s, double accel_rad_per_s2)
+double rtcore_model_torque_rate_nm_per_s(const rtcore_effects *e, double stiffness_nm_per_rad,
+                                         double angle_rad, double velocity_rad_per_s,
+                                         double accel_rad_per_s2)
 {
-    const rtcore_effects *e = &c->effects;
     double d_velocity = 2.0 * e->quadratic_damping_nms2_per_rad2 * fabs(velocity_rad_per_s);
     if (e->coulomb_torque_nm != 0.0) {
         const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
         const double th = tanh(velocity_rad_per_s / smoothing_rad_per_s);
         d_velocity += e->coulomb_torque_nm * (1.0 - th * th) / smoothing_rad_per_s;
     }
-    return rtcore_model_stiffness_nm_per_rad(c, angle_rad) * velocity_rad_per_s
+    return rtcore_model_stiffness_nm_per_rad(e, stiffness_nm_per_rad, angle_rad) * velocity_rad_per_s
            + d_velocity * accel_rad_per_s2;
 }
 
@@ -70,9 +83,9 @@ double rtcore_deadzone_invert_kpa(const rtcore_finger_config *c, double pressure
 }
 
 /* The part of the chamber pressure that makes torque: max(p - p0, 0) with a dead zone. */
-double rtcore_effective_pressure_kpa(const rtcore_finger_config *c, double pressure_kpa)
+double rtcore_effective_pressure_kpa(const rtcore_effects *e, double pressure_kpa)
 {
-    const double p0 = c->effects.pressure_deadzone_kpa;
+    const double p0 = e->pressure_deadzone_kpa;
     if (p0 > 0.0) {
         return pressure_kpa > p0 ? pressure_kpa - p0 : 0.0;
     }
@@ -90,18 +103,20 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     const double jerk = s->jerk_ref_deg_per_s3 * RTCORE_RAD_PER_DEG;
     const double lead_s = c->effects.valve_lag_tau_s + c->effects.dead_time_s;
     const double gain = c->pressure_gain_nm_per_kpa;
+    const rtcore_effects *e = &c->effects;
+    const double k = c->stiffness_nm_per_rad;
     double torque;
     double torque_rate;
 
     if (c->feedforward == RTCORE_FF_DYNAMIC) {
         torque = c->inertia_kgm2 * accel + c->damping_nms_per_rad * velocity
-                 + rtcore_model_torque_nm(c, angle, velocity);
+                 + rtcore_model_torque_nm(e, k, angle, velocity);
         torque_rate = c->inertia_kgm2 * jerk + c->damping_nms_per_rad * accel
-                      + rtcore_model_torque_rate_nm_per_s(c, angle, velocity, accel);
+                      + rtcore_model_torque_rate_nm_per_s(e, k, angle, velocity, accel);
     } else if (c->feedforward == RTCORE_FF_QUASI_STATIC) {
         /* the quasi-static torque depends on th only: d/dt = (d tau / d th) th' */
-        torque = rtcore_model_torque_nm(c, angle, 0.0);
-        torque_rate = rtcore_model_stiffness_nm_per_rad(c, angle) * velocity;
+        torque = rtcore_model_torque_nm(e, k, angle, 0.0);
+        torque_rate = rtcore_model_stiffness_nm_per_rad(e, k, angle) * velocity;
     } else {
         return 0.0;
     }
@@ -112,7 +127,8 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
                                     double force_ref_n)
 {
-    const double torque = rtcore_model_torque_nm(c, angle_rad, 0.0) + c->lever_arm_m * force_ref_n;
+    const double torque = rtcore_model_torque_nm(&c->effects, c->stiffness_nm_per_rad, angle_rad, 0.0)
+                          + c->lever_arm_m * force_ref_n;
     return rtcore_deadzone_invert_kpa(c, torque / c->pressure_gain_nm_per_kpa);
 }
 
@@ -123,12 +139,13 @@ double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_press
                              double accel_rad_per_s2)
 {
     double torque = c->pressure_gain_nm_per_kpa
-                    * rtcore_effective_pressure_kpa(c, chamber_pressure_kpa);
+                    * rtcore_effective_pressure_kpa(&c->effects, chamber_pressure_kpa);
     if (c->force_estimate_dynamic) {
         torque -= c->inertia_kgm2 * accel_rad_per_s2 + c->damping_nms_per_rad * velocity_rad_per_s
-                  + rtcore_model_torque_nm(c, angle_rad, velocity_rad_per_s);
+                  + rtcore_model_torque_nm(&c->effects, c->stiffness_nm_per_rad, angle_rad,
+                                           velocity_rad_per_s);
     } else {
-        torque -= rtcore_model_torque_nm(c, angle_rad, 0.0);
+        torque -= rtcore_model_torque_nm(&c->effects, c->stiffness_nm_per_rad, angle_rad, 0.0);
     }
     return torque / c->lever_arm_m;
 }

@@ -16,7 +16,6 @@ static int finite_above(double x, double lowest)
 
 static int32_t validate_finger(const rtcore_finger_config *c, double sample_rate_hz)
 {
-    const rtcore_effects *e = &c->effects;
     rtcore_biquad sections[RTCORE_MAX_SECTIONS];
     int32_t n_sections;
 
@@ -37,13 +36,7 @@ static int32_t validate_finger(const rtcore_finger_config *c, double sample_rate
         || !finite_above(c->pressure_gain_nm_per_kpa, 0.0) || !finite_above(c->lever_arm_m, 0.0)) {
         return RTCORE_ERR_MODEL;
     }
-    if (!finite_at_least(e->valve_lag_tau_s, 0.0) || !finite_at_least(e->dead_time_s, 0.0)
-        || !finite_at_least(e->coulomb_torque_nm, 0.0)
-        || (e->coulomb_torque_nm > 0.0 && !finite_above(e->coulomb_smoothing_deg_per_s, 0.0))
-        || !isfinite(e->cubic_stiffness_nm_per_rad3) || !isfinite(e->gravity_torque_nm)
-        || !finite_above(e->asymmetric_stiffness_ratio, 0.0)
-        || !finite_at_least(e->quadratic_damping_nms2_per_rad2, 0.0)
-        || !finite_at_least(e->pressure_deadzone_kpa, 0.0)) {
+    if (!rtcore_effects_valid(&c->effects)) {
         return RTCORE_ERR_EFFECTS;
     }
     if (c->feedforward < RTCORE_FF_NONE || c->feedforward > RTCORE_FF_DYNAMIC

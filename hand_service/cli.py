@@ -15,6 +15,7 @@ from hand_service import __version__
 from hand_service.errors import UserError
 
 COMMANDS: dict[str, str] = {
+    "run": "hand_service.commands.run",
     "bench": "hand_service.commands.bench",
 }
 

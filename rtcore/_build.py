@@ -14,7 +14,7 @@ import cffi
 ROOT = Path(__file__).resolve().parent.parent
 CSRC = ROOT / "csrc"
 HEADER = CSRC / "rtcore.h"
-SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_step.c")
+SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_step.c", "rtcore_sim.c")
 COMPILE_ARGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"]
 BEGIN, END = "/* BEGIN CDEF */", "/* END CDEF */"
 

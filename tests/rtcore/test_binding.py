@@ -8,11 +8,11 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from rtcore._rtcore import ffi, lib
 
 import rtcore
 from rtcore import Effects, FingerConfig, config
 from rtcore._build import HEADER, cdef_from_header
+from rtcore._rtcore import ffi, lib
 from rtcore.arrays import Inputs, Outputs, field_names
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -131,7 +131,6 @@ def test_c_matches_reference(config: HandConfig, seed: int) -> None:
 def test_reference_state_fields_cover_c_state() -> None:
     """Every running-state field of the C finger state has its twin in the reference."""
     from rtcore._rtcore import ffi
-
     from rtcore.reference import FingerState
 
     c_fields = {name for name, _ in ffi.typeof("rtcore_finger_state").fields}

@@ -1,0 +1,222 @@
+"""Recordings: the CSV of formats.md, read and written.
+
+    # finger: index
+    # sample_rate_hz: 100
+    t,pressure_kpa,angle_deg
+    0.000,0.00,0.050
+
+Required numeric columns are `t`, `pressure_kpa` and `angle_deg`; others are optional and
+found by name. A multi-finger recording from the daemon suffixes every per-finger column
+with `_<finger>`; `finger=` picks one and strips the suffix. Bad input is a UserError
+naming the file, line and column.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hand_service.errors import UserError, where
+
+log = logging.getLogger(__name__)
+
+REQUIRED = ("t", "pressure_kpa", "angle_deg")
+MIN_DURATION_S = 1.0
+
+
+@dataclass
+class Recording:
+    path: Path
+    t_s: np.ndarray
+    pressure_kpa: np.ndarray
+    angle_deg: np.ndarray
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
+    text_columns: dict[str, list[str]] = field(default_factory=dict)
+    metadata: dict[str, str] = field(default_factory=dict)
+    finger: str | None = None
+
+    @property
+    def sample_rate_hz(self) -> float:
+        """From the median interval, so small timing jitter does not matter."""
+        return float(1.0 / np.median(np.diff(self.t_s)))
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t_s[-1] - self.t_s[0])
+
+    def optional(self, name: str) -> np.ndarray | None:
+        """A numeric column if present and fully finite, else None."""
+        values = self.columns.get(name)
+        if values is None or not np.all(np.isfinite(values)):
+            return None
+        return values
+
+    def __len__(self) -> int:
+        return int(self.t_s.size)
+
+
+def _parse_metadata(line: str, metadata: dict[str, str]) -> None:
+    body = line[1:].strip()
+    if ":" in body:
+        key, value = body.split(":", 1)
+        if key.strip() and " " not in key.strip():
+            metadata[key.strip()] = value.strip()
+
+
+def fingers_in(header: Iterable[str]) -> list[str]:
+    """Finger suffixes of a daemon recording, from its `angle_deg_<finger>` columns."""
+    return [name[len("angle_deg_"):] for name in header if name.startswith("angle_deg_")]
+
+
+def _select_finger(header: list[str], finger: str | None, path: Path, header_line: int) -> list[str]:
+    """Column names as the caller sees them: suffixed columns of `finger` lose their suffix."""
+    fingers = fingers_in(header)
+    if finger is None:
+        if "angle_deg" not in header and fingers:
+            raise UserError(f"{where(path, header_line)}: this recording holds several fingers "
+                            f"({', '.join(fingers)}); pick one with --finger")
+        return header
+    if "angle_deg" in header and not fingers:
+        return header  # a one-finger file: --finger only names it
+    if finger not in fingers:
+        known = ", ".join(fingers) or "none"
+        raise UserError(f"{where(path, header_line)}: no columns for finger '{finger}' (fingers: {known})")
+    suffix = f"_{finger}"
+    renamed = []
+    for name in header:
+        if name.endswith(suffix):
+            renamed.append(name[: -len(suffix)])
+        elif any(name.endswith(f"_{other}") for other in fingers):
+            renamed.append(f"\0{name}")  # another finger's column: hidden
+        else:
+            renamed.append(name)
+    return renamed
+
+
+def read_recording(path: str | Path, finger: str | None = None, required: tuple[str, ...] = REQUIRED,
+                   min_duration_s: float = MIN_DURATION_S) -> Recording:
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise UserError(f"{path}: not a text CSV file") from None
+    lines = text.split("\n")
+    truncated_last = not text.endswith("\n")
+    metadata: dict[str, str] = {}
+    header: list[str] | None = None
+    header_line = 0
+    rows: list[list[str]] = []
+    row_lines: list[int] = []
+    for number, raw in enumerate(lines, start=1):
+        line = raw.strip()
+        if not line:
+            continue
+        if line.startswith("#"):
+            _parse_metadata(line, metadata)
+            continue
+        cells = [c.strip() for c in line.split(",")]
+        if header is None:
+            header, header_line = cells, number
+            continue
+        rows.append(cells)
+        row_lines.append(number)
+    if header is None:
+        raise UserError(f"{path}: no header line (expected columns {', '.join(REQUIRED)})")
+    if rows and truncated_last and _looks_truncated(rows[-1], rows[-2] if len(rows) > 1 else None, header):
+        log.warning("%s: dropped the truncated last line %d", path, row_lines[-1])
+        rows.pop()
+        row_lines.pop()
+    names = _select_finger(header, finger, path, header_line)
+    index = {name: i for i, name in enumerate(names) if not name.startswith("\0")}
+    for name in required:
+        if name not in index:
+            hint = ""
+            if f"{name}_" in ",".join(header) and finger is None:
+                hint = " (per-finger columns found: pick one with --finger)"
+            raise UserError(f"{where(path, header_line)}: missing required column '{name}'{hint}")
+    for cells, number in zip(rows, row_lines, strict=True):
+        if len(cells) != len(header):
+            raise UserError(f"{where(path, number)}: {len(cells)} fields where the header has {len(header)}")
+
+    columns: dict[str, np.ndarray] = {}
+    text_columns: dict[str, list[str]] = {}
+    for name, i in index.items():
+        cells = [r[i] for r in rows]
+        try:
+            columns[name] = np.array([float(c) for c in cells], dtype=np.float64)
+        except ValueError:
+            if name in required:
+                bad = next(k for k, c in enumerate(cells) if not _is_float(c))
+                raise UserError(f"{where(path, row_lines[bad], name)}: not a number: "
+                                f"{cells[bad]!r}") from None
+            text_columns[name] = cells
+    for name in required:
+        values = columns[name]
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise UserError(f"{where(path, row_lines[bad[0]], name)}: {cells_text(values[bad[0]])} "
+                            "where a finite number is required")
+    t = columns["t"] if "t" in columns else np.arange(len(rows), dtype=float)
+    if "t" in required:
+        steps = np.diff(t)
+        bad = np.flatnonzero(steps <= 0)
+        if bad.size:
+            k = bad[0] + 1
+            raise UserError(f"{where(path, row_lines[k], 't')}: t = {t[k]:g} does not increase "
+                            f"(previous {t[k - 1]:g})")
+    if t.size < 2 or t[-1] - t[0] < min_duration_s:
+        span = t[-1] - t[0] if t.size >= 2 else 0.0
+        raise UserError(f"{path}: only {span:.3g} s of data; at least {min_duration_s:g} s is needed")
+    return Recording(path=path, t_s=t, pressure_kpa=columns.get("pressure_kpa", np.zeros_like(t)),
+                     angle_deg=columns.get("angle_deg", np.zeros_like(t)), columns=columns,
+                     text_columns=text_columns, metadata=metadata,
+                     finger=finger or metadata.get("finger"))
+
+
+def cells_text(value: float) -> str:
+    return "NaN" if math.isnan(value) else str(value)
+
+
+def _is_float(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def _looks_truncated(last: list[str], previous: list[str] | None, header: list[str]) -> bool:
+    """A writer killed mid-line leaves too few fields, an empty one, or a cut-off number."""
+    if len(last) != len(header) or "" in last:
+        return True
+    if previous is None:
+        return False
+    return any(_is_float(p) and not _is_float(c) for p, c in zip(previous, last, strict=False))
+
+
+def write_recording(path: str | Path, columns: Mapping[str, np.ndarray | list],
+                    metadata: Mapping[str, object] | None = None, digits: int = 6) -> None:
+    """Write a recording: `# key: value` lines, then the header, then the rows."""
+    names = list(columns)
+    n = len(next(iter(columns.values()))) if columns else 0
+    out = [f"# {k}: {v}" for k, v in (metadata or {}).items()]
+    out.append(",".join(names))
+    formatted = []
+    for name in names:
+        values = columns[name]
+        if isinstance(values, np.ndarray) and values.dtype.kind == "f":
+            formatted.append([f"{v:.{digits}g}" for v in values])
+        else:
+            formatted.append([str(v) for v in values])
+    out.extend(",".join(col[k] for col in formatted) for k in range(n))
+    try:
+        Path(path).write_text("\n".join(out) + "\n")
+    except OSError as exc:
+        raise UserError(f"{path}: cannot write: {exc.strerror or exc}") from None

@@ -1,0 +1,73 @@
+"""The simulated hand built from profiles and models (the C simulator is rtcore.sim).
+
+The truth of a simulated finger is its model (k, B, N, A, lever arm and every effect in
+its `effects` block) plus the profile's `simulation:` section (noise, ADC, seed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from hand_service import effects as fx
+from hand_service.model import FingerModel
+from hand_service.profile import FingerProfile, Profile
+from rtcore.sim import SimFinger, Simulator, simulate
+
+SUPPLY_MAX_KPA = 300.0  # what the rig's regulators can deliver
+
+
+@dataclass
+class Contact:
+    """An object the finger meets past angle_deg: a spring-damper at the force point."""
+
+    angle_deg: float
+    stiffness_n_per_m: float = 2000.0
+    damping_ns_per_m: float = 5.0
+
+
+def sim_finger(model: FingerModel, sensor_gain_deg_per_mv: float = 1.0, sensor_offset_deg: float = 0.0,
+               sensor_noise_deg: float = 0.0, adc_step_mv: float = 0.0, pressure_noise_kpa: float = 0.0,
+               contact: Contact | None = None,
+               extra_effects: fx.EffectParams | None = None) -> SimFinger:
+    """A simulated finger whose truth is `model` (plus `extra_effects`, hidden from the model)."""
+    model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa",
+                  "lever_arm_m", purpose="simulation")
+    effects = {**model.effects, **(extra_effects or {})}
+    return SimFinger(
+        inertia_kgm2=model.inertia_kgm2,
+        damping_nms_per_rad=model.damping_nms_per_rad,  # type: ignore[arg-type]
+        stiffness_nm_per_rad=model.stiffness_nm_per_rad,  # type: ignore[arg-type]
+        pressure_gain_nm_per_kpa=model.pressure_gain_nm_per_kpa,  # type: ignore[arg-type]
+        lever_arm_m=model.lever_arm_m,  # type: ignore[arg-type]
+        effects=fx.to_rtcore(effects),
+        supply_min_kpa=0.0,
+        supply_max_kpa=SUPPLY_MAX_KPA,
+        contact_angle_deg=contact.angle_deg if contact else 0.0,
+        contact_stiffness_n_per_m=contact.stiffness_n_per_m if contact else 0.0,
+        contact_damping_ns_per_m=contact.damping_ns_per_m if contact else 0.0,
+        sensor_gain_deg_per_mv=sensor_gain_deg_per_mv,
+        sensor_offset_deg=sensor_offset_deg,
+        sensor_noise_deg=sensor_noise_deg,
+        adc_step_mv=adc_step_mv,
+        pressure_noise_kpa=pressure_noise_kpa,
+    )
+
+
+def profile_sim_finger(finger: FingerProfile, simulation: dict, contact: Contact | None = None) -> SimFinger:
+    return sim_finger(finger.model, finger.sensor_gain_deg_per_mv, finger.sensor_offset_deg,
+                      simulation["sensor_noise_deg"], simulation["adc_step_mv"],
+                      simulation["pressure_noise_kpa"], contact)
+
+
+def hand_simulator(profile: Profile, seed: int | None = None,
+                   contacts: dict[str, Contact] | None = None) -> Simulator:
+    """The profile's hand as a simulator at the profile's control rate."""
+    contacts = contacts or {}
+    sim = profile.simulation
+    fingers = [profile_sim_finger(f, sim, contacts.get(f.name)) for f in profile.fingers]
+    return Simulator(fingers, sample_rate_hz=profile.control["rate_hz"], substeps=sim["substeps"],
+                     seed=sim["seed"] if seed is None else seed)
+
+
+__all__ = ["Contact", "SimFinger", "Simulator", "hand_simulator", "profile_sim_finger", "sim_finger",
+           "simulate"]

@@ -1,0 +1,98 @@
+"""The transport contract: how the supervisor talks to a valve board.
+
+A transport turns bus frames into SensorSample values and ValveCommand values into
+frames. Wire details (DBC, framing, CRC) stay inside the transport and its profile.
+Nothing here may block the tick: `latest()` and `send()` return at once.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class SensorSample:
+    """One reading of every finger, as the firmware sent it."""
+
+    sequence: int
+    received_s: float  # host monotonic clock when the sample was complete
+    sensor_mv: np.ndarray
+    pressure_meas_kpa: np.ndarray  # NaN where the board does not report it
+
+
+@dataclass
+class FirmwareStatus:
+    protocol_version: int
+    firmware_version: str
+    vented: bool = False  # the firmware has vented (its watchdog, or a command)
+    fault_code: int = 0  # 0: no fault
+    fault_text: str = ""
+
+
+@dataclass
+class TransportHealth:
+    """Counters for the API and the log. They only ever grow."""
+
+    frames_in: int = 0
+    frames_out: int = 0
+    crc_errors: int = 0
+    decode_errors: int = 0
+    sequence_gaps: int = 0
+    timeouts: int = 0
+    reconnects: int = 0
+    extra: dict[str, int] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, int]:
+        return {"frames_in": self.frames_in, "frames_out": self.frames_out,
+                "crc_errors": self.crc_errors, "decode_errors": self.decode_errors,
+                "sequence_gaps": self.sequence_gaps, "timeouts": self.timeouts,
+                "reconnects": self.reconnects, **self.extra}
+
+
+class HandshakeError(Exception):
+    """The firmware did not answer, or reported a protocol version the profile refuses."""
+
+
+class Transport(ABC):
+    """open() (with the handshake), latest(), send(), close(): nothing blocks the tick."""
+
+    kind: str = ""
+    n_fingers: int = 0
+
+    @abstractmethod
+    def open(self) -> FirmwareStatus:
+        """Connect and shake hands; HandshakeError if the firmware is wrong or silent."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Release the bus or port. Safe to call twice."""
+
+    @abstractmethod
+    def latest(self) -> SensorSample | None:
+        """The newest complete sample not returned before, or None. Never blocks."""
+
+    @abstractmethod
+    def send(self, pressure_cmd_kpa: np.ndarray) -> None:
+        """Queue chamber-pressure setpoints (kPa) for every finger. Never blocks."""
+
+    @abstractmethod
+    def status(self) -> FirmwareStatus | None:
+        """The last status/heartbeat the firmware reported."""
+
+    @abstractmethod
+    def health(self) -> TransportHealth:
+        """Frame counters and error counts."""
+
+    def vent(self) -> None:
+        """Command every valve to 0 kPa now."""
+        self.send(np.zeros(self.n_fingers))
+
+    def __enter__(self) -> Transport:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,65 @@
+"""The `sim` transport: the simulated hand in this process, in lockstep with the tick.
+
+Each send() holds the commands for one sample period of the simulator and makes the
+sample at its end available to the next latest(). There is no bus, so no frame is ever
+lost; the counters still count, so the supervisor sees the same health as on hardware.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from hand_service.profile import Profile
+from hand_service.simulator import Contact, hand_simulator
+from hand_service.transports.base import FirmwareStatus, SensorSample, Transport, TransportHealth
+
+
+class SimTransport(Transport):
+    kind = "sim"
+
+    def __init__(self, profile: Profile, seed: int | None = None,
+                 contacts: dict[str, Contact] | None = None) -> None:
+        self.profile = profile
+        self.n_fingers = len(profile.fingers)
+        self.simulator = hand_simulator(profile, seed=seed, contacts=contacts)
+        self._health = TransportHealth()
+        self._status = FirmwareStatus(protocol_version=profile.protocol_version,
+                                      firmware_version="sim")
+        self._sequence = 0
+        self._fresh = False
+        self._open = False
+
+    def open(self) -> FirmwareStatus:
+        self._open = True
+        self._fresh = True  # the reading before the first command
+        return self._status
+
+    def close(self) -> None:
+        self._open = False
+
+    def latest(self) -> SensorSample | None:
+        if not (self._open and self._fresh):
+            return None
+        self._fresh = False
+        self._health.frames_in += 1
+        out = self.simulator.outputs
+        sample = SensorSample(self._sequence, time.monotonic(), out.sensor_mv.copy(),
+                              out.pressure_meas_kpa.copy())
+        self._sequence += 1
+        return sample
+
+    def send(self, pressure_cmd_kpa: np.ndarray) -> None:
+        if not self._open:
+            return
+        self.simulator.command_kpa[:] = pressure_cmd_kpa
+        self.simulator.step()
+        self._health.frames_out += 1
+        self._fresh = True
+
+    def status(self) -> FirmwareStatus | None:
+        return self._status
+
+    def health(self) -> TransportHealth:
+        return self._health

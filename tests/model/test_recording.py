@@ -1,0 +1,88 @@
+"""Recordings: formats.md's CSV, every kind of bad input a clear error."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hand_service.errors import UserError
+from hand_service.recording import read_recording, write_recording
+
+
+def good(tmp_path: Path, n: int = 300, rate: float = 100.0, **extra: np.ndarray) -> Path:
+    t = np.arange(n) / rate
+    path = tmp_path / "rec.csv"
+    write_recording(path, {"t": t, "pressure_kpa": 10 * np.sin(t), "angle_deg": 20 * np.sin(t), **extra},
+                    {"finger": "index", "sample_rate_hz": rate})
+    return path
+
+
+def test_round_trip_with_metadata_and_extra_columns(tmp_path: Path) -> None:
+    path = good(tmp_path, force_n=np.ones(300))
+    rec = read_recording(path)
+    assert rec.sample_rate_hz == pytest.approx(100.0)
+    assert rec.metadata["finger"] == "index"
+    assert rec.optional("force_n") is not None and rec.optional("nothing") is None
+    assert rec.angle_deg[100] == pytest.approx(20 * np.sin(1.0), rel=1e-5)
+
+
+def test_multi_finger_columns_need_and_accept_a_finger(tmp_path: Path) -> None:
+    t = np.arange(200) / 100.0
+    path = tmp_path / "hand.csv"
+    write_recording(path, {"t": t, "pressure_kpa_index": t, "angle_deg_index": 2 * t,
+                           "pressure_kpa_thumb": 3 * t, "angle_deg_thumb": 4 * t,
+                           "mode_index": ["position"] * 200})
+    with pytest.raises(UserError, match="several fingers"):
+        read_recording(path)
+    rec = read_recording(path, finger="thumb")
+    np.testing.assert_allclose(rec.angle_deg, 4 * t, rtol=1e-5)
+    assert read_recording(path, finger="index").text_columns["mode"][0] == "position"
+    with pytest.raises(UserError, match="no columns for finger 'ring'"):
+        read_recording(path, finger="ring")
+
+
+@pytest.mark.parametrize(("mutate", "message"), [
+    (lambda s: s.replace("angle_deg", "angle"), "missing required column 'angle_deg'"),
+    (lambda s: s.replace("\n0.5,", "\nabc,", 1), r"rec.csv:\d+: column 't': not a number"),
+    (lambda s: s.replace("\n0.5,", "\n0.5,1,2,", 1), r"rec.csv:\d+: 5 fields where the header has 3"),
+    (lambda s: s.replace("\n1,", "\n0.1,", 1), "does not increase"),
+])
+def test_bad_input_is_named(tmp_path: Path, mutate, message: str) -> None:
+    path = good(tmp_path)
+    path.write_text(mutate(path.read_text()))
+    with pytest.raises(UserError, match=message):
+        read_recording(path)
+
+
+def test_nan_in_a_required_column(tmp_path: Path) -> None:
+    path = good(tmp_path)
+    lines = path.read_text().splitlines()
+    fields = lines[10].split(",")
+    fields[2] = "nan"
+    lines[10] = ",".join(fields)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(UserError, match=r"rec.csv:11: column 'angle_deg': NaN"):
+        read_recording(path)
+
+
+def test_too_short(tmp_path: Path) -> None:
+    with pytest.raises(UserError, match="at least 1 s"):
+        read_recording(good(tmp_path, n=50))
+
+
+def test_truncated_last_line_is_dropped(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    path = good(tmp_path)
+    text = path.read_text()
+    path.write_text(text + "3.00,1.2")  # a writer killed mid-line
+    rec = read_recording(path)
+    assert len(rec) == 300
+    assert "truncated" in caplog.text
+
+
+def test_500_hz_with_jitter(tmp_path: Path) -> None:
+    t = np.arange(1000) / 500.0 + np.random.default_rng(0).uniform(-1e-4, 1e-4, 1000)
+    path = tmp_path / "fast.csv"
+    write_recording(path, {"t": t, "pressure_kpa": np.zeros(1000), "angle_deg": np.zeros(1000)})
+    assert read_recording(path).sample_rate_hz == pytest.approx(500.0, rel=1e-3)
