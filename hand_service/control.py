@@ -178,15 +178,14 @@ class Api:
             raise RequestError("load_trajectory: the path must be absolute (the daemon has its own "
                                "working directory)")
         traj = read_trajectory(path, self.sup.profile, self.sup.rate_hz)
-        self.sup.trajectory, self.sup.trajectory_tick = traj, 0
-        self.sup.trajectory_done, self.sup.trajectory_loop = False, loop
+        self.sup.set_trajectory(traj, loop)
         return {"path": path, "duration_s": traj.duration_s, "ticks": traj.n_ticks, "loop": loop,
                 "fingers": [n for n, d in zip(self.sup.names, traj.driven(), strict=True) if d]}
 
     def clear_trajectory(self) -> dict[str, Any]:
         if self.sup.state is State.RUNNING and self.sup.trajectory and not self.sup.trajectory_done:
             raise RequestError("clear_trajectory: not while it runs (hold first)")
-        self.sup.trajectory = None
+        self.sup.set_trajectory(None)
         return {"trajectory": None}
 
     def record_start(self, path: str) -> dict[str, Any]:

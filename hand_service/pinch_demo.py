@@ -154,7 +154,7 @@ def run_demo(daemon: Daemon, record: Path | None, out: TextIO) -> int:
             truth_angle[k] = simulator.outputs.angle_deg
             truth_force[k] = simulator.outputs.contact_force_n
         if sup.state is State.DISARMED and not started:
-            sup.trajectory, sup.trajectory_tick, sup.trajectory_done = traj, 0, False
+            sup.set_trajectory(traj)
             sup.fire(Event.ARM)
             sup.fire(Event.START)
             started.append(sup.tick_index + 1)

@@ -68,6 +68,8 @@ HINTS: dict[Event, str] = {
     Event.RESET: "reset only from FAULT or ESTOP",
     Event.HANDSHAKE_OK: "the handshake happens in INIT",
     Event.HANDSHAKE_FAILED: "the handshake happens in INIT",
+    Event.FAULT: "ESTOP outranks a fault",
+    Event.ESTOP: "ESTOP is accepted everywhere",
 }
 
 

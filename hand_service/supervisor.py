@@ -65,6 +65,7 @@ class Supervisor:
         self.trajectory_tick = 0
         self.trajectory_done = False
         self.trajectory_loop = False
+        self._driven: np.ndarray | None = None
         self.firmware: FirmwareStatus | None = None
         self.link_open = False
         self.schedule: clock.Schedule | None = None
@@ -149,16 +150,9 @@ class Supervisor:
             inputs.accel_ref_deg_per_s2[:] = 0.0
             inputs.jerk_ref_deg_per_s3[:] = 0.0
             return
-        targets = self.targets
-        inputs.mode[:] = targets.mode
-        inputs.angle_ref_deg[:] = targets.angle_deg
-        inputs.velocity_ref_deg_per_s[:] = 0.0
-        inputs.accel_ref_deg_per_s2[:] = 0.0
-        inputs.jerk_ref_deg_per_s3[:] = 0.0
-        inputs.force_ref_n[:] = targets.force_n
-        inputs.pressure_ref_kpa[:] = targets.pressure_kpa
         traj = self.trajectory
         if traj is None or self.trajectory_done:
+            self._targets_to_inputs()
             return
         k = self.trajectory_tick
         if k >= traj.n_ticks:
@@ -167,16 +161,42 @@ class Supervisor:
             else:
                 self._finish_trajectory(traj)
                 return
-        mode = traj.mode[k]
-        driven = mode != NOT_DRIVEN
-        inputs.mode[driven] = mode[driven]
-        position = mode == MODE_POSITION
-        inputs.angle_ref_deg[position] = traj.angle_deg[k, position]
-        inputs.velocity_ref_deg_per_s[position] = traj.velocity_deg_per_s[k, position]
-        inputs.accel_ref_deg_per_s2[position] = traj.accel_deg_per_s2[k, position]
-        inputs.jerk_ref_deg_per_s3[position] = traj.jerk_deg_per_s3[k, position]
-        force = mode == MODE_FORCE
-        inputs.force_ref_n[force] = traj.force_n[k, force]
+        driven = self._driven
+        if driven is None:  # every finger follows the trajectory: whole rows
+            inputs.mode[:] = traj.mode[k]
+            inputs.angle_ref_deg[:] = traj.angle_deg[k]
+            inputs.velocity_ref_deg_per_s[:] = traj.velocity_deg_per_s[k]
+            inputs.accel_ref_deg_per_s2[:] = traj.accel_deg_per_s2[k]
+            inputs.jerk_ref_deg_per_s3[:] = traj.jerk_deg_per_s3[k]
+            inputs.force_ref_n[:] = traj.force_n[k]
+            return
+        self._targets_to_inputs()
+        np.copyto(inputs.mode, traj.mode[k], where=driven)
+        np.copyto(inputs.angle_ref_deg, traj.angle_deg[k], where=driven)
+        np.copyto(inputs.velocity_ref_deg_per_s, traj.velocity_deg_per_s[k], where=driven)
+        np.copyto(inputs.accel_ref_deg_per_s2, traj.accel_deg_per_s2[k], where=driven)
+        np.copyto(inputs.jerk_ref_deg_per_s3, traj.jerk_deg_per_s3[k], where=driven)
+        np.copyto(inputs.force_ref_n, traj.force_n[k], where=driven)
+
+    def _targets_to_inputs(self) -> None:
+        inputs, targets = self.hand.inputs, self.targets
+        inputs.mode[:] = targets.mode
+        inputs.angle_ref_deg[:] = targets.angle_deg
+        inputs.velocity_ref_deg_per_s[:] = 0.0
+        inputs.accel_ref_deg_per_s2[:] = 0.0
+        inputs.jerk_ref_deg_per_s3[:] = 0.0
+        inputs.force_ref_n[:] = targets.force_n
+        inputs.pressure_ref_kpa[:] = targets.pressure_kpa
+
+    def set_trajectory(self, traj: Trajectory | None, loop: bool = False) -> None:
+        """Follow `traj` from its start when RUNNING. A finger it drives follows it at every
+        tick; the others keep their API targets."""
+        if traj is not None and ((traj.mode == NOT_DRIVEN) != ~traj.driven()).any():
+            raise ValueError("a trajectory drives a finger at every tick or never")
+        self.trajectory, self.trajectory_tick = traj, 0
+        self.trajectory_done, self.trajectory_loop = False, loop
+        driven = traj.driven() if traj is not None else None
+        self._driven = None if driven is None or driven.all() else driven
 
     def _finish_trajectory(self, traj: Trajectory) -> None:
         """The end holds the last references: they become the fingers' targets, HOLD."""

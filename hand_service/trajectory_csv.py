@@ -132,7 +132,8 @@ def _resample(t: np.ndarray, modes: np.ndarray, values: dict[str, np.ndarray], d
     t_tick = np.arange(n_ticks) / rate_hz
     j = np.clip(np.searchsorted(t, t_tick, side="right") - 1, 0, len(t) - 1)
     j1 = np.minimum(j + 1, len(t) - 1)
-    frac = np.where(j1 > j, (t_tick - t[j]) / (t[j1] - t[j]), 0.0)[:, None]
+    span = np.where(j1 > j, t[j1] - t[j], 1.0)
+    frac = np.where(j1 > j, (t_tick - t[j]) / span, 0.0)[:, None]
     same = modes[j1] == modes[j]
     for quantity, target in (("angle_ref_deg", traj.angle_deg), ("force_ref_n", traj.force_n)):
         v = values[quantity]
