@@ -84,7 +84,8 @@ def test_angle_out_of_range(rig: Rig) -> None:
     rig.running()
     finger = rig.profile.fingers[1]
     mv = rig.transport.simulator.outputs.sensor_mv.copy()
-    mv[1] = (rig.profile.safety["angle_max_deg"] + 5.0 - finger.sensor_offset_deg) / finger.sensor_gain_deg_per_mv
+    angle_deg = rig.profile.safety["angle_max_deg"] + 5.0
+    mv[1] = (angle_deg - finger.sensor_offset_deg) / finger.sensor_gain_deg_per_mv
     rig.transport.sensor_override = mv
     rig.tick()
     rig.assert_faulted("angle_out_of_range")

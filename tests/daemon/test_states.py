@@ -49,4 +49,4 @@ def test_the_table_is_what_the_tests_expect() -> None:
 
 def test_only_running_and_hold_may_pressurise() -> None:
     assert {s for s in State if s not in VENTED} == {State.RUNNING, State.HOLD}
-    assert LATCHED == {State.FAULT, State.ESTOP}
+    assert {State.FAULT, State.ESTOP} == LATCHED
