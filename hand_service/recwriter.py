@@ -24,7 +24,7 @@ from typing import IO
 import numpy as np
 
 from hand_service.states import State
-from rtcore.config import MODE_NAMES
+from rtcore.config import MODE_FORCE, MODE_NAMES, MODE_POSITION
 from rtcore.ring import Ring
 
 FLUSH_INTERVAL_S = 0.2
@@ -61,10 +61,19 @@ class Drainer:
         mode_at, flags_at = QUANTITIES.index("mode"), QUANTITIES.index("flags")
         self._kinds = [("mode" if q == mode_at else "flags" if q == flags_at else "num")
                        for _ in fingers for q in range(len(QUANTITIES))]
+        # positions in the CSV order: a reference is written only under its mode
+        width = len(QUANTITIES)
+        self._mode = np.arange(n) * width + mode_at
+        self._angle_ref = np.arange(n) * width + QUANTITIES.index("angle_ref_deg")
+        self._force_ref = np.arange(n) * width + QUANTITIES.index("force_ref_n")
 
     def _line(self, row: np.ndarray) -> str:
         cells = [f"{row[0]:.4f}", STATE_NAMES[int(row[1])] if 0 <= row[1] < len(STATE_NAMES) else "?"]
-        for kind, value in zip(self._kinds, row[self.order], strict=True):
+        values = row[self.order]
+        mode = values[self._mode]
+        values[self._angle_ref[mode != MODE_POSITION]] = np.nan
+        values[self._force_ref[mode != MODE_FORCE]] = np.nan
+        for kind, value in zip(self._kinds, values, strict=True):
             if kind == "num":
                 cells.append(f"{value:.6g}")
             elif kind == "mode":

@@ -75,7 +75,6 @@ class Supervisor:
         self.t_s = 0.0
         self.sent_kpa = np.zeros(n)
         self._zeros = np.zeros(n)
-        self._nan = np.full(n, np.nan)
         self._last_missed = False
         self._latched_causes: set[Cause] = set()
         self.on_fault: list[Callable[[Fault], None]] = []
@@ -278,10 +277,8 @@ class Supervisor:
         rec.head[0] = self.t_s
         rec.head[1] = state
         mode = inputs.mode
-        np.copyto(block["angle_ref_deg"], inputs.angle_ref_deg)
-        np.copyto(block["angle_ref_deg"], self._nan, where=mode != MODE_POSITION)
-        np.copyto(block["force_ref_n"], inputs.force_ref_n)
-        np.copyto(block["force_ref_n"], self._nan, where=mode != MODE_FORCE)
+        block["angle_ref_deg"][:] = inputs.angle_ref_deg  # the writer blanks the reference
+        block["force_ref_n"][:] = inputs.force_ref_n  # a finger's mode does not use
         block["pressure_kpa"][:] = self.sent_kpa
         block["pressure_meas_kpa"][:] = inputs.pressure_meas_kpa
         block["angle_deg"][:] = outputs.angle_deg
