@@ -14,7 +14,7 @@ $(STAMP): $(INSTALL_INPUTS)
 	@touch $(STAMP)
 
 run: $(STAMP)
-	$(VENV)/bin/hand-service run
+	$(VENV)/bin/hand-service run --demo
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -320,6 +320,36 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
                        int32_t n_samples, const double *pressure_cmd_kpa, double angle0_deg,
                        double velocity0_deg_per_s, double chamber0_kpa, double *angle_out_deg,
                        double *chamber_out_kpa);
+/* ---- The supervisor's clock (csrc/rtcore_clock.c) -----------------------------------
+ * CLOCK_MONOTONIC in ns, and an absolute-deadline schedule: deadline k is
+ * start_ns + k*period_ns, so the schedule never drifts whatever a tick costs.
+ */
+int64_t rtcore_clock_now_ns(void);
+/* Sleep (clock_nanosleep, TIMER_ABSTIME) until deadline_ns - spin_ns, then spin on the
+ * clock until deadline_ns. Returns the wake-up time in ns, or a negative errno:
+ * -EINTR (4) when a signal woke it early, so the caller can handle it and sleep again. */
+int64_t rtcore_sleep_until_ns(int64_t deadline_ns, int64_t spin_ns);
+/* The deadline after tick *index that ends at after_ns: index+1, or when that deadline
+ * has passed already (a deadline miss), the first one still ahead; *index is updated. */
+int64_t rtcore_next_deadline_ns(int64_t start_ns, int64_t period_ns, int64_t after_ns,
+                                int64_t *index);
+/* The machine's floor: a bare loop of n_ticks on the same schedule, from first_index.
+ * wake_late_ns[i] is how late tick i woke, index_out[i] its schedule index, *misses the
+ * ticks that woke after their period had ended. Returns the next index, or -1. */
+int64_t rtcore_floor_loop(int64_t start_ns, int64_t period_ns, int64_t first_index,
+                          int32_t n_ticks, int64_t spin_ns, int64_t *wake_late_ns,
+                          int64_t *index_out, int32_t *misses);
+/* mlockall(MCL_CURRENT | MCL_FUTURE) and munlockall(): 0 or the errno. */
+int32_t rtcore_lock_memory(void);
+int32_t rtcore_unlock_memory(void);
+/* ---- The recording ring (csrc/rtcore_ring.c) -----------------------------------------
+ * One producer (the tick) and one consumer (the writer), rows of n_cols doubles in
+ * caller-provided (shared) memory. push copies row into slot count % capacity, then
+ * publishes count + 1 with release semantics; returns the new count, or -1.
+ * ring_count reads the count with acquire semantics. */
+int64_t rtcore_ring_push(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
+                         const double *row);
+int64_t rtcore_ring_count(const int64_t *count);
 /* END CDEF */
 
 #ifdef __cplusplus

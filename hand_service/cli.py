@@ -17,6 +17,7 @@ from hand_service.errors import UserError
 COMMANDS: dict[str, str] = {
     "run": "hand_service.commands.run",
     "bench": "hand_service.commands.bench",
+    "ctl": "hand_service.commands.ctl",
 }
 
 DESCRIPTION = """\

@@ -71,6 +71,12 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
         "float", "ms", 100.0, 1.0, 10000.0),
     Key("transport_timeout_ms", "no frame at all for this long: transport lost", "float", "ms",
         500.0, 1.0, 60000.0),
+    Key("target_angle_min_deg", "lowest angle target the control API accepts", "float", "deg",
+        0.0, -360.0, 360.0),
+    Key("target_angle_max_deg", "highest angle target the control API accepts", "float", "deg",
+        180.0, -360.0, 360.0),
+    Key("target_force_max_n", "largest force target (either sign) the control API accepts",
+        "float", "N", 10.0, 0.0, 1000.0, True),
 ))
 
 SIMULATION_SECTION = Section(
@@ -229,6 +235,11 @@ def load_profile(path: str | Path | None = None) -> Profile:
     if safety["angle_min_deg"] >= safety["angle_max_deg"]:
         raise fail(source, data["safety"], "angle_min_deg",
                    "safety.angle_min_deg must be below safety.angle_max_deg")
+    if not (safety["angle_min_deg"] <= safety["target_angle_min_deg"] < safety["target_angle_max_deg"]
+            <= safety["angle_max_deg"]):
+        raise fail(source, data["safety"], "target_angle_min_deg",
+                   "safety: the angle targets must lie inside the safe angles, "
+                   "angle_min_deg <= target_angle_min_deg < target_angle_max_deg <= angle_max_deg")
     simulation = _section(data, "simulation", SIMULATION_SECTION, source)
     hand = expect_mapping(top["hand"], source, data, "hand", "hand")
     if not 1 <= len(hand) <= rtcore.MAX_FINGERS:

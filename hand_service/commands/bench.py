@@ -12,7 +12,15 @@ Measure one control step for the whole hand, called from Python through cffi, an
 same step in the pure-Python reference, call by call in the same run. Timing on shared
 machines is noisy: compare the figures as ratios within one run.
 
-JSON keys (formats.md): c_step_ns_p50, c_step_ns_p99, python_step_ns_p50, fingers, ...
+Then the whole supervisor tick (read, step, safety, send, record) on the simulated
+hand at --rate for --seconds, in one-second blocks interleaved with a bare C loop on the
+same absolute clock_nanosleep schedule: the machine's own jitter floor, measured in the
+same run. --spin-us wakes that much early and spins to the deadline (both loops).
+
+JSON keys (formats.md): c_step_ns_p50, c_step_ns_p99, python_step_ns_p50, fingers,
+tick_ns_p50, tick_ns_p99, jitter_us_p50, jitter_us_p99, jitter_us_max, rate_hz,
+jitter_floor_us_p50, jitter_floor_us_p99, jitter_floor_us_max, deadline_misses,
+deadline_misses_floor, ticks, ...
 """
 
 
@@ -20,6 +28,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the figures here")
     parser.add_argument("--quick", action="store_true", help="fewer calls: a rough figure in seconds")
     parser.add_argument("--profile", default=None, help="firmware profile (default: sim.yaml)")
+    parser.add_argument("--rate", type=float, default=100.0, metavar="HZ",
+                        help="supervisor tick rate (10 to 1000 Hz; default 100)")
+    parser.add_argument("--seconds", type=float, default=None, metavar="S",
+                        help="supervisor ticking time, the same again for the floor "
+                             "(default 30; 4 with --quick)")
+    parser.add_argument("--spin-us", type=float, default=0.0, metavar="US",
+                        help="wake US early and spin to each deadline (default 0: sleep only)")
+    parser.add_argument("--recorder", choices=["process", "thread", "off"], default="process",
+                        help="record every tick through this writer (default process)")
+    parser.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -37,7 +55,34 @@ def main(args: argparse.Namespace) -> int:
           f"p99 {results['python_step_ns_p99']:8.0f} ns")
     print(f"  Python / C             {results['python_over_c']:.0f}x   "
           f"(timer overhead {results['timer_overhead_ns']:.0f} ns, included)")
+    results.update(_ticks(args))
     if args.json:
         args.json.write_text(json.dumps(results, indent=2) + "\n")
         print(f"wrote {args.json}")
     return 0
+
+
+def _ticks(args: argparse.Namespace) -> dict[str, object]:
+    from hand_service.errors import UserError
+    from hand_service.profile import load_profile
+    from hand_service.tickbench import measure_ticks
+
+    seconds = args.seconds if args.seconds is not None else (4.0 if args.quick else 30.0)
+    if not 10.0 <= args.rate <= 1000.0:
+        raise UserError(f"--rate must be between 10 and 1000 Hz, not {args.rate:g}")
+    if seconds <= 0 or args.spin_us < 0 or args.spin_us * 1000 >= 1e9 / args.rate:
+        raise UserError("--seconds must be positive and --spin-us between 0 and the period")
+    print(f"supervisor tick at {args.rate:g} Hz, {seconds:g} s, interleaved with the bare C loop "
+          f"(spin {args.spin_us:g} us, recorder {args.recorder}) ...", flush=True)
+    r = measure_ticks(load_profile(args.profile), args.rate, seconds, args.spin_us,
+                      None if args.recorder == "off" else args.recorder,
+                      None if args.no_realtime else 50, progress=True)
+    print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
+    print(f"  jitter supervisor      p50 {r['jitter_us_p50']:8.1f} us   p99 {r['jitter_us_p99']:8.1f} us   "
+          f"max {r['jitter_us_max']:8.1f} us   misses {r['deadline_misses']}")
+    print(f"  jitter bare C loop     p50 {r['jitter_floor_us_p50']:8.1f} us   p99 "
+          f"{r['jitter_floor_us_p99']:8.1f} us   max {r['jitter_floor_us_max']:8.1f} us   "
+          f"misses {r['deadline_misses_floor']}")
+    print(f"  p99 jitter / floor     {r['jitter_ratio_p99']:.2f}   cpu {r['cpu_percent']:.1f} % "
+          f"(floor {r['cpu_percent_floor']:.1f} %)   {r['realtime']}")
+    return r

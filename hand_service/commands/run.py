@@ -1,40 +1,92 @@
-"""`hand-service run`: run the controller. Until the supervisor daemon lands, this runs the
-closed-loop demo on the simulated hand of the profile."""
+"""`hand-service run`: the supervisor daemon (docs/service.md, docs/api.md)."""
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
-HELP = "run the controller on a hand (default: the simulated hand of sim.yaml)"
+HELP = "run the supervisor daemon (default: the simulated hand of sim.yaml); --demo shows it off"
 DESCRIPTION = """\
-Run the controller. With the default profile (firmware_profiles/sim.yaml) the hand is
-simulated in this process, so nothing else is needed: every finger tracks the paper's
-0 -> 90 deg cosine sweep (0.75 s period) and the tracking and timing figures are printed.
+Run the supervisor: a control tick at the profile's rate (100 Hz by default, up to
+1 kHz) on an absolute clock_nanosleep schedule, the safety state machine, the control
+API on a Unix socket (0600) and, with --record, one CSV row per tick.
+
+The daemon starts in INIT, shakes hands with the firmware and waits DISARMED (vented)
+for requests: `hand-service ctl arm`, `ctl target index --angle-deg 45`, `ctl start`...
+It stops on SIGTERM or SIGINT (vents, flushes the recording, exits 0) or after
+--duration. With --demo it arms itself and runs the demo on the simulated hand: the
+paper's 0 -> 90 deg sweep on every finger, then a pinch (thumb and index close on objects
+in force mode), then prints the tracking and timing figures.
 """
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--profile", default=None, help="firmware profile (default: sim.yaml)")
-    parser.add_argument("--periods", type=int, default=8, help="sweep periods to run (default 8)")
+    parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    parser.add_argument("--record", type=Path, metavar="FILE.csv",
+                        help="record every tick to this new CSV (formats.md, per-finger columns)")
+    parser.add_argument("--demo", action="store_true",
+                        help="run the demo on the simulated hand, print figures, exit")
+    parser.add_argument("--socket", type=Path, metavar="PATH",
+                        help="control socket (default: $HAND_SERVICE_SOCKET, "
+                             "$XDG_RUNTIME_DIR/hand-service/api.sock or /tmp/hand-service-UID/api.sock)")
+    parser.add_argument("--no-socket", action="store_true", help="no control API")
+    parser.add_argument("--tcp-port", type=int, metavar="PORT",
+                        help="also serve the API on 127.0.0.1:PORT (loopback only; 0 picks one)")
+    parser.add_argument("--rate", type=float, metavar="HZ", help="control rate (10 to 1000; "
+                        "default: the profile's control.rate_hz)")
+    parser.add_argument("--spin-us", type=float, default=0.0, metavar="US",
+                        help="wake this early and spin to the deadline (CPU for jitter; default 0)")
+    parser.add_argument("--recorder", choices=["process", "thread"], default="process",
+                        help="where the CSV writer runs (default: process, off the daemon's GIL)")
+    parser.add_argument("--realtime-priority", type=int, default=50, metavar="N",
+                        help="SCHED_FIFO priority, used when permitted (default 50)")
+    parser.add_argument("--no-realtime", action="store_true", help="stay with the normal scheduler")
+    parser.add_argument("--no-mlock", action="store_true", help="do not lock memory (mlockall)")
+    parser.add_argument("--seed", type=int, help="simulator seed (sim transport; default: the profile's)")
+    parser.add_argument("--status", choices=["auto", "line", "off"], default="auto",
+                        help="live status line: auto shows it on a terminal (default)")
 
 
 def main(args: argparse.Namespace) -> int:
-    from hand_service.demo import track_sweep
+    from hand_service.daemon import Daemon, DaemonOptions, print_summary, with_rate
     from hand_service.errors import UserError
     from hand_service.profile import load_profile
+    from hand_service.transports import transport_class
 
-    profile = load_profile(args.profile)
-    if profile.transport["kind"] != "sim":
-        raise UserError(f"{profile.path}: this build runs only the simulated hand (transport sim)")
-    if args.periods < 2:
-        raise UserError("--periods must be at least 2 (the first period is left out)")
-    print(f"profile {profile.name}: {len(profile.fingers)} fingers at {profile.control['rate_hz']:g} Hz, "
-          f"tracking 45*(1 - cos(2 pi t / 0.75 s)) for {args.periods} periods")
-    result = track_sweep(profile, periods=args.periods, progress=True)
-    print(f"{'finger':<8} {'RMSE (deg)':>11} {'max error (deg)':>16}")
-    for name, rmse, worst in zip(result.fingers, result.rmse_deg, result.max_error_deg, strict=True):
-        print(f"{name:<8} {rmse:11.2f} {worst:16.2f}")
-    print(f"{'mean':<8} {result.rmse_deg.mean():11.2f} {result.max_error_deg.mean():16.2f}")
-    print(f"control step: p50 {result.step_ns_p50:.0f} ns, p99 {result.step_ns_p99:.0f} ns "
-          f"over {result.ticks} ticks")
+    profile = with_rate(load_profile(args.profile), args.rate)
+    if not 10.0 <= profile.control["rate_hz"] <= 1000.0:
+        raise UserError(f"--rate must be between 10 and 1000 Hz, not {args.rate:g}")
+    if args.spin_us < 0 or args.spin_us * 1000 >= 1e9 / profile.control["rate_hz"]:
+        raise UserError("--spin-us must be at least 0 and shorter than the period")
+    if args.record is not None and args.record.exists():
+        raise UserError(f"{args.record}: exists already; a recording never overwrites one")
+    kind = profile.transport["kind"]
+    transport_options: dict[str, object] = {}
+    if args.demo:
+        if kind != "sim":
+            raise UserError(f"--demo runs on the simulated hand (transport sim), not {kind}")
+        from hand_service.pinch_demo import contacts
+        transport_options["contacts"] = contacts(profile)
+    if args.seed is not None:
+        if kind != "sim":
+            raise UserError("--seed applies to the sim transport only")
+        transport_options["seed"] = args.seed
+    transport = transport_class(kind)(profile, **transport_options)
+    from hand_service.apiserver import default_socket_path
+    options = DaemonOptions(
+        socket_path=None if args.no_socket else (args.socket or default_socket_path()),
+        tcp_port=args.tcp_port, record=args.record, recorder=args.recorder, spin_us=args.spin_us,
+        realtime_priority=None if args.no_realtime else args.realtime_priority,
+        lock_memory=not (args.no_realtime or args.no_mlock),
+        status_line=args.status == "line" or (args.status == "auto" and sys.stdout.isatty()),
+        seed=args.seed)
+    daemon = Daemon(profile, transport, options)
+    if args.demo:
+        from hand_service.pinch_demo import run_demo
+        return run_demo(daemon, args.record, sys.stdout)
+    daemon.open()
+    summary = daemon.run(args.duration)
+    print_summary(summary, sys.stdout)
     return 0

@@ -1,0 +1,204 @@
+"""The control API's transport: JSON lines on a Unix-domain socket (mode 0600), and
+optionally TCP on 127.0.0.1. Polled without blocking in the supervisor's slack, so
+requests run between ticks in the loop's own thread (docs/api.md)."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import selectors
+import socket
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from hand_service.errors import UserError
+
+log = logging.getLogger(__name__)
+
+MAX_LINE_BYTES = 65536
+MAX_CLIENTS = 16
+MAX_REQUESTS_PER_POLL = 8
+LOOPBACK = "127.0.0.1"
+
+
+def default_socket_path() -> Path:
+    """$HAND_SERVICE_SOCKET, else $XDG_RUNTIME_DIR/hand-service/api.sock, else
+    /tmp/hand-service-<uid>/api.sock."""
+    if os.environ.get("HAND_SERVICE_SOCKET"):
+        return Path(os.environ["HAND_SERVICE_SOCKET"])
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    base = Path(runtime) / "hand-service" if runtime else Path(f"/tmp/hand-service-{os.getuid()}")
+    return base / "api.sock"
+
+
+class _Client:
+    def __init__(self, sock: socket.socket) -> None:
+        self.sock = sock
+        self.inbuf = b""
+        self.outbuf = b""
+
+
+class ApiServer:
+    def __init__(self, handle: Callable[[Any], dict[str, Any]], socket_path: Path | None,
+                 tcp_port: int | None = None) -> None:
+        self.handle = handle
+        self.socket_path = socket_path
+        self.tcp_port = tcp_port
+        self.selector = selectors.DefaultSelector()
+        self.listeners: list[socket.socket] = []
+        self.clients: dict[int, _Client] = {}
+        self.pending: set[_Client] = set()  # clients with whole lines not yet answered
+
+    def open(self) -> None:
+        if self.socket_path is not None:
+            self.listeners.append(self._unix(self.socket_path))
+        if self.tcp_port is not None:
+            sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                sock.bind((LOOPBACK, self.tcp_port))
+            except OSError as exc:
+                sock.close()
+                raise UserError(f"cannot listen on {LOOPBACK}:{self.tcp_port}: {exc.strerror}") from None
+            self.tcp_port = sock.getsockname()[1]
+            sock.listen(MAX_CLIENTS)
+            self.listeners.append(sock)
+        for sock in self.listeners:
+            sock.setblocking(False)
+            self.selector.register(sock, selectors.EVENT_READ, None)
+
+    def _unix(self, path: Path) -> socket.socket:
+        if not path.parent.exists():
+            path.parent.mkdir(mode=0o700, parents=True)
+        if path.exists() or path.is_socket():
+            probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            try:
+                probe.connect(str(path))
+            except OSError:
+                path.unlink()  # left by a daemon that died: nobody answers
+            else:
+                raise UserError(f"{path}: another hand-service daemon is listening there")
+            finally:
+                probe.close()
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        old = os.umask(0o177)  # the socket is created 0600: only this user may connect
+        try:
+            sock.bind(str(path))
+        except OSError as exc:
+            sock.close()
+            raise UserError(f"{path}: cannot create the control socket: {exc.strerror}") from None
+        finally:
+            os.umask(old)
+        os.chmod(path, 0o600)
+        sock.listen(MAX_CLIENTS)
+        log.info("control API on %s (0600)", path)
+        return sock
+
+    def poll(self) -> int:
+        """Accept, read and answer whatever is ready, without blocking; returns requests served."""
+        served = 0
+        for client in list(self.pending):
+            served += self._lines(client)
+        for key, events in self.selector.select(0):
+            sock = key.fileobj
+            if key.data is None:
+                self._accept(sock)  # type: ignore[arg-type]
+                continue
+            client: _Client = key.data
+            if events & selectors.EVENT_WRITE:
+                self._send(client)
+            if events & selectors.EVENT_READ:
+                served += self._read(client)
+        return served
+
+    def _accept(self, listener: socket.socket) -> None:
+        try:
+            sock, _ = listener.accept()
+        except (BlockingIOError, InterruptedError):
+            return
+        if len(self.clients) >= MAX_CLIENTS:
+            sock.close()
+            return
+        sock.setblocking(False)
+        client = _Client(sock)
+        self.clients[sock.fileno()] = client
+        self.selector.register(sock, selectors.EVENT_READ, client)
+
+    def _read(self, client: _Client) -> int:
+        try:
+            data = client.sock.recv(65536)
+        except (BlockingIOError, InterruptedError):
+            return 0
+        except OSError:
+            data = b""
+        if not data:
+            self._drop(client)
+            return 0
+        client.inbuf += data
+        return self._lines(client)
+
+    def _lines(self, client: _Client) -> int:
+        """Answer up to MAX_REQUESTS_PER_POLL whole lines; the rest waits for the next poll."""
+        served = 0
+        while b"\n" in client.inbuf and served < MAX_REQUESTS_PER_POLL:
+            line, client.inbuf = client.inbuf.split(b"\n", 1)
+            if line.strip():
+                self._reply(client, self._answer(line))
+                served += 1
+        if b"\n" in client.inbuf:
+            self.pending.add(client)
+        else:
+            self.pending.discard(client)
+            if len(client.inbuf) > MAX_LINE_BYTES:
+                self._reply(client, {"ok": False, "error": f"request longer than {MAX_LINE_BYTES} bytes"})
+                client.inbuf = b""
+        return served
+
+    def _answer(self, line: bytes) -> dict[str, Any]:
+        try:
+            request = json.loads(line)
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            return {"ok": False, "error": f"not JSON: {exc}"}
+        return self.handle(request)
+
+    def _reply(self, client: _Client, reply: dict[str, Any]) -> None:
+        client.outbuf += json.dumps(reply, allow_nan=False, default=str).encode() + b"\n"
+        self._send(client)
+
+    def _send(self, client: _Client) -> None:
+        try:
+            sent = client.sock.send(client.outbuf)
+        except (BlockingIOError, InterruptedError):
+            sent = 0
+        except OSError:
+            self._drop(client)
+            return
+        client.outbuf = client.outbuf[sent:]
+        events = selectors.EVENT_READ | (selectors.EVENT_WRITE if client.outbuf else 0)
+        with contextlib.suppress(KeyError, ValueError):
+            self.selector.modify(client.sock, events, client)
+
+    def _drop(self, client: _Client) -> None:
+        self.pending.discard(client)
+        with contextlib.suppress(KeyError, ValueError):
+            self.selector.unregister(client.sock)
+        self.clients.pop(client.sock.fileno(), None)
+        client.sock.close()
+
+    def close(self) -> None:
+        for client in list(self.clients.values()):
+            self._drop(client)
+        for sock in self.listeners:
+            with contextlib.suppress(KeyError, ValueError):
+                self.selector.unregister(sock)
+            sock.close()
+        self.listeners = []
+        if self.socket_path is not None:
+            with contextlib.suppress(OSError):
+                self.socket_path.unlink()
+        self.selector.close()
+
+

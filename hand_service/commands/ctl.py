@@ -1,0 +1,125 @@
+"""`hand-service ctl`: talk to a running daemon through its control API (docs/api.md)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+HELP = "send a request to the running daemon (status, arm, target, load, ...)"
+DESCRIPTION = """\
+Send one request to a running `hand-service run` over its control socket and print the
+reply. Examples:
+
+    hand-service ctl status
+    hand-service ctl arm
+    hand-service ctl target index --angle-deg 45
+    hand-service ctl target all --force-n 1.0
+    hand-service ctl mode ring vent
+    hand-service ctl load docs/examples/wave.csv && hand-service ctl start
+    hand-service ctl record-start /tmp/run.csv
+    hand-service ctl estop            # then: ctl reset
+
+A refused request prints the daemon's reason on one line and exits with status 2.
+"""
+
+SIMPLE = {
+    "status": "state, fingers, timing, faults, recording, transport",
+    "params": "the profile's rates, limits and gains",
+    "faults": "every fault with its time and cause, and the counts",
+    "arm": "DISARMED -> ARMED",
+    "disarm": "ARMED, RUNNING or HOLD -> DISARMED (vents)",
+    "start": "ARMED -> RUNNING: follow the targets and the trajectory",
+    "hold": "RUNNING -> HOLD: freeze every reference",
+    "resume": "HOLD -> RUNNING",
+    "estop": "emergency stop: vent and latch, from any state",
+    "reset": "FAULT or ESTOP -> INIT (shake hands again)",
+    "clear-trajectory": "forget the loaded trajectory",
+    "record-stop": "stop recording (drained and closed)",
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--socket", type=Path, metavar="PATH", help="the daemon's control socket")
+    parser.add_argument("--tcp-port", type=int, metavar="PORT", help="use 127.0.0.1:PORT instead")
+    parser.add_argument("--json", action="store_true", help="print the reply's result as JSON")
+    sub = parser.add_subparsers(dest="request", required=True, metavar="REQUEST")
+    for name, doc in SIMPLE.items():
+        sub.add_parser(name, help=doc, description=doc)
+    mode = sub.add_parser("mode", help="set a finger's mode", description="set a finger's mode")
+    mode.add_argument("finger", help="finger name, or all")
+    mode.add_argument("mode", choices=["vent", "pressure", "position", "force"])
+    target = sub.add_parser("target", help="set a finger's target (its mode follows)",
+                            description="set one target; the finger's mode follows it")
+    target.add_argument("finger", help="finger name, or all")
+    which = target.add_mutually_exclusive_group(required=True)
+    which.add_argument("--angle-deg", type=float, help="position mode, this angle")
+    which.add_argument("--force-n", type=float, help="force mode, this signed normal force")
+    which.add_argument("--pressure-kpa", type=float, help="pressure mode, this chamber pressure")
+    load = sub.add_parser("load", help="load a trajectory CSV (docs/trajectory.md)",
+                          description="load a trajectory CSV (docs/trajectory.md)")
+    load.add_argument("path", type=Path)
+    load.add_argument("--loop", action="store_true", help="start again at the end")
+    record = sub.add_parser("record-start", help="record every tick to a new CSV",
+                            description="record every tick to a new CSV")
+    record.add_argument("path", type=Path)
+
+
+def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
+    name = args.request
+    if name == "mode":
+        return "mode", {"finger": args.finger, "mode": args.mode}
+    if name == "target":
+        for key in ("angle_deg", "force_n", "pressure_kpa"):
+            if getattr(args, key) is not None:
+                return "target", {"finger": args.finger, key: getattr(args, key)}
+    if name == "load":
+        return "load_trajectory", {"path": str(args.path.resolve()), "loop": args.loop}
+    if name == "record-start":
+        return "record_start", {"path": str(args.path.resolve())}
+    return name.replace("-", "_"), {}
+
+
+def _show_status(result: dict[str, Any]) -> str:
+    lines = [f"{result['state']}  t = {result['t_s']:.2f} s  ({result['rate_hz']:g} Hz)"]
+    lines.append(f"{'finger':<8} {'mode':<9} {'angle':>8} {'ref':>8} {'p cmd':>8} {'p meas':>8} {'F est':>7}")
+    for name, f in result["fingers"].items():
+        ref = f["angle_ref_deg"] if f["angle_ref_deg"] is not None else f["force_ref_n"]
+        meas = f["pressure_meas_kpa"]
+        lines.append(f"{name:<8} {f['mode']:<9} {f['angle_deg']:8.2f} "
+                     f"{'-' if ref is None else format(ref, '8.2f'):>8} {f['pressure_cmd_kpa']:8.1f} "
+                     f"{'-' if meas is None else format(meas, '8.1f'):>8} {f['force_est_n']:7.3f}")
+    t = result["timing"]
+    if t.get("ticks"):
+        lines.append(f"tick p50 {t['tick_ns_p50'] / 1e3:.0f} us p99 {t['tick_ns_p99'] / 1e3:.0f} us | "
+                     f"jitter p99 {t['jitter_us_p99']:.0f} us max {t['jitter_us_max']:.0f} us | "
+                     f"misses {t['deadline_misses']}")
+    faults = result["faults"]
+    if faults["total"]:
+        last = faults["last"]
+        lines.append(f"faults {faults['total']}: last {last['cause']} at t = {last['t_s']} s: "
+                     f"{last['detail']}")
+    rec = result["recording"]
+    if rec["active"]:
+        lines.append(f"recording {rec['path']}: {rec['rows']} rows")
+    return "\n".join(lines)
+
+
+def main(args: argparse.Namespace) -> int:
+    from hand_service.client import ApiError, HandClient
+    from hand_service.errors import UserError
+
+    cmd, params = _request(args)
+    try:
+        with HandClient(args.socket, args.tcp_port) as client:
+            result = client.request(cmd, **params)
+    except (ConnectionError, OSError) as exc:
+        raise UserError(str(exc)) from None
+    except ApiError as exc:
+        raise UserError(str(exc)) from None
+    if args.json or cmd not in ("status",):
+        print(json.dumps(result, indent=None if cmd not in ("status", "params", "faults") else 2))
+    else:
+        print(_show_status(result))
+    return 0

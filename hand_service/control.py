@@ -1,0 +1,268 @@
+"""The control API's requests: each validated against the profile, then applied to the
+supervisor between ticks. One request is a JSON object with a `cmd`; the reply is
+{"ok": true, "result": ...} or {"ok": false, "error": "one clear line"}. See docs/api.md.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hand_service.errors import UserError
+from hand_service.safety import finite_or_none
+from hand_service.states import Event, State, TransitionError
+from hand_service.supervisor import Supervisor
+from hand_service.trajectory_csv import read_trajectory
+from hand_service.version import software_version
+from rtcore import MODE_FORCE, MODE_POSITION, MODE_PRESSURE
+from rtcore.config import MODE_NAMES, MODES_BY_NAME, flag_names
+
+
+class RequestError(Exception):
+    """A request the daemon refuses; the message is the reply's error."""
+
+
+@dataclass(frozen=True)
+class Param:
+    kind: type  # str, float, bool
+    required: bool = True
+    doc: str = ""
+
+
+def _number(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise RequestError(f"'{name}' must be a finite number, not {value!r}")
+    return float(value)
+
+
+class Api:
+    """Request name -> (parameters, handler). `handle(request)` never raises."""
+
+    def __init__(self, supervisor: Supervisor, metadata: Callable[[], dict[str, object]]) -> None:
+        self.sup = supervisor
+        self.metadata = metadata
+        self.requests = 0
+        self.errors = 0
+        self.table: dict[str, tuple[dict[str, Param], Callable[..., Any]]] = {
+            "status": ({}, self.status),
+            "params": ({}, self.params),
+            "faults": ({}, self.faults),
+            "arm": ({}, lambda: self._event(Event.ARM)),
+            "disarm": ({}, lambda: self._event(Event.DISARM)),
+            "start": ({}, lambda: self._event(Event.START)),
+            "hold": ({}, lambda: self._event(Event.HOLD)),
+            "resume": ({}, lambda: self._event(Event.RESUME)),
+            "estop": ({}, lambda: self._event(Event.ESTOP)),
+            "reset": ({}, self.reset),
+            "mode": ({"finger": Param(str, doc="finger name or 'all'"),
+                      "mode": Param(str, doc="vent | pressure | position | force")}, self.mode),
+            "target": ({"finger": Param(str, doc="finger name or 'all'"),
+                        "angle_deg": Param(float, False), "force_n": Param(float, False),
+                        "pressure_kpa": Param(float, False)}, self.target),
+            "load_trajectory": ({"path": Param(str, doc="absolute path of a trajectory CSV"),
+                                 "loop": Param(bool, False)}, self.load_trajectory),
+            "clear_trajectory": ({}, self.clear_trajectory),
+            "record_start": ({"path": Param(str, doc="absolute path of a new CSV")}, self.record_start),
+            "record_stop": ({}, self.record_stop),
+        }
+
+    # -- dispatch ---------------------------------------------------------------------
+    def handle(self, request: Any) -> dict[str, Any]:
+        self.requests += 1
+        reply: dict[str, Any] = {}
+        if isinstance(request, dict) and "id" in request:
+            reply["id"] = request["id"]
+        try:
+            reply.update(ok=True, result=self._dispatch(request))
+        except (RequestError, TransitionError, UserError) as exc:
+            self.errors += 1
+            reply.update(ok=False, error=str(exc))
+        return reply
+
+    def _dispatch(self, request: Any) -> Any:
+        if not isinstance(request, dict):
+            raise RequestError("a request is a JSON object with a 'cmd'")
+        cmd = request.get("cmd")
+        if cmd not in self.table:
+            raise RequestError(f"unknown cmd {cmd!r} (known: {', '.join(sorted(self.table))})")
+        params, handler = self.table[cmd]
+        args: dict[str, Any] = {}
+        for key, value in request.items():
+            if key in ("cmd", "id"):
+                continue
+            if key not in params:
+                known = ", ".join(params) or "none"
+                raise RequestError(f"{cmd}: unknown parameter '{key}' (parameters: {known})")
+            spec = params[key]
+            if spec.kind is float:
+                args[key] = _number(key, value)
+            elif not isinstance(value, spec.kind):
+                raise RequestError(f"{cmd}: '{key}' must be {spec.kind.__name__}, not {value!r}")
+            else:
+                args[key] = value
+        missing = [k for k, p in params.items() if p.required and k not in args]
+        if missing:
+            raise RequestError(f"{cmd}: missing parameter '{missing[0]}' ({params[missing[0]].doc})")
+        return handler(**args)
+
+    # -- helpers ------------------------------------------------------------------------
+    def _fingers(self, name: str) -> list[int]:
+        names = self.sup.names
+        if name == "all":
+            return list(range(len(names)))
+        if name not in names:
+            raise RequestError(f"unknown finger '{name}' (fingers: {', '.join(names)}, all)")
+        return [names.index(name)]
+
+    def _event(self, event: Event) -> dict[str, str]:
+        self.sup.fire(event)
+        return {"state": self.sup.state.name}
+
+    def _not_driven(self, fingers: list[int], what: str) -> None:
+        traj = self.sup.trajectory
+        if traj is None or self.sup.trajectory_done or self.sup.state not in (State.RUNNING, State.HOLD):
+            return
+        driven = [self.sup.names[i] for i in fingers if traj.driven()[i]]
+        if driven:
+            raise RequestError(f"{what}: {', '.join(driven)} follow the running trajectory; "
+                               "clear_trajectory first")
+
+    # -- requests -----------------------------------------------------------------------
+    def reset(self) -> dict[str, str]:
+        self.sup.reset()
+        return {"state": self.sup.state.name}
+
+    def mode(self, finger: str, mode: str) -> dict[str, Any]:
+        fingers = self._fingers(finger)
+        if mode not in MODES_BY_NAME:
+            raise RequestError(f"mode must be one of {', '.join(MODES_BY_NAME)}, not {mode!r}")
+        self._not_driven(fingers, "mode")
+        self.sup.targets.mode[fingers] = MODES_BY_NAME[mode]
+        return {"fingers": [self.sup.names[i] for i in fingers], "mode": mode}
+
+    def target(self, finger: str, angle_deg: float | None = None, force_n: float | None = None,
+               pressure_kpa: float | None = None) -> dict[str, Any]:
+        given = {k: v for k, v in (("angle_deg", angle_deg), ("force_n", force_n),
+                                   ("pressure_kpa", pressure_kpa)) if v is not None}
+        if len(given) != 1:
+            raise RequestError("target: give exactly one of angle_deg, force_n, pressure_kpa")
+        fingers = self._fingers(finger)
+        self._not_driven(fingers, "target")
+        safety, targets = self.sup.profile.safety, self.sup.targets
+        (key, value), = given.items()
+        for i in fingers:
+            if key == "angle_deg":
+                low, high = safety["target_angle_min_deg"], safety["target_angle_max_deg"]
+            elif key == "force_n":
+                low, high = -safety["target_force_max_n"], safety["target_force_max_n"]
+            else:
+                f = self.sup.profile.fingers[i]
+                low, high = f.pressure_min_kpa, f.pressure_max_kpa
+            if not low <= value <= high:
+                raise RequestError(f"target: {key} = {value:g} is outside [{low:g}, {high:g}] for "
+                                   f"{self.sup.names[i]} (profile)")
+        mode = {"angle_deg": MODE_POSITION, "force_n": MODE_FORCE, "pressure_kpa": MODE_PRESSURE}[key]
+        array = {"angle_deg": targets.angle_deg, "force_n": targets.force_n,
+                 "pressure_kpa": targets.pressure_kpa}[key]
+        array[fingers] = value
+        targets.mode[fingers] = mode
+        return {"fingers": [self.sup.names[i] for i in fingers], key: value, "mode": MODE_NAMES[mode]}
+
+    def load_trajectory(self, path: str, loop: bool = False) -> dict[str, Any]:
+        if self.sup.state is State.RUNNING:
+            raise RequestError("load_trajectory: not while RUNNING (hold or disarm first)")
+        if not Path(path).is_absolute():
+            raise RequestError("load_trajectory: the path must be absolute (the daemon has its own "
+                               "working directory)")
+        traj = read_trajectory(path, self.sup.profile, self.sup.rate_hz)
+        self.sup.set_trajectory(traj, loop)
+        return {"path": path, "duration_s": traj.duration_s, "ticks": traj.n_ticks, "loop": loop,
+                "fingers": [n for n, d in zip(self.sup.names, traj.driven(), strict=True) if d]}
+
+    def clear_trajectory(self) -> dict[str, Any]:
+        if self.sup.state is State.RUNNING and self.sup.trajectory and not self.sup.trajectory_done:
+            raise RequestError("clear_trajectory: not while it runs (hold first)")
+        self.sup.set_trajectory(None)
+        return {"trajectory": None}
+
+    def record_start(self, path: str) -> dict[str, Any]:
+        if not Path(path).is_absolute():
+            raise RequestError("record_start: the path must be absolute")
+        self.sup.recorder.start(path, self.metadata())
+        return self.sup.recorder.status()
+
+    def record_stop(self) -> dict[str, Any]:
+        if not self.sup.recorder.active:
+            raise RequestError("record_stop: not recording")
+        return self.sup.recorder.stop()
+
+    def faults(self) -> dict[str, Any]:
+        log = self.sup.faults
+        return {"counts": dict(log.counts), "total": log.total, "faults": [f.as_dict() for f in log.faults]}
+
+    def params(self) -> dict[str, Any]:
+        prof = self.sup.profile
+        return {
+            "profile": prof.name, "path": str(prof.path), "software_version": software_version(),
+            "rate_hz": self.sup.rate_hz, "transport": dict(prof.transport),
+            "control": dict(prof.control), "safety": dict(prof.safety),
+            "fingers": {f.name: {"pressure_min_kpa": f.pressure_min_kpa,
+                                 "pressure_max_kpa": f.pressure_max_kpa,
+                                 "stiffness_nm_per_rad": f.model.stiffness_nm_per_rad,
+                                 "damping_nms_per_rad": f.model.damping_nms_per_rad,
+                                 "pressure_gain_nm_per_kpa": f.model.pressure_gain_nm_per_kpa,
+                                 "inertia_kgm2": f.model.inertia_kgm2,
+                                 "lever_arm_m": f.model.lever_arm_m,
+                                 "kp_kpa_per_deg": f.kp_kpa_per_deg,
+                                 "ki_kpa_per_deg_s": f.ki_kpa_per_deg_s,
+                                 "kd_kpa_s_per_deg": f.kd_kpa_s_per_deg,
+                                 "force_kp_kpa_per_n": f.force_kp_kpa_per_n,
+                                 "force_ki_kpa_per_n_s": f.force_ki_kpa_per_n_s}
+                        for f in prof.fingers},
+        }
+
+    def status(self) -> dict[str, Any]:
+        sup = self.sup
+        inputs, outputs = sup.hand.inputs, sup.hand.outputs
+        fingers = {}
+        for i, name in enumerate(sup.names):
+            mode = int(inputs.mode[i])
+            fingers[name] = {
+                "mode": MODE_NAMES.get(mode, "?"),
+                "target_mode": MODE_NAMES.get(int(sup.targets.mode[i]), "?"),
+                "angle_deg": float(outputs.angle_deg[i]),
+                "angle_filt_deg": float(outputs.angle_filt_deg[i]),
+                "angle_ref_deg": float(inputs.angle_ref_deg[i]) if mode == MODE_POSITION else None,
+                "force_ref_n": float(inputs.force_ref_n[i]) if mode == MODE_FORCE else None,
+                "pressure_cmd_kpa": float(sup.sent_kpa[i]),
+                "pressure_meas_kpa": finite_or_none(float(inputs.pressure_meas_kpa[i])),
+                "force_est_n": float(outputs.force_est_n[i]),
+                "flags": flag_names(int(outputs.flags[i])),
+            }
+        traj = sup.trajectory
+        firmware = sup.transport.status() if sup.link_open else None
+        return {
+            "state": sup.state.name, "t_s": sup.t_s, "tick": sup.tick_index, "rate_hz": sup.rate_hz,
+            "fingers": fingers,
+            "timing": sup.stats.summary(last=int(10 * sup.rate_hz)),
+            "faults": {"counts": dict(sup.faults.counts), "total": sup.faults.total,
+                       "last": sup.faults.faults[-1].as_dict() if sup.faults.faults else None},
+            "trajectory": None if traj is None else {
+                "source": traj.source, "duration_s": traj.duration_s, "loop": sup.trajectory_loop,
+                "t_s": min(sup.trajectory_tick, traj.n_ticks) / traj.rate_hz, "done": sup.trajectory_done},
+            "recording": sup.recorder.status(),
+            "transport": {"kind": sup.transport.kind, "open": sup.link_open,
+                          "health": sup.transport.health().as_dict() if sup.link_open else None,
+                          "firmware": None if firmware is None else {
+                              "protocol_version": firmware.protocol_version,
+                              "firmware_version": firmware.firmware_version,
+                              "vented": firmware.vented, "fault_code": firmware.fault_code,
+                              "fault_text": firmware.fault_text}},
+            "api": {"requests": self.requests, "errors": self.errors},
+            "gc": {"collections": sup.gc.collections, "collect_ns_max": sup.gc.collect_ns_max},
+        }
+
+

@@ -1,0 +1,163 @@
+"""The daemon: the supervisor with its control API, recording, live status line and
+systemd notifications, wired together for `hand-service run`."""
+
+from __future__ import annotations
+
+import copy
+import logging
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from hand_service.apiserver import ApiServer
+from hand_service.control import Api
+from hand_service.profile import Profile
+from hand_service.recorder import Recorder
+from hand_service.sdnotify import Notifier
+from hand_service.states import State
+from hand_service.supervisor import Supervisor
+from hand_service.timing import Realtime, setup_realtime
+from hand_service.transports import Transport
+from hand_service.version import software_version
+from rtcore import MODE_POSITION, clock
+
+log = logging.getLogger(__name__)
+
+STATUS_EVERY_S = 0.25
+
+
+@dataclass
+class DaemonOptions:
+    socket_path: Path | None = None
+    tcp_port: int | None = None
+    record: Path | None = None
+    recorder: str = "process"
+    spin_us: float = 0.0
+    realtime_priority: int | None = None
+    lock_memory: bool = False
+    status_line: bool = False
+    seed: int | None = None
+
+
+def with_rate(profile: Profile, rate_hz: float | None) -> Profile:
+    """The profile at another control rate (a copy); the simulated hand follows it."""
+    if rate_hz is None or rate_hz == profile.control["rate_hz"]:
+        return profile
+    changed = copy.copy(profile)
+    changed.control = {**profile.control, "rate_hz": float(rate_hz)}
+    return changed
+
+
+class Daemon:
+    def __init__(self, profile: Profile, transport: Transport, options: DaemonOptions,
+                 out: TextIO | None = None) -> None:
+        self.profile, self.options = profile, options
+        self.out = out or sys.stdout
+        recorder = Recorder(profile.finger_names, profile.control["rate_hz"], options.recorder)
+        self.sup = Supervisor(profile, transport, recorder, spin_us=options.spin_us)
+        self.api = Api(self.sup, self.metadata)
+        self.server = ApiServer(self.api.handle, options.socket_path, options.tcp_port)
+        self.notifier = Notifier()
+        self.realtime = Realtime()
+        self._status_every = max(1, round(STATUS_EVERY_S * self.sup.rate_hz))
+        self._notify_every = max(1, round(1.0 * self.sup.rate_hz))
+        self._line_shown = False
+        self._ready_sent = False
+        self.sup.slack.append(self._slack)
+        self.sup.on_state.append(self._state_changed)
+
+    def metadata(self) -> dict[str, object]:
+        """Provenance for the `#` lines of every recording."""
+        prof = self.profile
+        seed = self.options.seed if self.options.seed is not None else prof.simulation.get("seed")
+        meta: dict[str, object] = {
+            "profile": f"{prof.name} ({prof.path})",
+            "software_version": software_version(),
+            "transport": prof.transport["kind"],
+            "sample_rate_hz": f"{self.sup.rate_hz:g}",
+            "fingers": " ".join(prof.finger_names),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        }
+        if prof.transport["kind"] == "sim":
+            meta["seed"] = seed
+        return meta
+
+    def open(self) -> None:
+        """Everything that may fail with a clear message, before the loop starts."""
+        self.server.open()
+        if self.options.record is not None:
+            self.sup.recorder.start(self.options.record, self.metadata())
+        self.realtime = setup_realtime(self.options.realtime_priority, self.options.lock_memory)
+        log.info("%s at %g Hz, %s; realtime: %s", self.profile.name, self.sup.rate_hz,
+                 self.profile.transport["kind"], self.realtime.describe())
+
+    def run(self, duration_s: float | None = None, install_signals: bool = True) -> dict[str, Any]:
+        if install_signals:
+            self.sup.install_signal_handlers()
+        try:
+            self.sup.run(duration_s)
+        finally:
+            self.notifier.stopping()
+            self.server.close()
+            if self._line_shown:
+                self.out.write("\n")
+            self.notifier.close()
+        return self.summary()
+
+    # -- slack ----------------------------------------------------------------------------
+    def _slack(self, slack_ns: int) -> None:
+        self.server.poll()
+        ticks = self.sup.stats.ticks
+        self.notifier.watchdog(clock.now_ns())
+        if ticks % self._status_every == 0 and self.options.status_line:
+            self.out.write("\r" + self.status_text() + "\x1b[K")
+            self.out.flush()
+            self._line_shown = True
+        if ticks % self._notify_every == 0 and self.notifier.enabled:
+            self.notifier.status(self.status_text())
+
+    def _state_changed(self, state: State) -> None:
+        if state is State.DISARMED and not self._ready_sent:
+            self._ready_sent = True
+            self.notifier.ready(f"{self.profile.name}: DISARMED")
+
+    def status_text(self) -> str:
+        sup = self.sup
+        inputs, outputs = sup.hand.inputs, sup.hand.outputs
+        position = inputs.mode == MODE_POSITION
+        err = np.abs(outputs.angle_filt_deg - inputs.angle_ref_deg)[position]
+        error = f"max |err| {err.max():5.2f} deg" if err.size else "max |err|   -     "
+        recent = sup.stats.summary(last=int(sup.rate_hz))
+        rec = sup.recorder.status()
+        recording = f" | rec {rec['rows']} rows" if rec["active"] else ""
+        return (f"t {sup.t_s:7.2f} s {sup.state.name:<8} {error} | tick p50 "
+                f"{recent.get('tick_ns_p50', 0) / 1e3:5.0f} us | jitter p99 "
+                f"{recent.get('jitter_us_p99', 0) / 1e3:5.2f} ms | misses {sup.stats.misses} | faults "
+                f"{sup.faults.total}{recording}")
+
+    def summary(self) -> dict[str, Any]:
+        stats = self.sup.stats.summary()
+        stats.update(state=self.sup.state.name, stop_reason=self.sup.stop_reason,
+                     faults=dict(self.sup.faults.counts), realtime=self.realtime.describe(),
+                     gc_collections=self.sup.gc.collections,
+                     gc_collect_ns_max=self.sup.gc.collect_ns_max)
+        return stats
+
+
+def print_summary(summary: dict[str, Any], out: TextIO) -> None:
+    out.write(f"stopped ({summary['stop_reason']}) in {summary['state']} after {summary['ticks']} ticks\n")
+    if summary["ticks"]:
+        out.write(f"  tick     p50 {summary['tick_ns_p50'] / 1e3:7.1f} us   p99 "
+                  f"{summary['tick_ns_p99'] / 1e3:7.1f} us   max {summary['tick_ns_max'] / 1e3:7.1f} us\n")
+        out.write(f"  jitter   p50 {summary['jitter_us_p50']:7.1f} us   p99 "
+                  f"{summary['jitter_us_p99']:7.1f} us   max {summary['jitter_us_max']:7.1f} us\n")
+        out.write(f"  deadline misses {summary['deadline_misses']}, skipped deadlines "
+                  f"{summary['skipped_deadlines']}, gc collections in the slack "
+                  f"{summary['gc_collections']} (max {summary['gc_collect_ns_max'] / 1e3:.0f} us)\n")
+    faults = summary["faults"]
+    out.write("  faults: " + (", ".join(f"{k} x{v}" for k, v in faults.items()) if faults else "none") + "\n")
+    out.write(f"  realtime: {summary['realtime']}\n")

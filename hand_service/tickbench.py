@@ -1,0 +1,108 @@
+"""Tick timing of the whole supervisor against the machine's own floor, in one run.
+
+Blocks of one second alternate on ONE absolute schedule: the supervisor (tracking the
+sweep on the simulated hand, recording every tick) and the bare C loop
+(rtcore_floor_loop: clock_nanosleep to the same deadlines, nothing else). Both see the
+same machine at nearly the same moments, so the supervisor is judged as a ratio to the
+floor (formats.md, `bench`).
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from hand_service.daemon import with_rate
+from hand_service.profile import Profile
+from hand_service.recorder import Recorder
+from hand_service.states import Event, State
+from hand_service.supervisor import Supervisor
+from hand_service.timing import TickStats, setup_realtime
+from hand_service.trajectory import CosineSweep, Trajectory
+from hand_service.transports import transport_class
+from rtcore import clock
+
+
+def sweep_trajectory(n_fingers: int, rate_hz: float) -> Trajectory:
+    n = round(CosineSweep().period_s * 4 * rate_hz)
+    traj = Trajectory.empty(n, n_fingers, rate_hz, "bench sweep")
+    refs = CosineSweep().at(np.arange(n) / rate_hz)
+    for i in range(n_fingers):
+        traj.set_position(slice(None), i, refs)
+    return traj
+
+
+def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: float = 0.0,
+                  recorder: str | None = "process", realtime_priority: int | None = 50,
+                  progress: bool = False) -> dict[str, object]:
+    profile = with_rate(profile, rate_hz)
+    transport = transport_class(profile.transport["kind"])(profile)
+    rec = Recorder(profile.finger_names, rate_hz, recorder or "process")
+    sup = Supervisor(profile, transport, rec, spin_us=spin_us)
+    tmp = tempfile.TemporaryDirectory(prefix="hand-service-bench-")
+    if recorder:
+        rec.start(Path(tmp.name) / "bench.csv", {"bench": "tick"})
+    sup.set_trajectory(sweep_trajectory(len(profile.fingers), rate_hz), loop=True)
+    realtime = setup_realtime(realtime_priority, lock_memory=False)
+    block = max(1, round(rate_hz))  # one second per block
+    n_ticks = max(block, round(seconds * rate_hz))
+    spin_ns = int(spin_us * 1000)
+    schedule = clock.Schedule(sup.period_ns)
+    sup.schedule = schedule
+    floor_late: list[np.ndarray] = []
+    floor_misses = 0
+    cpu_sup_s = cpu_floor_s = 0.0
+    sup.gc.start()
+    try:
+        while sup.state is not State.DISARMED:  # the handshake, not measured
+            sup.run_one(schedule)
+        sup.fire(Event.ARM)
+        sup.fire(Event.START)
+        for _ in range(block // 4):  # settle
+            sup.run_one(schedule)
+        sup.stats = TickStats(sup.period_ns)
+        done = 0
+        while done < n_ticks:
+            count = min(block, n_ticks - done)
+            c0 = time.thread_time()
+            for _ in range(count):
+                sup.run_one(schedule)
+            c1 = time.thread_time()
+            run = clock.floor_loop(schedule, count, spin_ns)
+            cpu_sup_s += c1 - c0
+            cpu_floor_s += time.thread_time() - c1
+            floor_late.append(run.wake_late_ns)
+            floor_misses += run.misses
+            done += count
+            if progress:
+                print(f"\r  {done / rate_hz:5.1f} / {n_ticks / rate_hz:.0f} s", end="", flush=True)
+    finally:
+        sup.gc.stop()
+        sup.request_stop("bench done")
+        sup.shutdown()
+        tmp.cleanup()
+    if progress:
+        print()
+    s = sup.stats.summary()
+    floor = np.concatenate(floor_late) / 1e3
+    busy_s = n_ticks / rate_hz
+    return {
+        "rate_hz": rate_hz, "ticks": s["ticks"], "ticks_floor": int(floor.size),
+        "tick_ns_p50": s["tick_ns_p50"], "tick_ns_p99": s["tick_ns_p99"], "tick_ns_max": s["tick_ns_max"],
+        "jitter_us_p50": s["jitter_us_p50"], "jitter_us_p99": s["jitter_us_p99"],
+        "jitter_us_max": s["jitter_us_max"],
+        "jitter_floor_us_p50": float(np.percentile(floor, 50)),
+        "jitter_floor_us_p99": float(np.percentile(floor, 99)),
+        "jitter_floor_us_max": float(floor.max()),
+        "deadline_misses": s["deadline_misses"], "deadline_misses_floor": floor_misses,
+        "skipped_deadlines": s["skipped_deadlines"], "spin_us": spin_us,
+        "cpu_percent": 100.0 * cpu_sup_s / busy_s, "cpu_percent_floor": 100.0 * cpu_floor_s / busy_s,
+        "recorder": recorder or "off", "faults": sum(sup.faults.counts.values()),
+        "realtime": realtime.describe(),
+        "jitter_ratio_p99": (s["jitter_us_p99"] / float(np.percentile(floor, 99))
+                             if np.percentile(floor, 99) > 0 else math.nan),
+    }

@@ -1,0 +1,143 @@
+"""Trajectory files for the control API (docs/trajectory.md).
+
+    # any comment
+    t,angle_ref_deg_index,force_ref_n_thumb
+    0.00,0,
+    0.01,0.5,
+
+`t` (s, increasing) and per finger `angle_ref_deg_<finger>` (position mode) and/or
+`force_ref_n_<finger>` (force mode). In each row a finger has at most one of its two
+cells filled: that picks its mode from that row on; both empty vents it. Between rows of
+the same mode the reference is interpolated linearly onto the control rate; a mode
+holds until the next row. Every value is checked against the profile's target ranges.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from hand_service.errors import UserError, where
+from hand_service.profile import Profile
+from hand_service.trajectory import Trajectory
+from rtcore import MODE_FORCE, MODE_POSITION, MODE_VENT
+
+QUANTITIES = {"angle_ref_deg": MODE_POSITION, "force_ref_n": MODE_FORCE}
+MAX_TICKS = 360_000  # one hour at 100 Hz
+
+
+def _columns(header: list[str], profile: Profile, path: Path, line: int) -> dict[str, dict[int, int]]:
+    """quantity -> {finger index: column index}, refusing any column it does not know."""
+    found: dict[str, dict[int, int]] = {q: {} for q in QUANTITIES}
+    names = profile.finger_names
+    for col, name in enumerate(header):
+        if name == "t":
+            continue
+        quantity = next((q for q in QUANTITIES if name.startswith(q + "_")), None)
+        finger = name[len(quantity) + 1:] if quantity else None
+        if quantity is None or finger not in names:
+            expected = (f"finger '{finger}' is not in the profile ({', '.join(names)})" if quantity
+                        else "expected t, angle_ref_deg_<finger> or force_ref_n_<finger>")
+            raise UserError(f"{where(path, line, name)}: unknown column: {expected}")
+        found[quantity][names.index(finger)] = col
+    if "t" not in header:
+        raise UserError(f"{where(path, line)}: missing required column 't'")
+    if not any(found.values()):
+        raise UserError(f"{where(path, line)}: no angle_ref_deg_<finger> or force_ref_n_<finger> column")
+    return found
+
+
+def _check(value: float, quantity: str, profile: Profile, path: Path, line: int, column: str) -> None:
+    safety = profile.safety
+    if quantity == "angle_ref_deg":
+        low, high, unit = safety["target_angle_min_deg"], safety["target_angle_max_deg"], "deg"
+    else:
+        low, high, unit = -safety["target_force_max_n"], safety["target_force_max_n"], "N"
+    if not low <= value <= high:
+        raise UserError(f"{where(path, line, column)}: {value:g} {unit} is outside the profile's "
+                        f"target range [{low:g}, {high:g}] {unit}")
+
+
+def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = None) -> Trajectory:
+    """Read, validate and resample a trajectory file onto the control rate."""
+    path = Path(path)
+    rate_hz = rate_hz or profile.control["rate_hz"]
+    try:
+        with open(path, newline="") as f:
+            lines = [(n, row) for n, row in enumerate(csv.reader(f), start=1)
+                     if row and not row[0].lstrip().startswith("#")]
+    except OSError as exc:
+        raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    except (UnicodeDecodeError, csv.Error) as exc:
+        raise UserError(f"{path}: not a CSV text file ({exc})") from None
+    if len(lines) < 3:
+        raise UserError(f"{path}: a trajectory needs a header and at least two rows")
+    header_line, header = lines[0][0], [c.strip() for c in lines[0][1]]
+    columns = _columns(header, profile, path, header_line)
+    rows = lines[1:]
+    n_rows, n_fingers = len(rows), len(profile.fingers)
+    t = np.empty(n_rows)
+    values = {q: np.full((n_rows, n_fingers), np.nan) for q in QUANTITIES}
+    modes = np.full((n_rows, n_fingers), -1, dtype=np.int32)
+    t_col = header.index("t")
+    for r, (line, cells) in enumerate(rows):
+        if len(cells) != len(header):
+            raise UserError(f"{where(path, line)}: {len(cells)} fields where the header has {len(header)}")
+        t[r] = _number(cells[t_col], path, line, "t", required=True)
+        if r and t[r] <= t[r - 1]:
+            raise UserError(f"{where(path, line, 't')}: t = {t[r]:g} does not increase "
+                            f"(previous {t[r - 1]:g})")
+        for quantity, fingers in columns.items():
+            for finger, col in fingers.items():
+                value = _number(cells[col], path, line, header[col])
+                if math.isnan(value):
+                    continue
+                _check(value, quantity, profile, path, line, header[col])
+                if modes[r, finger] != -1:
+                    raise UserError(f"{where(path, line, header[col])}: finger "
+                                    f"'{profile.finger_names[finger]}' has both an angle and a "
+                                    "force reference in one row; give one")
+                modes[r, finger] = QUANTITIES[quantity]
+                values[quantity][r, finger] = value
+    driven = np.array([any(f in c for c in columns.values()) for f in range(n_fingers)])
+    modes[:, driven] = np.where(modes[:, driven] == -1, MODE_VENT, modes[:, driven])
+    n_ticks = math.floor((t[-1] - t[0]) * rate_hz + 1e-9) + 1
+    if n_ticks > MAX_TICKS:
+        raise UserError(f"{path}: {t[-1] - t[0]:g} s at {rate_hz:g} Hz is {n_ticks} ticks; "
+                        f"the limit is {MAX_TICKS}")
+    return _resample(t - t[0], modes, values, driven, rate_hz, n_ticks, str(path))
+
+
+def _number(cell: str, path: Path, line: int, column: str, required: bool = False) -> float:
+    cell = cell.strip()
+    if not cell and not required:
+        return math.nan
+    try:
+        value = float(cell)
+    except ValueError:
+        raise UserError(f"{where(path, line, column)}: not a number: {cell!r}") from None
+    if not math.isfinite(value):
+        raise UserError(f"{where(path, line, column)}: {cell!r} where a finite number is required")
+    return value
+
+
+def _resample(t: np.ndarray, modes: np.ndarray, values: dict[str, np.ndarray], driven: np.ndarray,
+              rate_hz: float, n_ticks: int, source: str) -> Trajectory:
+    """Onto the tick grid: the mode of the last row at or before each tick; the value
+    interpolated when the next row has the same mode, else held."""
+    traj = Trajectory.empty(n_ticks, modes.shape[1], rate_hz, source)
+    t_tick = np.arange(n_ticks) / rate_hz
+    j = np.clip(np.searchsorted(t, t_tick, side="right") - 1, 0, len(t) - 1)
+    j1 = np.minimum(j + 1, len(t) - 1)
+    span = np.where(j1 > j, t[j1] - t[j], 1.0)
+    frac = np.where(j1 > j, (t_tick - t[j]) / span, 0.0)[:, None]
+    same = modes[j1] == modes[j]
+    for quantity, target in (("angle_ref_deg", traj.angle_deg), ("force_ref_n", traj.force_n)):
+        v = values[quantity]
+        target[:] = np.where(same, v[j] + frac * (v[j1] - v[j]), v[j])
+    traj.mode[:, driven] = modes[j][:, driven]
+    traj.derive()
+    return traj

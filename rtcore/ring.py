@@ -1,0 +1,94 @@
+"""The recording ring in shared memory (csrc/rtcore_ring.c): fixed-width rows of doubles
+in a memory-mapped file, one producer (the tick), one consumer (the writer), no lock.
+
+Layout: a header of 8 int64 [magic, n_cols, capacity, count, drained, 0, 0, 0], then
+capacity rows of n_cols float64. `count` is the number of rows ever pushed; row i lives
+in slot i % capacity. `drained` is the consumer's progress, for the producer to watch.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import mmap
+import os
+from pathlib import Path
+
+import numpy as np
+
+from rtcore._rtcore import ffi, lib
+
+MAGIC = 0x48414E4452494E47  # "HANDRING"
+HEADER_INT64 = 8
+COUNT, DRAINED = 3, 4
+
+
+class Ring:
+    def __init__(self, path: str | Path, n_cols: int | None = None, capacity: int | None = None) -> None:
+        """Create the ring file when n_cols and capacity are given, else attach to it."""
+        self.path = Path(path)
+        create = n_cols is not None and capacity is not None
+        if create:
+            size = 8 * (HEADER_INT64 + capacity * n_cols)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
+            os.ftruncate(fd, size)
+        else:
+            fd = os.open(self.path, os.O_RDWR)
+            size = os.fstat(fd).st_size
+        try:
+            self._map = mmap.mmap(fd, size, mmap.MAP_SHARED, mmap.PROT_READ | mmap.PROT_WRITE)
+        finally:
+            os.close(fd)
+        self.header = np.frombuffer(self._map, dtype=np.int64, count=HEADER_INT64)
+        if create:
+            self.header[:] = [MAGIC, n_cols, capacity, 0, 0, 0, 0, 0]
+        elif self.header[0] != MAGIC:
+            raise ValueError(f"{self.path}: not a recording ring")
+        self.n_cols, self.capacity = int(self.header[1]), int(self.header[2])
+        self.rows = np.frombuffer(self._map, dtype=np.float64, offset=8 * HEADER_INT64,
+                                  count=self.n_cols * self.capacity).reshape(self.capacity, self.n_cols)
+        header_ptr = ffi.cast("int64_t *", ffi.from_buffer(self.header))
+        self._count_ptr = header_ptr + COUNT
+        self._rows_ptr = ffi.cast("double *", ffi.from_buffer(self.rows))
+
+    def pusher(self, row: np.ndarray) -> functools.partial:
+        """push() for one preallocated row buffer: a single C call per tick."""
+        if row.dtype != np.float64 or row.size != self.n_cols or not row.flags.c_contiguous:
+            raise ValueError("the row must be a contiguous float64 array of n_cols")
+        return functools.partial(lib.rtcore_ring_push, self._rows_ptr, self._count_ptr,
+                                 self.capacity, self.n_cols, ffi.cast("double *", ffi.from_buffer(row)))
+
+    @property
+    def count(self) -> int:
+        return int(lib.rtcore_ring_count(self._count_ptr))
+
+    @property
+    def drained(self) -> int:
+        return int(self.header[DRAINED])
+
+    @drained.setter
+    def drained(self, value: int) -> None:
+        self.header[DRAINED] = value
+
+    def read(self, start: int) -> tuple[np.ndarray, int, int]:
+        """Copy the rows from `start` to the current count: (rows, first, lost).
+
+        Rows the producer overwrote before they were read are skipped and counted as lost;
+        rows overwritten during the copy are dropped from the copy.
+        """
+        end = self.count
+        lost = max(0, end - start - self.capacity)
+        first = start + lost
+        block = self.rows[np.arange(first, end) % self.capacity]  # a copy
+        overwritten = self.count - self.capacity - first  # slots reused while copying
+        if overwritten > 0:
+            block = block[overwritten:]
+            lost += overwritten
+            first += overwritten
+        return block, first, lost
+
+    def close(self) -> None:
+        self.rows = self.header = None  # type: ignore[assignment]
+        self._rows_ptr = self._count_ptr = None
+        with contextlib.suppress(BufferError):  # a view is still alive: the mapping goes with it
+            self._map.close()

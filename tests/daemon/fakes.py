@@ -1,0 +1,62 @@
+"""Transports with faults injected, over the real simulated hand, for the supervisor's
+fault tests: the supervisor only sees the Transport ABC, as it will on CAN or serial."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hand_service.profile import Profile
+from hand_service.transports import FirmwareStatus, HandshakeError, SensorSample
+from hand_service.transports.sim import SimTransport
+
+
+class FaultyTransport(SimTransport):
+    """The sim transport, with switches: each fault can be turned on at any tick."""
+
+    def __init__(self, profile: Profile, **options: object) -> None:
+        super().__init__(profile, **options)  # type: ignore[arg-type]
+        self.silent = False  # latest() returns nothing: stale frames
+        self.lost = False  # every call raises: the link is gone
+        self.fail_handshake = 0  # this many open() calls fail
+        self.sensor_override: np.ndarray | None = None  # replaces the sensor mV
+        self.pressure_override: np.ndarray | None = None  # replaces the measured kPa
+        self.fault_code = 0
+        self.sent: list[np.ndarray] = []
+        self.vents = 0
+        self.opens = 0
+
+    def open(self) -> FirmwareStatus:
+        self.opens += 1
+        if self.fail_handshake:
+            self.fail_handshake -= 1
+            raise HandshakeError("firmware did not answer the handshake")
+        return super().open()
+
+    def latest(self) -> SensorSample | None:
+        if self.lost:
+            raise OSError("device unplugged")
+        sample = super().latest()
+        if sample is None or self.silent:
+            return None
+        if self.sensor_override is not None:
+            sample.sensor_mv = self.sensor_override.copy()
+        if self.pressure_override is not None:
+            sample.pressure_meas_kpa = self.pressure_override.copy()
+        return sample
+
+    def send(self, pressure_cmd_kpa: np.ndarray) -> None:
+        if self.lost:
+            raise OSError("device unplugged")
+        self.sent.append(np.array(pressure_cmd_kpa, dtype=float))
+        super().send(pressure_cmd_kpa)
+
+    def vent(self) -> None:
+        self.vents += 1
+        super().vent()
+
+    def status(self) -> FirmwareStatus | None:
+        status = super().status()
+        if status is not None and self.fault_code:
+            return FirmwareStatus(status.protocol_version, status.firmware_version, vented=True,
+                                  fault_code=self.fault_code, fault_text="valve driver over-temperature")
+        return status

@@ -1,0 +1,193 @@
+"""The control API over its Unix socket, against a running daemon loop (in a thread
+here; the process-level behaviour is in test_service.py)."""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import stat
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from hand_service.client import ApiError, HandClient
+from hand_service.daemon import Daemon, DaemonOptions
+from hand_service.profile import load_profile
+from hand_service.recording import read_recording
+from hand_service.transports import transport_class
+
+
+class Running:
+    def __init__(self, tmp_path: Path, tcp: bool = False) -> None:
+        profile = load_profile(None)
+        self.socket = tmp_path / "run" / "api.sock"
+        self.daemon = Daemon(profile, transport_class("sim")(profile),
+                             DaemonOptions(socket_path=self.socket, tcp_port=0 if tcp else None))
+        self.daemon.open()
+        self.thread = threading.Thread(target=self.daemon.run, kwargs={"install_signals": False})
+        self.thread.start()
+
+    def client(self) -> HandClient:
+        return HandClient(self.socket)
+
+    def wait_state(self, client: HandClient, state: str, timeout_s: float = 5.0) -> None:
+        deadline = time.monotonic() + timeout_s
+        while client.status()["state"] != state:
+            assert time.monotonic() < deadline, f"never reached {state}"
+            time.sleep(0.02)
+
+    def stop(self) -> None:
+        self.daemon.sup.request_stop("test")
+        self.thread.join(10)
+        assert not self.thread.is_alive()
+
+
+@pytest.fixture
+def daemon(tmp_path: Path) -> Iterator[Running]:
+    running = Running(tmp_path)
+    try:
+        yield running
+    finally:
+        running.stop()
+
+
+def raw(path: Path, payload: bytes) -> dict:
+    with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+        s.settimeout(5)
+        s.connect(str(path))
+        s.sendall(payload)
+        data = b""
+        while not data.endswith(b"\n"):
+            chunk = s.recv(65536)
+            assert chunk, "the daemon closed the connection"
+            data += chunk
+    return json.loads(data.splitlines()[0])
+
+
+def test_socket_is_private(daemon: Running) -> None:
+    mode = os.stat(daemon.socket).st_mode
+    assert stat.S_ISSOCK(mode)
+    assert stat.S_IMODE(mode) == 0o600
+
+
+def test_a_session(daemon: Running, tmp_path: Path) -> None:
+    with daemon.client() as hand:
+        daemon.wait_state(hand, "DISARMED")
+        params = hand.params()
+        assert params["rate_hz"] == 100.0
+        assert params["fingers"]["middle"]["pressure_max_kpa"] == 150.0
+        assert hand.arm() == {"state": "ARMED"}
+        assert hand.target("index", angle_deg=40.0)["mode"] == "position"
+        assert hand.target("thumb", pressure_kpa=50.0)["mode"] == "pressure"
+        assert hand.mode("ring", "vent")["mode"] == "vent"
+        assert hand.start() == {"state": "RUNNING"}
+        time.sleep(1.0)
+        status = hand.status()
+        assert status["state"] == "RUNNING"
+        assert abs(status["fingers"]["index"]["angle_filt_deg"] - 40.0) < 5.0
+        assert status["fingers"]["thumb"]["pressure_cmd_kpa"] == pytest.approx(50.0)
+        assert status["fingers"]["ring"]["pressure_cmd_kpa"] == 0.0
+        assert status["timing"]["ticks"] > 50
+        assert hand.hold() == {"state": "HOLD"}
+        assert hand.resume() == {"state": "RUNNING"}
+        record = tmp_path / "rec.csv"
+        assert hand.record_start(record)["active"]
+        time.sleep(1.3)
+        assert hand.record_stop()["complete"]
+        rec = read_recording(record, finger="index")
+        assert rec.duration_s > 1.0
+        assert hand.disarm() == {"state": "DISARMED"}
+        assert hand.estop() == {"state": "ESTOP"}
+        assert hand.reset() == {"state": "INIT"}
+        daemon.wait_state(hand, "DISARMED")
+        assert hand.faults()["total"] == 0
+
+
+def test_trajectory_runs_to_hold(daemon: Running, tmp_path: Path) -> None:
+    traj = tmp_path / "wave.csv"
+    traj.write_text("t,angle_ref_deg_index,angle_ref_deg_middle\n0,0,0\n0.5,30,20\n1.0,30,20\n")
+    with daemon.client() as hand:
+        daemon.wait_state(hand, "DISARMED")
+        loaded = hand.load_trajectory(traj)
+        assert loaded["fingers"] == ["index", "middle"] and loaded["ticks"] == 101
+        hand.arm()
+        hand.start()
+        with pytest.raises(ApiError, match="follow the running trajectory"):
+            hand.target("index", angle_deg=10.0)
+        hand.target("ring", angle_deg=10.0)  # a finger the trajectory leaves alone
+        daemon.wait_state(hand, "HOLD", timeout_s=5.0)
+        status = hand.status()
+        assert status["trajectory"]["done"]
+        assert status["fingers"]["index"]["angle_ref_deg"] == pytest.approx(30.0)
+
+
+@pytest.mark.parametrize(("request_", "error"), [
+    (b"this is not json\n", "not JSON"),
+    (b"[1, 2]\n", "a JSON object with a 'cmd'"),
+    (b'{"cmd": "fly"}\n', "unknown cmd 'fly'"),
+    (b'{"cmd": "arm", "now": true}\n', "arm: unknown parameter 'now'"),
+    (b'{"cmd": "mode", "finger": "index"}\n', "mode: missing parameter 'mode'"),
+    (b'{"cmd": "mode", "finger": "index", "mode": "fly"}\n', "mode must be one of"),
+    (b'{"cmd": "mode", "finger": 3, "mode": "vent"}\n', "'finger' must be str"),
+    (b'{"cmd": "target", "finger": "pinky", "angle_deg": 10}\n', "unknown finger 'pinky'"),
+    (b'{"cmd": "target", "finger": "index", "angle_deg": 500}\n', "outside [0, 180]"),
+    (b'{"cmd": "target", "finger": "middle", "pressure_kpa": 200}\n', "outside [0, 150] for middle"),
+    (b'{"cmd": "target", "finger": "index", "force_n": -11}\n', "outside [-10, 10]"),
+    (b'{"cmd": "target", "finger": "index", "angle_deg": "ten"}\n', "finite number"),
+    (b'{"cmd": "target", "finger": "index", "angle_deg": 1, "force_n": 1}\n', "exactly one"),
+    (b'{"cmd": "target", "finger": "index"}\n', "exactly one"),
+    (b'{"cmd": "start"}\n', "cannot start in DISARMED"),
+    (b'{"cmd": "reset"}\n', "cannot reset in DISARMED"),
+    (b'{"cmd": "load_trajectory", "path": "relative.csv"}\n', "must be absolute"),
+    (b'{"cmd": "load_trajectory", "path": "/nonexistent/t.csv"}\n', "cannot read"),
+    (b'{"cmd": "record_start", "path": "rel.csv"}\n', "must be absolute"),
+    (b'{"cmd": "record_stop"}\n', "not recording"),
+    (b"{" + b" " * 70000 + b"\n", "not JSON"),
+])
+def test_invalid_requests_get_a_clear_error(daemon: Running, request_: bytes, error: str) -> None:
+    with daemon.client() as hand:
+        daemon.wait_state(hand, "DISARMED")
+    reply = raw(daemon.socket, request_)
+    assert reply["ok"] is False
+    assert error in reply["error"]
+    with daemon.client() as hand:  # the daemon carries on
+        assert hand.status()["state"] == "DISARMED"
+
+
+def test_over_long_line_is_refused(daemon: Running) -> None:
+    reply = raw(daemon.socket, b"x" * 70000)
+    assert reply == {"ok": False, "error": "request longer than 65536 bytes"}
+
+
+def test_bad_trajectory_error_names_line_and_column(daemon: Running, tmp_path: Path) -> None:
+    traj = tmp_path / "bad.csv"
+    traj.write_text("t,angle_ref_deg_index\n0,0\n1,999\n")
+    with daemon.client() as hand, pytest.raises(ApiError, match=r"bad.csv:3: column 'angle_ref_deg_index'"):
+        hand.load_trajectory(traj)
+
+
+def test_requests_carry_their_id(daemon: Running) -> None:
+    reply = raw(daemon.socket, b'{"cmd": "status", "id": "abc"}\n')
+    assert reply["id"] == "abc" and reply["ok"] is True
+
+
+def test_tcp_is_loopback_only(tmp_path: Path) -> None:
+    running = Running(tmp_path, tcp=True)
+    try:
+        port = running.daemon.server.tcp_port
+        assert running.daemon.server.listeners[1].getsockname()[0] == "127.0.0.1"
+        with HandClient(tcp_port=port) as hand:
+            assert hand.status()["state"] in ("INIT", "DISARMED")
+    finally:
+        running.stop()
+
+
+def test_second_daemon_on_the_same_socket_is_refused(daemon: Running) -> None:
+    from hand_service.apiserver import ApiServer
+    from hand_service.errors import UserError
+    with pytest.raises(UserError, match="another hand-service daemon"):
+        ApiServer(lambda r: {}, daemon.socket).open()

@@ -1,0 +1,55 @@
+"""Trajectory files: modes from the columns, resampling, and clear errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hand_service.errors import UserError
+from hand_service.profile import load_profile
+from hand_service.trajectory import NOT_DRIVEN
+from hand_service.trajectory_csv import read_trajectory
+from rtcore import MODE_FORCE, MODE_POSITION, MODE_VENT
+
+PROFILE = load_profile(None)
+
+
+def write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "traj.csv"
+    path.write_text(text)
+    return path
+
+
+def test_position_then_force_then_vent(tmp_path: Path) -> None:
+    path = write(tmp_path, "# a pinch\nt,angle_ref_deg_index,force_ref_n_index\n"
+                           "0,0,\n1,90,\n1.5,,1.0\n2,,1.0\n2.5,,\n3,,\n")
+    traj = read_trajectory(path, PROFILE, 100.0)
+    i = PROFILE.finger_names.index("index")
+    assert traj.n_ticks == 301
+    assert traj.angle_deg[50, i] == pytest.approx(45.0)  # linear between rows
+    assert traj.velocity_deg_per_s[50, i] == pytest.approx(90.0)
+    assert traj.mode[120, i] == MODE_POSITION and traj.angle_deg[120, i] == 90.0  # held to the switch
+    assert traj.mode[160, i] == MODE_FORCE and traj.force_n[160, i] == 1.0
+    assert traj.mode[260, i] == MODE_VENT
+    others = [k for k in range(len(PROFILE.fingers)) if k != i]
+    assert np.all(traj.mode[:, others] == NOT_DRIVEN)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("t,angle_ref_deg_pinky\n0,0\n1,1\n", "finger 'pinky' is not in the profile"),
+    ("t,angle_deg_index\n0,0\n1,1\n", "unknown column"),
+    ("time,angle_ref_deg_index\n0,0\n1,1\n", "unknown column"),
+    ("t,angle_ref_deg_index\n0,0\n0,1\n", ":3: column 't': t = 0 does not increase"),
+    ("t,angle_ref_deg_index\n0,0\n1,abc\n", ":3: column 'angle_ref_deg_index': not a number"),
+    ("t,angle_ref_deg_index\n0,0\n1,200\n", "outside the profile's target range [0, 180] deg"),
+    ("t,force_ref_n_thumb\n0,0\n1,50\n", "outside the profile's target range [-10, 10] N"),
+    ("t,angle_ref_deg_index,force_ref_n_index\n0,1,1\n1,1,\n", "both an angle and a force"),
+    ("t,angle_ref_deg_index\n0,0\n1\n", "1 fields where the header has 2"),
+    ("t,angle_ref_deg_index\n0,0\n", "at least two rows"),
+    ("t,angle_ref_deg_index\n0,0\n1,nan\n", "finite number"),
+])
+def test_bad_files_name_the_line_and_column(tmp_path: Path, text: str, message: str) -> None:
+    with pytest.raises(UserError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        read_trajectory(write(tmp_path, text), PROFILE, 100.0)
