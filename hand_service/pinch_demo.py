@@ -149,7 +149,9 @@ def run_demo(daemon: Daemon, record: Path | None, out: TextIO) -> int:
     started: list[int] = []
 
     def drive(_slack_ns: int) -> None:
-        k = sup.tick_index + 1  # the simulator now holds the state the next tick will read
+        # the simulator now holds the state the next tick reads; after a skipped deadline
+        # that tick's index is more than one ahead, so ask the schedule, not tick_index + 1
+        k = sup.schedule.index if sup.schedule is not None else sup.tick_index + 1
         if k < n:
             truth_angle[k] = simulator.outputs.angle_deg
             truth_force[k] = simulator.outputs.contact_force_n

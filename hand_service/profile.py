@@ -101,8 +101,10 @@ FINGER_EXTRA_SECTION = Section(
             min=0.0, max=1000.0, min_exclusive=True),
         Key("pressure_rate_max_kpa_per_s", "fastest change of the command", "float", "kPa/s",
             2000.0, 0.0, None, True),
-        Key("kp_kpa_per_deg", "position PID: proportional gain", "float", "kPa/deg", 0.2, 0.0),
-        Key("ki_kpa_per_deg_s", "position PID: integral gain", "float", "kPa/(deg·s)", 2.0, 0.0),
+        Key("kp_kpa_per_deg", "position PID: proportional gain; absent: the finger's critical "
+            "gain / 3 from its own model (hand_service/tuning.py)", "float", "kPa/deg", None, 0.0),
+        Key("ki_kpa_per_deg_s", "position PID: integral gain; absent: 10/s · kp", "float",
+            "kPa/(deg·s)", None, 0.0),
         Key("kd_kpa_s_per_deg", "position PID: derivative gain", "float", "kPa·s/deg", 0.0, 0.0),
         Key("force_kp_kpa_per_n", "force PI: proportional gain", "float", "kPa/N", 2.0, 0.0),
         Key("force_ki_kpa_per_n_s", "force PI: integral gain", "float", "kPa/(N·s)", 20.0, 0.0),
@@ -127,13 +129,14 @@ class FingerProfile:
     pressure_min_kpa: float
     pressure_max_kpa: float
     pressure_rate_max_kpa_per_s: float
-    kp_kpa_per_deg: float
-    ki_kpa_per_deg_s: float
+    kp_kpa_per_deg: float | None
+    ki_kpa_per_deg_s: float | None
     kd_kpa_s_per_deg: float
     force_kp_kpa_per_n: float
     force_ki_kpa_per_n_s: float
+    gains_from_model: bool = False  # kp/ki were absent and came from tuning.margin_gains
 
-    def rtcore_config(self, control: dict[str, Any]) -> rtcore.FingerConfig:
+    def rtcore_config(self, control: dict[str, Any], **overrides: float) -> rtcore.FingerConfig:
         m = self.model
         m.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa",
                   "lever_arm_m", purpose=f"controlling finger '{self.name}'")
@@ -161,7 +164,7 @@ class FingerProfile:
             pressure_min_kpa=self.pressure_min_kpa,
             pressure_max_kpa=self.pressure_max_kpa,
             pressure_rate_max_kpa_per_s=self.pressure_rate_max_kpa_per_s,
-        )
+        ).replace(**overrides)
 
 
 @dataclass
@@ -215,6 +218,21 @@ def _finger(name: str, block: Any, source: Path, hand: Any) -> FingerProfile:
     return FingerProfile(name=name, model=model, **extra)
 
 
+def _fill_gains(finger: FingerProfile, control: dict[str, Any]) -> None:
+    """Absent PI gains come from the finger's model by gain margin (tuning.py)."""
+    if finger.kp_kpa_per_deg is not None and finger.ki_kpa_per_deg_s is not None:
+        return
+    from hand_service.tuning import INTEGRAL_RATE_PER_S, margin_gains
+
+    provisional = finger.rtcore_config(control, kp_kpa_per_deg=0.0, ki_kpa_per_deg_s=0.0)
+    gains = margin_gains(provisional, control["rate_hz"])
+    finger.gains_from_model = True
+    if finger.kp_kpa_per_deg is None:
+        finger.kp_kpa_per_deg = gains.kp_kpa_per_deg
+    if finger.ki_kpa_per_deg_s is None:
+        finger.ki_kpa_per_deg_s = INTEGRAL_RATE_PER_S * finger.kp_kpa_per_deg
+
+
 def load_profile(path: str | Path | None = None) -> Profile:
     """Load and validate a profile; any mistake is a one-line UserError naming the line."""
     source = Path(path) if path is not None else DEFAULT_PROFILE
@@ -245,6 +263,8 @@ def load_profile(path: str | Path | None = None) -> Profile:
     if not 1 <= len(hand) <= rtcore.MAX_FINGERS:
         raise fail(source, data, "hand", f"hand must have 1 to {rtcore.MAX_FINGERS} fingers, not {len(hand)}")
     fingers = [_finger(str(name), block, source, hand) for name, block in hand.items()]
+    for finger in fingers:
+        _fill_gains(finger, control)
     return Profile(path=source, name=top["profile"], description=top["description"],
                    protocol_version=top["protocol_version"], transport=transport, control=control,
                    safety=safety, simulation=simulation, fingers=fingers)

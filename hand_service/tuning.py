@@ -1,0 +1,66 @@
+"""Default PI gains from a finger's own model, by gain margin.
+
+The fingers are lightly damped (ζ 0.06–0.16) and ring at 9–14 Hz, right where the valve
+lag, the dead time, the sample hold and the Butterworth filter have eaten the phase, so
+a gain that suits one finger makes another oscillate. The rule here: compute the open
+loop from the PI output to the filtered angle,
+
+    L(jω) = C(z) · (180/π)·N / (A s² + B s + k) · e^(−s·delay) / (τ s + 1)
+            · e^(−sT/2)·sinc(fT) · F(z),        C(z) = kp·(1 + ω_i·T·z/(z − 1)),
+
+find where its phase reaches −180°, and choose kp so that the loop gain there is
+1/GAIN_MARGIN; ki = ω_i·kp. The linear model predicts the simulator's critical gains to
+three digits for every default finger (tests/model/test_tuning.py checks the margin in
+closed loop).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+import rtcore
+
+GAIN_MARGIN = 3.0
+INTEGRAL_RATE_PER_S = 10.0  # ki = 10/s · kp: integral action well below the resonance
+
+
+@dataclass(frozen=True)
+class Gains:
+    kp_kpa_per_deg: float
+    ki_kpa_per_deg_s: float
+    critical_kp_kpa_per_deg: float
+    phase_crossover_hz: float
+
+
+def loop_per_kp(finger: rtcore.FingerConfig, sample_rate_hz: float, freqs_hz: np.ndarray,
+                integral_rate_per_s: float = INTEGRAL_RATE_PER_S) -> np.ndarray:
+    """L(jω)/kp: deg of filtered angle per deg of error, at each frequency."""
+    dt_s = 1.0 / sample_rate_hz
+    s = 2j * np.pi * freqs_hz
+    z = np.exp(s * dt_s)
+    prbm = math.degrees(1.0) * finger.pressure_gain_nm_per_kpa / (
+        finger.inertia_kgm2 * s**2 + finger.damping_nms_per_rad * s + finger.stiffness_nm_per_rad)
+    valve = np.exp(-s * finger.effects.dead_time_s) / (finger.effects.valve_lag_tau_s * s + 1.0)
+    hold = np.exp(-s * dt_s / 2.0) * np.sinc(freqs_hz * dt_s)
+    sos = rtcore.butter_design(finger.filter_order, finger.filter_cutoff_hz, sample_rate_hz)
+    _, butter = signal.sosfreqz(sos, worN=freqs_hz, fs=sample_rate_hz)
+    pi = 1.0 + integral_rate_per_s * dt_s * z / (z - 1.0)
+    return prbm * valve * hold * butter * pi
+
+
+def margin_gains(finger: rtcore.FingerConfig, sample_rate_hz: float,
+                 gain_margin: float = GAIN_MARGIN,
+                 integral_rate_per_s: float = INTEGRAL_RATE_PER_S) -> Gains:
+    freqs = np.linspace(0.01, 0.499 * sample_rate_hz, 40000)
+    loop = loop_per_kp(finger, sample_rate_hz, freqs, integral_rate_per_s)
+    phase = np.unwrap(np.angle(loop))
+    crossing = np.flatnonzero(phase <= -np.pi)
+    # never reaching -180 deg below Nyquist, the peak gain bounds kp instead
+    k = int(crossing[0]) if crossing.size else int(np.argmax(np.abs(loop)))
+    critical = 1.0 / float(np.abs(loop[k]))
+    kp = critical / gain_margin
+    return Gains(kp, integral_rate_per_s * kp, critical, float(freqs[k]))

@@ -1,0 +1,70 @@
+"""Default PI gains by gain margin: the predicted critical gain is the simulator's, and
+the defaults hold every finger of every shipped profile still."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import rtcore
+from hand_service.profile import PROFILE_DIR, Profile, load_profile
+from hand_service.simulator import profile_sim_finger
+from hand_service.tuning import GAIN_MARGIN, margin_gains
+from rtcore.sim import Simulator
+
+QUIET = {"sensor_noise_deg": 0.0, "adc_step_mv": 0.0, "pressure_noise_kpa": 0.0}
+
+
+def hold(profile: Profile, i: int, kp: float, ki: float, noise: bool, seconds: float = 8.0) -> np.ndarray:
+    """Closed loop on one finger holding 45 deg; returns the true angle, sample by sample."""
+    config = profile.hand_config()
+    finger = config.fingers[i].replace(kp_kpa_per_deg=kp, ki_kpa_per_deg_s=ki)
+    hand = rtcore.Hand(rtcore.HandConfig([finger], config.sample_rate_hz))
+    simulation = profile.simulation if noise else {**profile.simulation, **QUIET}
+    sim = Simulator([profile_sim_finger(profile.fingers[i], simulation)], config.sample_rate_hz)
+    hand.inputs.mode[:] = rtcore.MODE_POSITION
+    hand.inputs.angle_ref_deg[:] = 45.0
+    angle = np.empty(round(seconds * config.sample_rate_hz))
+    for k in range(angle.size):
+        hand.inputs.sensor_mv[:] = sim.outputs.sensor_mv
+        hand.step()
+        sim.command_kpa[:] = hand.outputs.pressure_cmd_kpa
+        sim.step()
+        angle[k] = sim.outputs.angle_deg[0]
+    return angle
+
+
+@pytest.mark.parametrize("finger", ["middle", "thumb"])
+def test_critical_gain_is_where_the_loop_starts_to_oscillate(finger: str) -> None:
+    profile = load_profile()
+    i = profile.finger_names.index(finger)
+    gains = margin_gains(profile.fingers[i].rtcore_config(profile.control), profile.control["rate_hz"])
+    # below the critical gain the loop settles; above it, it oscillates until the pressure
+    # limits hold the swing (a limit cycle), so judge the last quarter's spread
+    for factor, oscillates in ((0.8, False), (1.3, True)):
+        angle = hold(profile, i, factor * gains.critical_kp_kpa_per_deg, 0.0, noise=False)
+        spread = np.std(angle[3 * angle.size // 4:])
+        assert (spread > 1.0) == oscillates, f"{factor} x critical: std {spread:.3g} deg at the end"
+
+
+@pytest.mark.parametrize("path", sorted(PROFILE_DIR.glob("*.yaml")), ids=lambda p: p.name)
+def test_default_gains_hold_every_finger_still(path) -> None:
+    profile = load_profile(path)
+    for i, finger in enumerate(profile.fingers):
+        angle = hold(profile, i, finger.kp_kpa_per_deg, finger.ki_kpa_per_deg_s, noise=True)
+        settled = angle[angle.size // 2:]
+        worst = np.abs(settled - 45.0).max()
+        assert worst < 1.0, f"{finger.name}: wanders {worst:.2f} deg"
+        assert np.std(settled) < 0.2, f"{finger.name}: oscillates, std {np.std(settled):.2f} deg"
+
+
+def test_gains_given_in_a_profile_win(tmp_path) -> None:
+    text = (PROFILE_DIR / "sim.yaml").read_text().replace(
+        "    pressure_max_kpa: 150\n", "    pressure_max_kpa: 150\n    kp_kpa_per_deg: 0.05\n", 1)
+    path = tmp_path / "sim.yaml"
+    path.write_text(text)
+    middle = load_profile(path).finger("middle")
+    assert middle.kp_kpa_per_deg == 0.05 and middle.ki_kpa_per_deg_s == pytest.approx(0.5)
+    assert load_profile().finger("middle").kp_kpa_per_deg == pytest.approx(
+        load_profile().finger("middle").ki_kpa_per_deg_s / 10)
+    assert GAIN_MARGIN >= 2.0
