@@ -350,6 +350,65 @@ int32_t rtcore_unlock_memory(void);
 int64_t rtcore_ring_push(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
                          const double *row);
 int64_t rtcore_ring_count(const int64_t *count);
+/* One supervisor tick as one ring row, written straight into the ring: t_s, state, then
+ * blocks of n_fingers in the order angle_ref_deg, pressure_kpa (sent_kpa), pressure_meas_kpa,
+ * angle_deg, angle_filt_deg, velocity_deg_per_s, force_est_n, force_ref_n, mode, flags
+ * (hand_service/recwriter.py QUANTITIES). Returns the new count, or -1 when n_cols is not
+ * 2 + 10 * n_fingers. */
+int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
+                              int32_t n_fingers, const rtcore_inputs *in, const rtcore_outputs *out,
+                              const double *sent_kpa, double t_s, int32_t state);
+
+/* ---- The safety gate (csrc/rtcore_gate.c) --------------------------------------------
+ * The supervisor's checks on every tick, on the control step's own input and output
+ * structs, in code apart from the step's: a fault here must vent even if the step is
+ * wrong. Each check returns RTCORE_GATE_OK or a cause and fills *result with the first
+ * finger at fault, the offending value and the limit or expectation it broke.
+ */
+#define RTCORE_GATE_OK 0
+#define RTCORE_GATE_NON_FINITE 1
+#define RTCORE_GATE_ANGLE_OUT_OF_RANGE 2
+#define RTCORE_GATE_PRESSURE_OVER_LIMIT 3
+#define RTCORE_GATE_LEAK_OR_BURST 4
+
+typedef struct {
+    int32_t n_fingers;
+    double angle_min_deg;
+    double angle_max_deg;
+    double pressure_min_kpa[RTCORE_MAX_FINGERS];
+    double pressure_max_kpa[RTCORE_MAX_FINGERS];
+    double leak_tolerance_kpa;
+    int32_t leak_ticks;
+    /* the measured chamber pressure is expected to follow the sent command through a
+     * first-order lag: expected += follow_alpha * (sent - expected) every tick */
+    double follow_alpha[RTCORE_MAX_FINGERS];
+} rtcore_gate_config;
+
+typedef struct {
+    rtcore_gate_config config;
+    double expected_kpa[RTCORE_MAX_FINGERS];
+    int32_t leak_ticks[RTCORE_MAX_FINGERS];
+} rtcore_gate;
+
+typedef struct {
+    int32_t cause;
+    int32_t finger;
+    double value;
+    double limit;
+} rtcore_gate_result;
+
+void rtcore_gate_reset(rtcore_gate *gate);
+/* Sensor mV finite; a measured pressure finite, or NaN (not reported), never infinite. */
+int32_t rtcore_gate_inputs(const rtcore_gate *gate, const rtcore_inputs *in,
+                           rtcore_gate_result *result);
+/* Angle and command finite; angle within [min, max]; command within the finger's
+ * limits (0 kPa, a vent, is always allowed). */
+int32_t rtcore_gate_outputs(const rtcore_gate *gate, const rtcore_outputs *out,
+                            rtcore_gate_result *result);
+/* Leak or burst: the measured pressure stays more than leak_tolerance_kpa away from the
+ * expectation for leak_ticks ticks. Then the expectation moves toward sent_kpa. */
+int32_t rtcore_gate_follow(rtcore_gate *gate, const double *sent_kpa, const rtcore_inputs *in,
+                           rtcore_gate_result *result);
 /* END CDEF */
 
 #ifdef __cplusplus

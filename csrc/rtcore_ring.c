@@ -27,3 +27,40 @@ int64_t rtcore_ring_count(const int64_t *count)
     }
     return __atomic_load_n(count, __ATOMIC_ACQUIRE);
 }
+
+int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
+                              int32_t n_fingers, const rtcore_inputs *in, const rtcore_outputs *out,
+                              const double *sent_kpa, double t_s, int32_t state)
+{
+    const double *blocks[8];
+    double *row;
+    int64_t n;
+    int32_t b;
+    int32_t i;
+
+    if (rows == 0 || count == 0 || in == 0 || out == 0 || sent_kpa == 0 || capacity <= 0
+        || n_fingers < 1 || n_fingers > RTCORE_MAX_FINGERS || n_cols != 2 + 10 * n_fingers) {
+        return -1;
+    }
+    n = __atomic_load_n(count, __ATOMIC_RELAXED);
+    row = rows + (size_t)(n % capacity) * (size_t)n_cols;
+    row[0] = t_s;
+    row[1] = (double)state;
+    blocks[0] = in->angle_ref_deg;
+    blocks[1] = sent_kpa;
+    blocks[2] = in->pressure_meas_kpa;
+    blocks[3] = out->angle_deg;
+    blocks[4] = out->angle_filt_deg;
+    blocks[5] = out->velocity_deg_per_s;
+    blocks[6] = out->force_est_n;
+    blocks[7] = in->force_ref_n;
+    for (b = 0; b < 8; ++b) {
+        memcpy(row + 2 + b * n_fingers, blocks[b], sizeof(double) * (size_t)n_fingers);
+    }
+    for (i = 0; i < n_fingers; ++i) {
+        row[2 + 8 * n_fingers + i] = (double)in->mode[i];
+        row[2 + 9 * n_fingers + i] = (double)out->flags[i];
+    }
+    __atomic_store_n(count, n + 1, __ATOMIC_RELEASE);
+    return n + 1;
+}

@@ -56,7 +56,20 @@ class Recorder:
         self._thread: WriterThread | None = None
         self._thread_file = None
         self.push = self._not_recording
+        self.push_tick = self._not_recording_tick
+        self._tick_source: tuple[object, object, np.ndarray] | None = None
         self.rows_lost = 0
+
+    def bind(self, c_inputs: object, c_outputs: object, sent_kpa: np.ndarray) -> None:
+        """The control step's structs and the sent commands: push_tick(t_s, state) then
+        records a tick in one C call (rtcore_ring_push_tick)."""
+        self._tick_source = (c_inputs, c_outputs, sent_kpa)
+        if self._ring is not None:
+            self.push_tick = self._ring.tick_pusher(len(self.fingers), *self._tick_source)
+
+    @staticmethod
+    def _not_recording_tick(_t_s: float, _state: int) -> int:
+        return 0
 
     @staticmethod
     def _not_recording() -> int:
@@ -101,6 +114,8 @@ class Recorder:
             raise UserError(f"cannot start the recording writer: {exc}") from None
         self._ring, self.path = ring, path
         self.push = ring.pusher(self.row)
+        if self._tick_source is not None:
+            self.push_tick = ring.tick_pusher(len(self.fingers), *self._tick_source)
         log.info("recording to %s (%s writer)", path, self.kind)
 
     def _command(self, word: bytes) -> None:
@@ -142,6 +157,7 @@ class Recorder:
             return {"active": False}
         status = self.status()
         self.push = self._not_recording
+        self.push_tick = self._not_recording_tick
         ok = True
         if self._process is not None:
             self._command(b"stop")

@@ -8,13 +8,16 @@ different code, because a fault here must vent even if the core is wrong.
 from __future__ import annotations
 
 import enum
+import functools
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+import rtcore
 from hand_service.profile import Profile
+from rtcore._rtcore import ffi, lib
 
 
 class Cause(str, enum.Enum):
@@ -64,41 +67,51 @@ class FaultLog:
 
 
 class SafetyGate:
-    """Per-tick checks. Each check returns a Fault or None; nothing here allocates
-    beyond that."""
+    """Per-tick checks in C (csrc/rtcore_gate.c) on the control step's own structs: no
+    conversion and no allocation unless a check fails, when the Fault is worded here."""
 
-    def __init__(self, profile: Profile) -> None:
+    def __init__(self, profile: Profile, hand: rtcore.Hand, sent_kpa: np.ndarray) -> None:
         safety = profile.safety
         self.names = profile.finger_names
         rate_hz = profile.control["rate_hz"]
         self.stale_ticks = int(safety["stale_sensor_ticks"])
         self.timeout_ns = int(safety["transport_timeout_ms"] * 1e6)
-        self.angle_min_deg = float(safety["angle_min_deg"])
-        self.angle_max_deg = float(safety["angle_max_deg"])
         self.overrun_streak = int(safety["overrun_streak"])
-        self.leak_tolerance_kpa = float(safety["leak_tolerance_kpa"])
-        self.leak_ticks = int(safety["leak_ticks"])
-        self.pressure_min_kpa = np.array([f.pressure_min_kpa for f in profile.fingers])
-        self.pressure_max_kpa = np.array([f.pressure_max_kpa for f in profile.fingers])
-        # the chamber is expected to follow the command through the valve's lag and dead
-        # time (the finger's effects), approximated by one first-order lag
-        lag_s = np.array([f.model.effects.get("valve_lag", {}).get("tau_s", 0.0)
-                          + f.model.effects.get("dead_time", {}).get("delay_s", 0.0)
-                          for f in profile.fingers])
-        self.follow_alpha = 1.0 - np.exp(-1.0 / (rate_hz * np.maximum(lag_s, 1e-9)))
-        n = len(self.names)
-        self.expected_kpa = np.zeros(n)
-        self.leak_count = np.zeros(n, dtype=np.int64)
-        self._scratch = np.zeros(n)
+        self._gate = ffi.new("rtcore_gate *")
+        config = self._gate.config
+        config.n_fingers = len(profile.fingers)
+        config.angle_min_deg = float(safety["angle_min_deg"])
+        config.angle_max_deg = float(safety["angle_max_deg"])
+        config.leak_tolerance_kpa = float(safety["leak_tolerance_kpa"])
+        config.leak_ticks = int(safety["leak_ticks"])
+        for i, f in enumerate(profile.fingers):
+            config.pressure_min_kpa[i] = f.pressure_min_kpa
+            config.pressure_max_kpa[i] = f.pressure_max_kpa
+            # the chamber follows the command through the valve's lag and dead time (the
+            # finger's effects), approximated by one first-order lag
+            lag_s = (f.model.effects.get("valve_lag", {}).get("tau_s", 0.0)
+                     + f.model.effects.get("dead_time", {}).get("delay_s", 0.0))
+            config.follow_alpha[i] = 1.0 - math.exp(-1.0 / (rate_hz * max(lag_s, 1e-9)))
+        self._result = ffi.new("rtcore_gate_result *")
+        self._hand = hand
+        self._inputs = functools.partial(lib.rtcore_gate_inputs, self._gate, hand.c_inputs, self._result)
+        self._outputs = functools.partial(lib.rtcore_gate_outputs, self._gate, hand.c_outputs,
+                                          self._result)
+        self._follow = functools.partial(lib.rtcore_gate_follow, self._gate,
+                                         ffi.cast("double *", ffi.from_buffer(sent_kpa)),
+                                         hand.c_inputs, self._result)
         self.reset()
+
+    @property
+    def expected_kpa(self) -> np.ndarray:
+        return np.array(self._gate.expected_kpa[0:len(self.names)])
 
     def reset(self) -> None:
         """Forget the history (after a re-handshake)."""
         self.missed = 0
         self.last_frame_ns: int | None = None
         self.overruns = 0
-        self.expected_kpa[:] = 0.0
-        self.leak_count[:] = 0
+        lib.rtcore_gate_reset(self._gate)
 
     # -- inputs ----------------------------------------------------------------------
     def frame(self, fresh: bool, now_ns: int) -> Fault | None:
@@ -119,57 +132,45 @@ class SafetyGate:
                          f"(stale_sensor_ticks {self.stale_ticks})")
         return None
 
-    def sample(self, sensor_mv: np.ndarray, pressure_meas_kpa: np.ndarray) -> Fault | None:
-        """Raw values: every sensor finite; a measured pressure is finite or NaN (not
-        reported), never infinite."""
-        if not np.isfinite(sensor_mv).all():
-            i = int(np.flatnonzero(~np.isfinite(sensor_mv))[0])
-            return Fault(Cause.NON_FINITE, f"sensor reads {sensor_mv[i]} mV", self.names[i])
-        if np.isinf(pressure_meas_kpa).any():
-            i = int(np.flatnonzero(np.isinf(pressure_meas_kpa))[0])
-            return Fault(Cause.NON_FINITE, f"measured pressure {pressure_meas_kpa[i]} kPa",
-                         self.names[i])
-        return None
+    def sample(self) -> Fault | None:
+        """The hand's inputs as received: every sensor finite; a measured pressure finite
+        or NaN (not reported), never infinite."""
+        if not self._inputs():
+            return None
+        i = self._result.finger
+        if not math.isfinite(self._hand.inputs.sensor_mv[i]):
+            return Fault(Cause.NON_FINITE, f"sensor reads {self._result.value} mV", self.names[i])
+        return Fault(Cause.NON_FINITE, f"measured pressure {self._result.value} kPa", self.names[i])
 
     # -- outputs ---------------------------------------------------------------------
-    def outputs(self, angle_deg: np.ndarray, pressure_cmd_kpa: np.ndarray) -> Fault | None:
+    def outputs(self) -> Fault | None:
         """The controller's result before it is sent: finite, in range, within limits."""
-        if not (np.isfinite(angle_deg).all() and np.isfinite(pressure_cmd_kpa).all()):
-            bad = ~(np.isfinite(angle_deg) & np.isfinite(pressure_cmd_kpa))
-            i = int(np.flatnonzero(bad)[0])
-            return Fault(Cause.NON_FINITE, f"angle {angle_deg[i]} deg, command "
-                         f"{pressure_cmd_kpa[i]} kPa", self.names[i])
-        low, high = angle_deg.min(), angle_deg.max()
-        if low < self.angle_min_deg or high > self.angle_max_deg:
-            i = int(np.argmin(angle_deg) if low < self.angle_min_deg else np.argmax(angle_deg))
-            return Fault(Cause.ANGLE_OUT_OF_RANGE, f"angle {angle_deg[i]:.1f} deg outside "
-                         f"[{self.angle_min_deg:g}, {self.angle_max_deg:g}]", self.names[i])
-        over = np.subtract(pressure_cmd_kpa, self.pressure_max_kpa, out=self._scratch)
-        if over.max() > 0.0 or (pressure_cmd_kpa < self.pressure_min_kpa).any():
-            bad = (pressure_cmd_kpa > self.pressure_max_kpa) | (pressure_cmd_kpa < self.pressure_min_kpa)
-            i = int(np.flatnonzero(bad)[0])
-            return Fault(Cause.PRESSURE_OVER_LIMIT, f"command {pressure_cmd_kpa[i]:.2f} kPa outside "
-                         f"[{self.pressure_min_kpa[i]:g}, {self.pressure_max_kpa[i]:g}] kPa",
-                         self.names[i])
-        return None
+        cause = self._outputs()
+        if not cause:
+            return None
+        r, config = self._result, self._gate.config
+        i = r.finger
+        angle, command = self._hand.outputs.angle_deg[i], self._hand.outputs.pressure_cmd_kpa[i]
+        if cause == lib.RTCORE_GATE_NON_FINITE:
+            return Fault(Cause.NON_FINITE, f"angle {angle} deg, command {command} kPa", self.names[i])
+        if cause == lib.RTCORE_GATE_ANGLE_OUT_OF_RANGE:
+            return Fault(Cause.ANGLE_OUT_OF_RANGE, f"angle {angle:.1f} deg outside "
+                         f"[{config.angle_min_deg:g}, {config.angle_max_deg:g}]", self.names[i])
+        return Fault(Cause.PRESSURE_OVER_LIMIT, f"command {command:.2f} kPa outside "
+                     f"[{config.pressure_min_kpa[i]:g}, {config.pressure_max_kpa[i]:g}] kPa",
+                     self.names[i])
 
-    def follow(self, sent_kpa: np.ndarray, pressure_meas_kpa: np.ndarray) -> Fault | None:
+    def follow(self) -> Fault | None:
         """Leak or burst: the measured chamber pressure stays away from where the command
-        should have taken it for leak_ticks ticks (NaN, not reported, is not checked)."""
-        expected = self.expected_kpa
-        deviation = np.abs(pressure_meas_kpa - expected)
-        outside = deviation > self.leak_tolerance_kpa
-        self.leak_count += outside
-        self.leak_count[~outside] = 0
-        # the expectation for the next tick: the command just sent, through the lag
-        expected += self.follow_alpha * (sent_kpa - expected)
-        if self.leak_count.max() >= self.leak_ticks:
-            i = int(np.argmax(self.leak_count))
-            kind = "leak" if pressure_meas_kpa[i] < expected[i] else "stuck or over-pressure"
-            return Fault(Cause.LEAK_OR_BURST, f"{kind}: chamber at {pressure_meas_kpa[i]:.1f} kPa "
-                         f"where {expected[i]:.1f} kPa was expected, for {self.leak_ticks} ticks "
-                         f"(leak_tolerance_kpa {self.leak_tolerance_kpa:g})", self.names[i])
-        return None
+        sent (sent_kpa) should have taken it for leak_ticks ticks (NaN, not reported, is
+        not checked)."""
+        if not self._follow():
+            return None
+        r, config = self._result, self._gate.config
+        kind = "leak" if r.value < r.limit else "stuck or over-pressure"
+        return Fault(Cause.LEAK_OR_BURST, f"{kind}: chamber at {r.value:.1f} kPa where {r.limit:.1f} "
+                     f"kPa was expected, for {config.leak_ticks} ticks "
+                     f"(leak_tolerance_kpa {config.leak_tolerance_kpa:g})", self.names[r.finger])
 
     # -- timing and firmware ---------------------------------------------------------
     def overrun(self, missed_deadline: bool) -> Fault | None:

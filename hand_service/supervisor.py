@@ -54,7 +54,6 @@ class Supervisor:
         self.period_ns = round(1e9 / self.rate_hz)
         self.spin_ns = int(spin_us * 1000)
         self.hand = rtcore.Hand(profile.hand_config())
-        self.gate = SafetyGate(profile)
         self.faults = FaultLog()
         self.machine = StateMachine()
         self.stats = TickStats(self.period_ns)
@@ -74,6 +73,8 @@ class Supervisor:
         self.tick_index = 0
         self.t_s = 0.0
         self.sent_kpa = np.zeros(n)
+        self.gate = SafetyGate(profile, self.hand, self.sent_kpa)
+        self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa)
         self._zeros = np.zeros(n)
         self._last_missed = False
         self._latched_causes: set[Cause] = set()
@@ -231,7 +232,7 @@ class Supervisor:
         if fresh:
             inputs.sensor_mv[:] = sample.sensor_mv
             inputs.pressure_meas_kpa[:] = sample.pressure_meas_kpa
-            fault = fault or self.gate.sample(sample.sensor_mv, sample.pressure_meas_kpa)
+            fault = fault or self.gate.sample()
         fault = fault or self.gate.frame(fresh, woke_ns)
         if status is not None and status.fault_code:
             fault = fault or self.gate.firmware(status.fault_code, status.fault_text)
@@ -239,7 +240,7 @@ class Supervisor:
         if state is State.RUNNING and self.trajectory is not None and not self.trajectory_done:
             self.trajectory_tick += 1
         self.hand.step()
-        fault = fault or self.gate.outputs(outputs.angle_deg, outputs.pressure_cmd_kpa)
+        fault = fault or self.gate.outputs()
         if fault is not None:
             self.fault(fault)
         vented = self.machine.vented
@@ -253,7 +254,7 @@ class Supervisor:
             self.fault(Fault(Cause.TRANSPORT_LOST, f"send(): {type(exc).__name__}: {exc}"))
             sent = self._zeros
         self.sent_kpa[:] = sent
-        leak = self.gate.follow(sent, inputs.pressure_meas_kpa)
+        leak = self.gate.follow()
         if leak is not None:
             self.fault(leak)
         self._record(self.machine.state)
@@ -270,24 +271,9 @@ class Supervisor:
         self._record(state)
 
     def _record(self, state: State) -> None:
-        rec = self.recorder
-        if not rec.active:
-            return
-        inputs, outputs, block = self.hand.inputs, self.hand.outputs, rec.block
-        rec.head[0] = self.t_s
-        rec.head[1] = state
-        mode = inputs.mode
-        block["angle_ref_deg"][:] = inputs.angle_ref_deg  # the writer blanks the reference
-        block["force_ref_n"][:] = inputs.force_ref_n  # a finger's mode does not use
-        block["pressure_kpa"][:] = self.sent_kpa
-        block["pressure_meas_kpa"][:] = inputs.pressure_meas_kpa
-        block["angle_deg"][:] = outputs.angle_deg
-        block["angle_filt_deg"][:] = outputs.angle_filt_deg
-        block["velocity_deg_per_s"][:] = outputs.velocity_deg_per_s
-        block["force_est_n"][:] = outputs.force_est_n
-        block["mode"][:] = mode
-        block["flags"][:] = outputs.flags
-        rec.push()
+        # one C call builds the row from the step's structs and sent_kpa (the writer blanks
+        # the references a finger's mode does not use)
+        self.recorder.push_tick(self.t_s, state)
 
     # -- the loop -------------------------------------------------------------------------
     def request_stop(self, reason: str) -> None:

@@ -89,6 +89,16 @@ class Hand:
         lib.rtcore_finger_reset(self._hand, finger)
 
     @property
+    def c_inputs(self) -> object:
+        """The rtcore_inputs struct (cdata pointer), for other C calls on the same tick."""
+        return self._in
+
+    @property
+    def c_outputs(self) -> object:
+        """The rtcore_outputs struct (cdata pointer)."""
+        return self._out
+
+    @property
     def ticks(self) -> int:
         return int(self._hand.ticks)
 

@@ -51,6 +51,16 @@ class Ring:
         self._count_ptr = header_ptr + COUNT
         self._rows_ptr = ffi.cast("double *", ffi.from_buffer(self.rows))
 
+    def tick_pusher(self, n_fingers: int, c_inputs: object, c_outputs: object,
+                    sent_kpa: np.ndarray) -> functools.partial:
+        """push_tick(t_s, state): the tick's row built in C from the control step's own
+        structs (rtcore_ring_push_tick), a single call per tick."""
+        if self.n_cols != 2 + 10 * n_fingers:
+            raise ValueError(f"a ring of {self.n_cols} columns does not hold {n_fingers} fingers")
+        return functools.partial(lib.rtcore_ring_push_tick, self._rows_ptr, self._count_ptr,
+                                 self.capacity, self.n_cols, n_fingers, c_inputs, c_outputs,
+                                 ffi.cast("double *", ffi.from_buffer(sent_kpa)))
+
     def pusher(self, row: np.ndarray) -> functools.partial:
         """push() for one preallocated row buffer: a single C call per tick."""
         if row.dtype != np.float64 or row.size != self.n_cols or not row.flags.c_contiguous:

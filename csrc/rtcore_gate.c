@@ -1,0 +1,113 @@
+/* The supervisor's safety gate, on the control step's own structs. */
+#include <math.h>
+
+#include "rtcore.h"
+
+static int32_t found(rtcore_gate_result *result, int32_t cause, int32_t finger, double value,
+                     double limit)
+{
+    if (result != 0) {
+        result->cause = cause;
+        result->finger = finger;
+        result->value = value;
+        result->limit = limit;
+    }
+    return cause;
+}
+
+static int32_t fingers(const rtcore_gate *gate)
+{
+    const int32_t n = gate->config.n_fingers;
+    return n < 0 ? 0 : (n > RTCORE_MAX_FINGERS ? RTCORE_MAX_FINGERS : n);
+}
+
+void rtcore_gate_reset(rtcore_gate *gate)
+{
+    int32_t i;
+    if (gate == 0) {
+        return;
+    }
+    for (i = 0; i < RTCORE_MAX_FINGERS; ++i) {
+        gate->expected_kpa[i] = 0.0;
+        gate->leak_ticks[i] = 0;
+    }
+}
+
+int32_t rtcore_gate_inputs(const rtcore_gate *gate, const rtcore_inputs *in, rtcore_gate_result *result)
+{
+    int32_t i;
+    if (gate == 0 || in == 0) {
+        return found(result, RTCORE_GATE_NON_FINITE, -1, NAN, NAN);
+    }
+    for (i = 0; i < fingers(gate); ++i) {
+        if (!isfinite(in->sensor_mv[i])) {
+            return found(result, RTCORE_GATE_NON_FINITE, i, in->sensor_mv[i], NAN);
+        }
+        if (isinf(in->pressure_meas_kpa[i])) {
+            return found(result, RTCORE_GATE_NON_FINITE, i, in->pressure_meas_kpa[i], NAN);
+        }
+    }
+    return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);
+}
+
+int32_t rtcore_gate_outputs(const rtcore_gate *gate, const rtcore_outputs *out, rtcore_gate_result *result)
+{
+    const rtcore_gate_config *c;
+    int32_t i;
+    if (gate == 0 || out == 0) {
+        return found(result, RTCORE_GATE_NON_FINITE, -1, NAN, NAN);
+    }
+    c = &gate->config;
+    for (i = 0; i < fingers(gate); ++i) {
+        const double angle = out->angle_deg[i];
+        const double command = out->pressure_cmd_kpa[i];
+        if (!isfinite(angle)) {
+            return found(result, RTCORE_GATE_NON_FINITE, i, angle, NAN);
+        }
+        if (!isfinite(command)) {
+            return found(result, RTCORE_GATE_NON_FINITE, i, command, NAN);
+        }
+        if (angle < c->angle_min_deg) {
+            return found(result, RTCORE_GATE_ANGLE_OUT_OF_RANGE, i, angle, c->angle_min_deg);
+        }
+        if (angle > c->angle_max_deg) {
+            return found(result, RTCORE_GATE_ANGLE_OUT_OF_RANGE, i, angle, c->angle_max_deg);
+        }
+        if (command > c->pressure_max_kpa[i]) {
+            return found(result, RTCORE_GATE_PRESSURE_OVER_LIMIT, i, command, c->pressure_max_kpa[i]);
+        }
+        if (command < c->pressure_min_kpa[i] && command != 0.0) {
+            return found(result, RTCORE_GATE_PRESSURE_OVER_LIMIT, i, command, c->pressure_min_kpa[i]);
+        }
+    }
+    return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);
+}
+
+int32_t rtcore_gate_follow(rtcore_gate *gate, const double *sent_kpa, const rtcore_inputs *in,
+                           rtcore_gate_result *result)
+{
+    const rtcore_gate_config *c;
+    int32_t worst = -1;
+    int32_t i;
+    if (gate == 0 || sent_kpa == 0 || in == 0) {
+        return found(result, RTCORE_GATE_NON_FINITE, -1, NAN, NAN);
+    }
+    c = &gate->config;
+    for (i = 0; i < fingers(gate); ++i) {
+        /* NaN, not reported, compares false: never counted */
+        if (fabs(in->pressure_meas_kpa[i] - gate->expected_kpa[i]) > c->leak_tolerance_kpa) {
+            gate->leak_ticks[i] += 1;
+        } else {
+            gate->leak_ticks[i] = 0;
+        }
+        gate->expected_kpa[i] += c->follow_alpha[i] * (sent_kpa[i] - gate->expected_kpa[i]);
+        if (gate->leak_ticks[i] >= c->leak_ticks && (worst < 0 || gate->leak_ticks[i] > gate->leak_ticks[worst])) {
+            worst = i;
+        }
+    }
+    if (worst >= 0) {
+        return found(result, RTCORE_GATE_LEAK_OR_BURST, worst, in->pressure_meas_kpa[worst],
+                     gate->expected_kpa[worst]);
+    }
+    return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);
+}
