@@ -17,6 +17,10 @@ from hand_service.errors import UserError
 COMMANDS: dict[str, str] = {
     "run": "hand_service.commands.run",
     "bench": "hand_service.commands.bench",
+    "identify": "hand_service.commands.identify",
+    "calibrate": "hand_service.commands.calibrate",
+    "replicate": "hand_service.commands.replicate",
+    "trials": "hand_service.commands.trials",
 }
 
 DESCRIPTION = """\
