@@ -38,7 +38,7 @@ class FreeDecay:
     sign: float  # +1 when the finger was held above its rest angle
     rest_deg: float  # median of the record's last quarter
     hold_deg: float  # the held angle, relative to rest, in the held direction
-    noise_deg: float  # sensor noise, from the quiet part before the release
+    noise_deg: float  # sensor noise on the hold before the release (0: hold too short to tell)
     start_index: int  # index in the recording of the decay's first sample
 
 
@@ -86,12 +86,18 @@ class DecayEstimate:
                           self.damped_freq_rad_per_s)[:, 1:] @ np.array([a, b])
 
 
-def _robust_noise(x: np.ndarray) -> float:
-    """σ of white noise on a slowly varying signal, from the MAD of second differences."""
-    if x.size < 5:
+def _plateau_noise(h: np.ndarray, end: int, floor: float) -> float:
+    """σ of the sensor on the hold: the detrended spread of the contiguous samples above
+    `floor` before index `end` (0 when the hold is too short to tell)."""
+    begin = end
+    while begin > 0 and h[begin - 1] > floor and end - begin < 500:
+        begin -= 1
+    plateau = h[begin:end]
+    if plateau.size < 10:
         return 0.0
-    d2 = np.diff(x, 2)
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+    index = np.arange(plateau.size)
+    trend = np.polyval(np.polyfit(index, plateau, 1), index)
+    return float(np.std(plateau - trend, ddof=2))
 
 
 def extract_decay(t_s: np.ndarray, angle_deg: np.ndarray, source: str = "") -> FreeDecay:
@@ -104,17 +110,20 @@ def extract_decay(t_s: np.ndarray, angle_deg: np.ndarray, source: str = "") -> F
     sign = 1.0 if excursion[peak] >= 0 else -1.0
     h = sign * (angle_deg - rest)
     hold = float(sign * excursion[peak])
-    quiet = h[max(0, peak - 50):peak + 1]
-    noise = _robust_noise(quiet) if quiet.size >= 10 else _robust_noise(angle_deg[-max(10, n // 4):])
-    if hold < max(10.0 * noise, 1e-6):
+    rough_noise = 1.4826 * float(np.median(np.abs(angle_deg - rest - excursion)))  # robust to the decay
+    if hold <= 0.0 or hold < 10.0 * rough_noise:
         raise UserError(f"{label}no release found: the angle never leaves its rest level "
                         f"({rest:.3g} deg) by more than the noise")
-    threshold = max(0.15 * hold, 5.0 * noise)
+    threshold = 0.15 * hold
     after = np.flatnonzero(h[peak:] < hold - threshold)
     if after.size == 0:
         raise UserError(f"{label}no release found: the finger stays at {rest + sign * hold:.3g} deg "
                         "to the end of the recording")
     start = peak + int(after[0])
+    noise = _plateau_noise(h, start - 1, hold - threshold)
+    if hold < 10.0 * noise:
+        raise UserError(f"{label}no release found: the largest excursion ({hold:.3g} deg) is within "
+                        f"ten times the sensor noise ({noise:.2g} deg)")
     if n - start < 10:
         raise UserError(f"{label}the recording ends {n - start} samples after the release")
     return FreeDecay(t_s=t_s[start:], angle_deg=angle_deg[start:], sign=sign, rest_deg=rest,
@@ -134,6 +143,8 @@ def _peak_indices(decay: FreeDecay, h: np.ndarray) -> np.ndarray:
     """Crests of h (the decay toward rest, in the held direction) above the noise, in order,
     up to the first that the noise could have made."""
     omega = _dominant_freq_rad_per_s(decay.t_s, h)
+    if omega <= 0.0:
+        return np.empty(0, dtype=int)
     dt = float(np.median(np.diff(decay.t_s)))
     distance = max(2, int(0.7 * 2.0 * math.pi / omega / dt))
     floor = max(5.0 * decay.noise_deg, 0.01 * decay.hold_deg)
@@ -235,6 +246,9 @@ def damped_sine_fit(decay: FreeDecay, source: str = "") -> DecayEstimate:
         seed = None
         omega0 = _dominant_freq_rad_per_s(decay.t_s, decay.angle_deg)
         sigma0 = 0.05 * omega0
+        if omega0 <= 0.0:
+            raise UserError(f"{source + ': ' if source else ''}no oscillation after the release at "
+                            f"t = {decay.t_s[0]:.3g} s") from None
     t = decay.t_s - decay.t_s[0]
     x = decay.angle_deg
     sigma, omega, coefficients = _fit_window(t, x, sigma0, omega0)
@@ -242,7 +256,7 @@ def damped_sine_fit(decay: FreeDecay, source: str = "") -> DecayEstimate:
         _, residual = _solve(t, x, sigma, omega)
         noise = float(np.sqrt(np.mean(residual**2)))
         amplitude = math.hypot(coefficients[1], coefficients[2])
-        if sigma <= 0.0 or amplitude <= noise:
+        if sigma <= 0.0 or noise <= 0.0 or amplitude <= noise:
             break
         end = min(t[-1], math.log(amplitude / noise) / sigma)
         keep = t <= end

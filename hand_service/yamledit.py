@@ -43,10 +43,11 @@ def _last_line(node: LineDict) -> int:
 def _indent_of(lines: list[str], node: LineDict, path: Path, where: str) -> str:
     if not node:
         raise UserError(f"{path}: {where} is empty; add the key by hand")
-    first = lines[(node.line_of(next(iter(node))) or 1) - 1]
-    if node.line is not None and "{" in lines[node.line - 1].split("#")[0] and \
-            node.line_of(next(iter(node))) == node.line:
-        raise UserError(f"{path}:{node.line}: {where} is a flow mapping {{...}}; cannot add a key to it "
+    key = str(next(iter(node)))
+    first = lines[(node.line_of(key) or 1) - 1]
+    if not first.lstrip().startswith(key):  # `{key: ...}`: flow style
+        raise UserError(f"{path}:{node.line_of(key)}: {where} is a flow mapping {{...}}; "
+                        "cannot add a key to it "
                         "line by line: rewrite it in block style")
     return first[: len(first) - len(first.lstrip())]
 
