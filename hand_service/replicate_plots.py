@@ -25,9 +25,9 @@ def ldm_figure(result: Result, path: Path) -> Path:
                 fit = getattr(m, method)
                 errors = 100 * (np.array([t.to_json()[key] for t in fit.trials]) / true - 1)
                 ax.plot(np.full(errors.size, i + offset), errors, ".", color=color, alpha=0.5)
-                label = "damped-sine fit" if method == "identified" else "two-peak (paper)"
+                legend = "damped-sine fit" if method == "identified" else "two-peak (paper)"
                 ax.plot(i + offset, 100 * (fit.mean(key) / true - 1), "_", ms=18, mew=2, color=color,
-                        label=label if i == 0 else None)
+                        label=legend if i == 0 else None)
         ax.axhline(0.0, color="0.5", lw=0.8)
         ax.set_xticks(range(len(names)), names)
         ax.set_ylabel(f"{label} error against the truth (%)")
