@@ -87,11 +87,11 @@ def cycle_amplitudes(decay: FreeDecay, fit: DecayEstimate) -> CycleAmplitudes:
     """Amplitude of each whole cycle of the fitted window while the fitted envelope stays
     above four times the noise. (Stopping on the envelope, not on the measured amplitude,
     keeps the last cycles free of a selection bias.)"""
-    if fit.coefficients is None or fit.rmse_deg is None:
+    if fit.coefficients_deg is None or fit.rmse_deg is None:
         raise ValueError("cycle amplitudes need the damped-sine fit")
     sigma, omega, period = fit.decay_rate_per_s, fit.damped_freq_rad_per_s, fit.damped_period_s
     noise = fit.rmse_deg
-    initial = math.hypot(fit.coefficients[1], fit.coefficients[2])
+    initial = math.hypot(fit.coefficients_deg[1], fit.coefficients_deg[2])
     centres, amplitudes = [], []
     start = fit.start_s
     while (start + period <= fit.end_s + 1e-9

@@ -19,7 +19,7 @@ from hand_service import ldm
 from hand_service.decrement_drift import CycleAmplitudes, Drift, cycle_amplitudes, decrement_drift
 from hand_service.errors import UserError
 from hand_service.model import FingerModel
-from hand_service.recording import Recording, read_recording
+from hand_service.recording import Recording, check_finger, read_recording
 
 NOISE_RATIO_WARNING = 2.0  # fit residual over the sensor noise beyond which the decay is no damped sine
 PRESSURE_CHANGE_WARNING_KPA = 2.0
@@ -152,6 +152,7 @@ def identify_recordings(paths: list[Path], model: FingerModel, finger: str | Non
     trials, warnings = [], []
     for path in paths:
         recording = read_recording(path, finger)
+        check_finger(recording, finger or model.finger)
         trial = identify_trial(recording, model.inertia_kgm2, method)
         trials.append(trial)
         warnings.extend(_trial_warnings(trial, recording))

@@ -52,7 +52,7 @@ class DecayEstimate:
     end_s: float
     peaks_t_s: np.ndarray = field(default_factory=lambda: np.empty(0))
     peaks_deg: np.ndarray = field(default_factory=lambda: np.empty(0))
-    coefficients: tuple[float, float, float] | None = None  # (c, a, b) of the fitted curve
+    coefficients_deg: tuple[float, float, float] | None = None  # (c, a, b) of the fitted curve
     rmse_deg: float | None = None
 
     @property
@@ -79,9 +79,9 @@ class DecayEstimate:
 
     def curve_deg(self, t_s: np.ndarray) -> np.ndarray:
         """The fitted free response (fit method only)."""
-        if self.coefficients is None:
+        if self.coefficients_deg is None:
             raise ValueError("only the damped-sine fit has a curve")
-        c, a, b = self.coefficients
+        c, a, b = self.coefficients_deg
         return c + _basis(np.asarray(t_s) - self.start_s, self.decay_rate_per_s,
                           self.damped_freq_rad_per_s)[:, 1:] @ np.array([a, b])
 

@@ -49,11 +49,11 @@ class TrackingRun:
     reference_deg: np.ndarray
     angle_deg: np.ndarray  # true angle, (ticks, fingers)
     command_kpa: np.ndarray
-    skip: int  # ticks of the first period, left out of the figures
+    skip_ticks: int  # the first period, left out of the figures
 
     @property
     def error_deg(self) -> np.ndarray:
-        return self.angle_deg[self.skip:] - self.reference_deg[self.skip:, None]
+        return self.angle_deg[self.skip_ticks:] - self.reference_deg[self.skip_ticks:, None]
 
     @property
     def rmse_deg(self) -> np.ndarray:

@@ -7,25 +7,31 @@ from pathlib import Path
 from typing import Any
 
 HELP = "calibrate the pressure gain N, the flex sensor map or the valve from measured data"
-DESCRIPTION = """\
+GAIN_DOC = """\
 gain SWEEP.csv --model MODEL.yaml [--finger NAME]
     N (pressure gain, N·m/kPa) from a slow pressure sweep at quasi-static equilibrium:
     N·p = k·θ (plus the model's static effects), fitted over the whole sweep with the
     fit quality (R², residual in deg). The chamber pressure is the measured one
     (pressure_meas_kpa) when the recording has it, else the command; a ṗ term absorbs
     the lag of the valve and finger, so sweep up and down. Needs k (run identify first).
+"""
+SENSOR_DOC = """\
 sensor PAIRS.csv
     The flex sensor's linear map angle_deg = gain·mV + offset, per finger, from measured
     pairs (columns sensor_mv and angle_deg, optional finger), with R².
-valve STEPS.csv
+"""
+VALVE_DOC = """\
+valve STEPS.csv --model MODEL.yaml [--finger NAME]
     The valve's first-order lag τ and dead time from the measured chamber pressure
     (pressure_meas_kpa) after command steps (pressure_kpa): the model's valve_lag and
     dead_time effects, which the feedforward compensates.
-
+"""
+OUTPUT_DOC = """
 All print a table and write JSON with --json. --write-model OUT.yaml writes the model
 with the new value(s); --update-profile PROFILE.yaml changes the values in the profile
 in place, line by line, so its comments survive.
-
+"""
+DESCRIPTION = GAIN_DOC + SENSOR_DOC + VALVE_DOC + OUTPUT_DOC + """
 Examples:
   hand-service calibrate gain sweep.csv --model sim.yaml --finger index --update-profile my.yaml
   hand-service calibrate sensor pairs.csv --json sensor.json --update-profile my.yaml
@@ -45,16 +51,21 @@ def _common(parser: argparse.ArgumentParser, model: bool) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="what", required=True, metavar="gain|sensor|valve")
-    gain = sub.add_parser("gain", help="N from a slow pressure sweep")
+
+    def add(name: str, help_text: str, doc: str) -> argparse.ArgumentParser:
+        return sub.add_parser(name, help=help_text, description=doc + OUTPUT_DOC,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+
+    gain = add("gain", "N from a slow pressure sweep", GAIN_DOC)
     gain.add_argument("recording", type=Path, metavar="SWEEP.csv")
     _common(gain, model=True)
     gain.add_argument("--pressure", choices=["auto", "measured", "command"], default="auto",
                       help="which pressure: measured chamber pressure (auto: when present) or the command")
     gain.add_argument("--plot", type=Path, metavar="OUT.png", help="torque against pressure, residual")
-    sensor = sub.add_parser("sensor", help="the flex sensor's mV -> deg map from measured pairs")
+    sensor = add("sensor", "the flex sensor's mV -> deg map from measured pairs", SENSOR_DOC)
     sensor.add_argument("recording", type=Path, metavar="PAIRS.csv")
     _common(sensor, model=False)
-    valve = sub.add_parser("valve", help="valve lag and dead time from pressure steps")
+    valve = add("valve", "valve lag and dead time from pressure steps", VALVE_DOC)
     valve.add_argument("recording", type=Path, metavar="STEPS.csv")
     _common(valve, model=True)
 
@@ -96,10 +107,11 @@ def _write_back(args: argparse.Namespace, model: Any, changes: dict[str, Any], f
 def _gain(args: argparse.Namespace) -> dict[str, Any]:
     from hand_service.calibration import fit_pressure_gain
     from hand_service.model import load_model
-    from hand_service.recording import read_recording
+    from hand_service.recording import check_finger, read_recording
 
     model = load_model(args.model, args.finger)
     recording = read_recording(args.recording, args.finger)
+    check_finger(recording, args.finger or model.finger)
     fit = fit_pressure_gain(recording, model, args.pressure)
     print(f"calibrate gain: {args.recording.name}, finger {model.finger or recording.finger or '?'}, "
           f"k = {fit.stiffness_nm_per_rad:.5g} N·m/rad from the model, pressure from {fit.pressure_column}\n")
@@ -163,10 +175,11 @@ def _sensor(args: argparse.Namespace) -> dict[str, Any]:
 def _valve(args: argparse.Namespace) -> dict[str, Any]:
     from hand_service.calibration import fit_valve
     from hand_service.model import load_model
-    from hand_service.recording import read_recording
+    from hand_service.recording import check_finger, read_recording
 
     model = load_model(args.model, args.finger)
     recording = read_recording(args.recording, args.finger)
+    check_finger(recording, args.finger or model.finger)
     fit = fit_valve(recording)
     print(f"calibrate valve: {args.recording.name}, first-order lag behind a dead time\n")
     print("| valve_lag tau (s) | dead_time (s) | residual RMS (kPa) | samples |")

@@ -75,12 +75,13 @@ def test_two_peak_is_the_paper_formula_on_sample_exact_peaks() -> None:
     assert estimate.damping_nms_per_rad(2e-4) == pytest.approx(2 * zeta * omega_n * 2e-4, rel=1e-8)
 
 
-def test_fit_is_exact_on_noise_free_data_and_handles_jitter() -> None:
+@pytest.mark.parametrize("held_deg", [30.0, -20.0])  # pushed up, or pushed back
+def test_fit_is_exact_on_noise_free_data_and_handles_jitter(held_deg: float) -> None:
     rng = np.random.default_rng(3)
     t = np.arange(400) / 100.0 + rng.uniform(-0.002, 0.002, 400)  # timing jitter, recorded honestly
     t[0] = 0.0
     sigma, omega = 5.2, 2 * math.pi * 11.3
-    x = _damped_sine(t, sigma, omega, release_s=0.503) + 1.5  # rest off zero
+    x = _damped_sine(t, sigma, omega, held_deg, release_s=0.503) + 1.5  # rest off zero
     fit = ldm.damped_sine_fit(ldm.extract_decay(t, x))
     assert fit.decay_rate_per_s == pytest.approx(sigma, rel=1e-6)
     assert fit.damped_freq_rad_per_s == pytest.approx(omega, rel=1e-7)
@@ -154,6 +155,11 @@ def test_a_pressure_change_during_the_decay_is_a_warning(tmp_path: Path, profile
     path = _write(tmp_path / "pumped.csv", _damped_sine(t, 6.0, 80.0), np.where(t > 1.0, 20.0, 0.0))
     result = identify_recordings([path], profile.finger("thumb").model, "thumb")
     assert any("pressure changes by 20.0 kPa" in w for w in result.warnings)
+
+
+def test_a_trial_of_another_finger_is_refused(profile: Profile, release_files: dict[str, list[Path]]) -> None:
+    with pytest.raises(UserError, match="recorded from finger 'ring', but the model is finger 'index'"):
+        identify_recordings(release_files["ring"][:1], load_model(profile.path, "index"))
 
 
 def test_unknown_method_and_no_trials(profile: Profile) -> None:
