@@ -193,22 +193,23 @@ def all_peaks(decay: FreeDecay, source: str = "") -> DecayEstimate:
     """Sub-sample crests and troughs over every cycle above the noise: T_d and δ by
     regression of their times and log-amplitudes on the half-cycle index."""
     h = decay.sign * (decay.angle_deg - decay.rest_deg)
-    crests = _crests(decay, h)
-    troughs = _crests(decay, -h)
-    extrema = sorted(crests + troughs)
-    if len(crests) < 2 or len(extrema) < 3:
-        raise _too_few(source, len(crests), 2)
-    times, heights = np.array(extrema).T
+    extrema = sorted([(t, x, 1.0) for t, x in _crests(decay, h)]
+                     + [(t, x, -1.0) for t, x in _crests(decay, -h)])
+    kept = 1
+    while kept < len(extrema) and extrema[kept][2] != extrema[kept - 1][2]:
+        kept += 1  # a crest, a trough, a crest ...: stop where one is missing
+    times, heights, kinds = np.array(extrema[:kept]).T if extrema else (np.empty(0),) * 3
+    if np.sum(kinds > 0) < 2 or times.size < 3:
+        raise _too_few(source, int(np.sum(kinds > 0)), 2)
     index = np.arange(times.size)
     half_period = float(np.polyfit(index, times - times[0], 1)[0])
     # δ from the log-amplitudes, weighted by amplitude (their noise is σ/x)
     slope = np.polyfit(index, np.log(heights), 1, w=heights)[0]
     delta = max(-2.0 * float(slope), 1e-9)
     period = 2.0 * half_period
-    is_crest = np.isin(times, [c[0] for c in crests])
-    signs = np.where(is_crest, decay.sign, -decay.sign)
     return DecayEstimate("peaks", delta / period, 2.0 * math.pi / period, decay.rest_deg,
-                         float(decay.t_s[0]), float(times[-1]), times, decay.rest_deg + signs * heights)
+                         float(decay.t_s[0]), float(times[-1]), times,
+                         decay.rest_deg + decay.sign * kinds * heights)
 
 
 def _basis(t: np.ndarray, sigma: float, omega: float) -> np.ndarray:

@@ -43,8 +43,8 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.jsonio import tables_out, write_json
     from hand_service.replicate import Options, replicate
 
-    options = Options.quick_run() if args.quick else Options()
-    options.profile, options.seed, options.trials_dir = args.profile, args.seed, args.trials
+    chosen = {"profile": args.profile, "seed": args.seed, "trials_dir": args.trials}
+    options = Options.quick_run(**chosen) if args.quick else Options(**chosen)
 
     def progress(message: str) -> None:
         print(f"replicate: {message}", file=sys.stderr, flush=True)

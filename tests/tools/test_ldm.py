@@ -125,9 +125,12 @@ def test_air_drag_warns_the_other_way(profile: Profile, tmp_path: Path) -> None:
 
 def test_no_drift_warning_on_a_viscous_finger(profile: Profile, release_files: dict[str, list[Path]]) -> None:
     for name in ("thumb", "middle"):
-        result = identify_recordings(release_files[name], profile.finger(name).model, name, "peaks")
+        model = profile.finger(name).model
+        result = identify_recordings(release_files[name], model, name, "peaks")
         assert result.drift is not None and result.drift.kind == "viscous"
         assert not result.warnings
+        assert result.stiffness_nm_per_rad == pytest.approx(model.stiffness_nm_per_rad, rel=0.015)
+        assert result.damping_nms_per_rad == pytest.approx(model.damping_nms_per_rad, rel=0.05)
 
 
 def _write(path: Path, angle: np.ndarray, pressure: np.ndarray | None = None) -> Path:
