@@ -128,18 +128,26 @@ def identify_trial(recording: Recording, inertia_kgm2: float, method: str = "fit
     return TrialResult(source, decay, estimate, fit, cycle_amplitudes(decay, fit), inertia_kgm2, recording)
 
 
-def _trial_warnings(trial: TrialResult, recording: Recording) -> list[str]:
+def _warnings(trials: list[TrialResult]) -> list[str]:
+    """One line per kind of trouble, naming the trials it concerns."""
+    pumped, missed = [], []
+    for trial in trials:
+        name = Path(trial.file).name
+        pressure = trial.recording.pressure_kpa[trial.decay.start_index:]
+        if pressure.size and float(np.ptp(pressure)) > PRESSURE_CHANGE_WARNING_KPA:
+            pumped.append(f"{name} ({np.ptp(pressure):.1f} kPa)")
+        noise, rmse = trial.decay.noise_deg, trial.fit.rmse_deg
+        if rmse is not None and noise > 0 and rmse > NOISE_RATIO_WARNING * noise:
+            missed.append(f"{name} ({rmse:.2f} deg, {rmse / noise:.1f}x)")
     warnings = []
-    name = Path(trial.file).name
-    pressure = recording.pressure_kpa[trial.decay.start_index:]
-    if pressure.size and float(np.ptp(pressure)) > PRESSURE_CHANGE_WARNING_KPA:
-        warnings.append(f"{name}: the pressure changes by {np.ptp(pressure):.1f} kPa during the decay; "
-                        "the LDM assumes a free oscillation at constant pressure")
-    noise = trial.decay.noise_deg
-    if trial.fit.rmse_deg is not None and noise > 0 and trial.fit.rmse_deg > NOISE_RATIO_WARNING * noise:
-        warnings.append(f"{name}: the damped sine misses the data by {trial.fit.rmse_deg:.2f} deg RMS, "
-                        f"{trial.fit.rmse_deg / noise:.1f}x the sensor noise: the decay is not a plain "
-                        "damped sine (asymmetric or nonlinear stiffness?)")
+    if pumped:
+        warnings.append(f"the pressure changes during the decay in {len(pumped)} of {len(trials)} trial(s): "
+                        f"{', '.join(pumped)}; the LDM assumes a free oscillation at constant pressure")
+    if missed:
+        warnings.append(f"the damped sine misses the data by more than {NOISE_RATIO_WARNING:g}x the sensor "
+                        f"noise in {len(missed)} of {len(trials)} trial(s): {', '.join(missed)}; the decay "
+                        "is not a plain damped sine (asymmetric or nonlinear stiffness? run "
+                        "`hand-service diagnose`)")
     return warnings
 
 
@@ -149,13 +157,12 @@ def identify_recordings(paths: list[Path], model: FingerModel, finger: str | Non
         raise UserError(f"unknown method '{method}' (one of {', '.join(ldm.METHODS)})")
     if not paths:
         raise UserError("give at least one trial recording")
-    trials, warnings = [], []
+    trials = []
     for path in paths:
         recording = read_recording(path, finger)
         check_finger(recording, finger or model.finger)
-        trial = identify_trial(recording, model.inertia_kgm2, method)
-        trials.append(trial)
-        warnings.extend(_trial_warnings(trial, recording))
+        trials.append(identify_trial(recording, model.inertia_kgm2, method))
+    warnings = _warnings(trials)
     drift = decrement_drift([t.cycles for t in trials])
     note = drift.warning(float(np.mean([t.fit.stiffness_nm_per_rad(model.inertia_kgm2) for t in trials]))) \
         if drift else None

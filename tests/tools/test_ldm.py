@@ -123,6 +123,12 @@ def test_air_drag_warns_the_other_way(profile: Profile, tmp_path: Path) -> None:
     assert result.drift.log_decrement_high > result.drift.log_decrement_low
 
 
+def test_a_decay_that_is_no_damped_sine_is_a_warning(profile: Profile, tmp_path: Path) -> None:
+    result = _identify_truth(profile, tmp_path, "thumb", "asymmetric_stiffness", {"stiffness_ratio": 1.5})
+    warning = next(w for w in result.warnings if "misses the data" in w)
+    assert "asymmetric or nonlinear stiffness" in warning and "of 10 trial(s)" in warning
+
+
 def test_no_drift_warning_on_a_viscous_finger(profile: Profile, release_files: dict[str, list[Path]]) -> None:
     for name in ("thumb", "middle"):
         model = profile.finger(name).model
@@ -157,7 +163,8 @@ def test_a_pressure_change_during_the_decay_is_a_warning(tmp_path: Path, profile
     t = np.arange(300) / 100.0
     path = _write(tmp_path / "pumped.csv", _damped_sine(t, 6.0, 80.0), np.where(t > 1.0, 20.0, 0.0))
     result = identify_recordings([path], profile.finger("thumb").model, "thumb")
-    assert any("pressure changes by 20.0 kPa" in w for w in result.warnings)
+    assert any("pressure changes during the decay in 1 of 1 trial(s): pumped.csv (20.0 kPa)" in w
+               for w in result.warnings)
 
 
 def test_a_trial_of_another_finger_is_refused(profile: Profile, release_files: dict[str, list[Path]]) -> None:
