@@ -18,6 +18,10 @@ COMMANDS: dict[str, str] = {
     "run": "hand_service.commands.run",
     "bench": "hand_service.commands.bench",
     "ctl": "hand_service.commands.ctl",
+    "identify": "hand_service.commands.identify",
+    "calibrate": "hand_service.commands.calibrate",
+    "replicate": "hand_service.commands.replicate",
+    "trials": "hand_service.commands.trials",
 }
 
 DESCRIPTION = """\

@@ -180,6 +180,15 @@ def read_recording(path: str | Path, finger: str | None = None, required: tuple[
                      finger=finger or metadata.get("finger"))
 
 
+def check_finger(recording: Recording, finger: str | None) -> None:
+    """A recording whose `# finger:` line names another finger than the model's is a mistake
+    (its inertia, gain and limits are another finger's)."""
+    recorded = recording.metadata.get("finger")
+    if finger is not None and recorded is not None and recorded != finger:
+        raise UserError(f"{recording.path}: recorded from finger '{recorded}', but the model is "
+                        f"finger '{finger}'")
+
+
 def cells_text(value: float) -> str:
     return "NaN" if math.isnan(value) else str(value)
 

@@ -1,0 +1,200 @@
+"""`hand-service calibrate gain|sensor|valve`: calibrations from measured data."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+HELP = "calibrate the pressure gain N, the flex sensor map or the valve from measured data"
+GAIN_DOC = """\
+gain SWEEP.csv --model MODEL.yaml [--finger NAME]
+    N (pressure gain, N·m/kPa) from a slow pressure sweep at quasi-static equilibrium:
+    N·p = k·θ (plus the model's static effects), fitted over the whole sweep with the
+    fit quality (R², residual in deg). The chamber pressure is the measured one
+    (pressure_meas_kpa) when the recording has it, else the command; a ṗ term absorbs
+    the lag of the valve and finger, so sweep up and down. Needs k (run identify first).
+"""
+SENSOR_DOC = """\
+sensor PAIRS.csv
+    The flex sensor's linear map angle_deg = gain·mV + offset, per finger, from measured
+    pairs (columns sensor_mv and angle_deg, optional finger), with R².
+"""
+VALVE_DOC = """\
+valve STEPS.csv --model MODEL.yaml [--finger NAME]
+    The valve's first-order lag τ and dead time from the measured chamber pressure
+    (pressure_meas_kpa) after command steps (pressure_kpa): the model's valve_lag and
+    dead_time effects, which the feedforward compensates.
+"""
+OUTPUT_DOC = """
+All print a table and write JSON with --json. --write-model OUT.yaml writes the model
+with the new value(s); --update-profile PROFILE.yaml changes the values in the profile
+in place, line by line, so its comments survive.
+"""
+DESCRIPTION = GAIN_DOC + SENSOR_DOC + VALVE_DOC + OUTPUT_DOC + """
+Examples:
+  hand-service calibrate gain sweep.csv --model sim.yaml --finger index --update-profile my.yaml
+  hand-service calibrate sensor pairs.csv --json sensor.json --update-profile my.yaml
+"""
+
+
+def _common(parser: argparse.ArgumentParser, model: bool) -> None:
+    if model:
+        parser.add_argument("--model", required=True, type=Path, metavar="MODEL.yaml",
+                            help="finger model or firmware profile")
+    parser.add_argument("--finger", help="finger name (a profile's block, a recording's columns)")
+    parser.add_argument("--json", type=Path, metavar="OUT.json", help="write JSON ('-': stdout)")
+    parser.add_argument("--write-model", type=Path, metavar="OUT.yaml", help="write the updated model here")
+    parser.add_argument("--update-profile", type=Path, metavar="PROFILE.yaml",
+                        help="change the values in this profile in place (comments kept)")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="what", required=True, metavar="gain|sensor|valve")
+
+    def add(name: str, help_text: str, doc: str) -> argparse.ArgumentParser:
+        return sub.add_parser(name, help=help_text, description=doc + OUTPUT_DOC,
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+
+    gain = add("gain", "N from a slow pressure sweep", GAIN_DOC)
+    gain.add_argument("recording", type=Path, metavar="SWEEP.csv")
+    _common(gain, model=True)
+    gain.add_argument("--pressure", choices=["auto", "measured", "command"], default="auto",
+                      help="which pressure: measured chamber pressure (auto: when present) or the command")
+    gain.add_argument("--plot", type=Path, metavar="OUT.png", help="torque against pressure, residual")
+    sensor = add("sensor", "the flex sensor's mV -> deg map from measured pairs", SENSOR_DOC)
+    sensor.add_argument("recording", type=Path, metavar="PAIRS.csv")
+    _common(sensor, model=False)
+    valve = add("valve", "valve lag and dead time from pressure steps", VALVE_DOC)
+    valve.add_argument("recording", type=Path, metavar="STEPS.csv")
+    _common(valve, model=True)
+
+
+def _finger_name(args: argparse.Namespace, model_finger: str | None, recording_finger: str | None) -> str:
+    from hand_service.errors import UserError
+
+    name = args.finger or model_finger or recording_finger
+    if name is None:
+        raise UserError("--update-profile needs to know the finger: give --finger")
+    return name
+
+
+def _write_back(args: argparse.Namespace, model: Any, changes: dict[str, Any], finger: str | None,
+                header: str) -> None:
+    from hand_service.model import save_model
+    from hand_service.profile import load_profile
+    from hand_service.yamledit import update_values
+
+    if args.write_model is not None:
+        save_model(model.with_changes(**changes), args.write_model, header=header)
+        print(f"wrote {args.write_model}")
+    if args.update_profile is not None:
+        name = _finger_name(args, model.finger, finger)
+        updates = []
+        for key, value in changes.items():
+            if key == "effects":  # only the effects that changed
+                updates += [(("hand", name, "effects", effect, param), v)
+                            for effect, params in value.items() if model.effects.get(effect) != params
+                            for param, v in params.items()]
+            else:
+                updates.append((("hand", name, key), value))
+        load_profile(args.update_profile).finger(name)  # the finger must exist
+        update_values(args.update_profile, updates, load_profile)
+        changed = ", ".join(".".join(u[0][2:]) for u in updates)
+        print(f"updated {args.update_profile} (hand.{name}: {changed})")
+
+
+def _gain(args: argparse.Namespace) -> dict[str, Any]:
+    from hand_service.calibration import fit_pressure_gain
+    from hand_service.model import load_model
+    from hand_service.recording import check_finger, read_recording
+
+    model = load_model(args.model, args.finger)
+    recording = read_recording(args.recording, args.finger)
+    check_finger(recording, args.finger or model.finger)
+    fit = fit_pressure_gain(recording, model, args.pressure)
+    print(f"calibrate gain: {args.recording.name}, finger {model.finger or recording.finger or '?'}, "
+          f"k = {fit.stiffness_nm_per_rad:.5g} N·m/rad from the model, pressure from {fit.pressure_column}\n")
+    print("| N (N·m/kPa) | ± (1 s.e.) | R² | residual RMS (deg) | lag (s) | samples |")
+    print("|---|---|---|---|---|---|")
+    print(f"| {fit.pressure_gain_nm_per_kpa:.6g} | {fit.pressure_gain_se_nm_per_kpa:.2g} "
+          f"| {fit.r_squared:.6f} | {fit.rmse_deg:.3f} | {fit.lag_s:.4f} | {fit.pressure_kpa.size} |")
+    if model.pressure_gain_nm_per_kpa:
+        change = fit.pressure_gain_nm_per_kpa / model.pressure_gain_nm_per_kpa - 1.0
+        print(f"\nthe model had N = {model.pressure_gain_nm_per_kpa:.6g} ({100 * change:+.2f} %)")
+    if fit.r_squared < 0.99:
+        print(f"warning: R² = {fit.r_squared:.4f}: the angle is not linear in the pressure; a static "
+              "effect (cubic stiffness, dead zone, gravity) may be missing: try `hand-service diagnose`")
+    if args.plot is not None:
+        from hand_service.plots import gain_figure
+
+        print(f"wrote {gain_figure(fit, args.plot)}")
+    _write_back(args, model, {"pressure_gain_nm_per_kpa": fit.pressure_gain_nm_per_kpa}, recording.finger,
+                f"N from `hand-service calibrate gain {args.recording.name}` "
+                f"(R² {fit.r_squared:.6f}, k = {fit.stiffness_nm_per_rad:.5g})")
+    return {"finger": model.finger or recording.finger, **fit.to_json()}
+
+
+def _sensor(args: argparse.Namespace) -> dict[str, Any]:
+    from hand_service.calibration import fit_sensor_map
+    from hand_service.errors import UserError
+    from hand_service.profile import load_profile
+    from hand_service.recording import read_recording
+    from hand_service.yamledit import update_values
+
+    if args.write_model is not None:
+        raise UserError("the sensor map is not part of a model file (formats.md): write it into a profile "
+                        "with --update-profile")
+    recording = read_recording(args.recording, None, required=("sensor_mv", "angle_deg"), min_duration_s=0.0)
+    fits = fit_sensor_map(recording, args.finger)
+    print(f"calibrate sensor: {args.recording.name}, angle_deg = gain·mV + offset\n")
+    print("| finger | gain (deg/mV) | offset (deg) | R² | residual RMS (deg) | pairs |")
+    print("|---|---|---|---|---|---|")
+    for f in fits:
+        print(f"| {f.finger} | {f.gain_deg_per_mv:.6g} | {f.offset_deg:.4f} | {f.r_squared:.6f} "
+              f"| {f.rmse_deg:.3f} | {f.pairs} |")
+    for f in fits:
+        if f.r_squared < 0.99:
+            print(f"warning: finger {f.finger}: R² = {f.r_squared:.4f}, the sensor is not linear "
+                  "over this range")
+    if args.update_profile is not None:
+        profile = load_profile(args.update_profile)
+        missing = [f.finger for f in fits if f.finger not in profile.finger_names]
+        if missing:
+            raise UserError(f"{args.update_profile}: no finger {', '.join(missing)} in hand "
+                            f"({', '.join(profile.finger_names)}); name the fingers in a finger column")
+        updates = [(("hand", f.finger, key), value) for f in fits
+                   for key, value in (("sensor_gain_deg_per_mv", f.gain_deg_per_mv),
+                                      ("sensor_offset_deg", f.offset_deg))]
+        update_values(args.update_profile, updates, load_profile)
+        print(f"updated {args.update_profile} (sensor_gain_deg_per_mv, sensor_offset_deg of "
+              f"{', '.join(f.finger for f in fits)})")
+    return {"fingers": {f.finger: f.to_json() for f in fits}}
+
+
+def _valve(args: argparse.Namespace) -> dict[str, Any]:
+    from hand_service.calibration import fit_valve
+    from hand_service.model import load_model
+    from hand_service.recording import check_finger, read_recording
+
+    model = load_model(args.model, args.finger)
+    recording = read_recording(args.recording, args.finger)
+    check_finger(recording, args.finger or model.finger)
+    fit = fit_valve(recording)
+    print(f"calibrate valve: {args.recording.name}, first-order lag behind a dead time\n")
+    print("| valve_lag tau (s) | dead_time (s) | residual RMS (kPa) | samples |")
+    print("|---|---|---|---|")
+    print(f"| {fit.tau_s:.4f} | {fit.delay_s:.4f} | {fit.rmse_kpa:.3f} | {fit.samples} |")
+    _write_back(args, model, {"effects": {**model.effects, **fit.effects()}}, recording.finger,
+                f"valve_lag and dead_time from `hand-service calibrate valve {args.recording.name}`")
+    return {"finger": model.finger or recording.finger, **fit.to_json()}
+
+
+def main(args: argparse.Namespace) -> int:
+    from hand_service.jsonio import tables_out, write_json
+
+    with tables_out(args.json):
+        result = {"gain": _gain, "sensor": _sensor, "valve": _valve}[args.what](args)
+    if args.json is not None:
+        write_json(args.json, result)
+    return 0
