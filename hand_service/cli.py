@@ -17,6 +17,7 @@ from hand_service.errors import UserError
 COMMANDS: dict[str, str] = {
     "run": "hand_service.commands.run",
     "bench": "hand_service.commands.bench",
+    "mock-firmware": "hand_service.commands.mock_firmware",
 }
 
 DESCRIPTION = """\

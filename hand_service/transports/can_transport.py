@@ -1,0 +1,107 @@
+"""The `can` transport: a valve board on CAN through python-can; frames from the profile's DBC.
+
+Any python-can interface works (SocketCAN, PCAN, Kvaser, ...). Two are tested here:
+`virtual` (in-process; the mock firmware runs in a thread) and `slcan` on a pseudo-
+terminal (the mock firmware plays the adapter in another process). With `raw_log`,
+every frame in and out is written with can.Logger (.asc, .blf, ...) for lab tools.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from pathlib import Path
+from typing import Any
+
+import can
+
+from hand_service.transports.link import Link, LinkTransport
+from hand_service.wire.can_codec import CanCodec
+
+log = logging.getLogger("hand_service.transports")
+
+MAX_FRAMES_PER_READ = 256
+
+
+def bus_arguments(settings: dict[str, Any]) -> dict[str, Any]:
+    """can.Bus keyword arguments for a profile's transport settings."""
+    kwargs: dict[str, Any] = {"interface": settings["interface"], "channel": settings["channel"],
+                              "bitrate": settings["bitrate_bps"]}
+    if settings["interface"] == "slcan":
+        kwargs.update(tty_baudrate=settings["tty_baudrate_bps"], sleep_after_open=0)
+    return kwargs
+
+
+class CanLink(Link):
+    def __init__(self, settings: dict[str, Any], codec: CanCodec) -> None:
+        self.kwargs = bus_arguments(settings)
+        self.codec = codec
+        self.description = f"CAN {settings['interface']}:{settings['channel']}"
+        self.bus: can.BusABC | None = None
+
+    def connect(self) -> None:
+        self.bus = can.Bus(**self.kwargs)
+
+    def close(self) -> None:
+        if self.bus is not None:
+            bus, self.bus = self.bus, None
+            bus.shutdown()
+
+    def read(self, timeout_s: float) -> list[can.Message]:
+        assert self.bus is not None
+        frames: list[can.Message] = []
+        wait = timeout_s
+        while len(frames) < MAX_FRAMES_PER_READ:
+            try:
+                frame = self.bus.recv(wait)
+            except (ValueError, IndexError, UnicodeDecodeError) as exc:
+                # python-can's slcan parser raises on a garbled line; after a byte that is not
+                # UTF-8 it would keep it in its buffer forever, so flush that buffer.
+                self.codec.stats.decode_errors += 1
+                self.codec.stats.note(f"unreadable line from the adapter: {exc}")
+                if isinstance(exc, UnicodeDecodeError):
+                    self.bus.flush()
+                continue
+            if frame is None:
+                break
+            frames.append(frame)
+            wait = 0.0
+        return frames
+
+    def write(self, units: list[can.Message]) -> None:
+        assert self.bus is not None
+        for frame in units:
+            self.bus.send(frame, timeout=0.5)
+
+
+class CanTransport(LinkTransport):
+    kind = "can"
+
+    def _make_codec(self) -> CanCodec:
+        return CanCodec(self.settings["dbc"], self.n_fingers)
+
+    def _make_link(self) -> Link:
+        return CanLink(self.settings, self.codec)
+
+    def open(self):  # type: ignore[no-untyped-def]
+        self._raw_log = can.Logger(self.settings["raw_log"]) if self.settings["raw_log"] else None
+        self._raw_lock = threading.Lock()
+        if self._raw_log is not None:
+            log.info("writing raw CAN traffic to %s", Path(self.settings["raw_log"]).resolve())
+        return super().open()
+
+    def close(self) -> None:
+        super().close()
+        raw_log = getattr(self, "_raw_log", None)
+        if raw_log is not None:
+            self._raw_log = None
+            raw_log.stop()
+
+    def _record(self, units: list[Any], received: bool) -> None:
+        raw_log = getattr(self, "_raw_log", None)
+        if raw_log is None:
+            return
+        with self._raw_lock:
+            for frame in units:
+                frame.is_rx = received
+                raw_log.on_message_received(frame)
