@@ -130,7 +130,8 @@ class MockFirmware:
                 log.info("valid commands arriving: applying setpoints (was %s)", self.state.name.lower())
                 self.state = FirmwareState.RUNNING
                 self._status(now)
-        elif isinstance(message, VersionRequest):
+        elif isinstance(message, VersionRequest):  # the handshake: state first, then version
+            self._status(now)
             self._send(self._version(), now)
         elif isinstance(message, FaultRequest):
             log.warning("debug port: injecting fault %s (finger %d, %d ms, value %d)",

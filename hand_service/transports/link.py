@@ -98,6 +98,7 @@ class LinkTransport(Transport):
         self._failure = ""
         self._latest: SensorSample | None = None
         self._status: FirmwareStatus | None = None
+        self._firmware_state: Status | None = None
         self._command: ValveCommand | None = None
         self._outbox: list[Message] = []
         self._command_sequence = 0  # unwrapped; the first command is 1
@@ -105,6 +106,7 @@ class LinkTransport(Transport):
         self._handshake_started_s = 0.0
         self._last_request_s = 0.0
         self._opened_once = False
+        self._bad_frames_seen = (0, 0)
         self._backoff_s = self.settings["reconnect_backoff_min_ms"] / 1e3
 
     # -- what subclasses provide ---------------------------------------------------------
@@ -255,7 +257,17 @@ class LinkTransport(Transport):
                 for unit in units:
                     for message in self.codec.decode(unit):
                         self._handle(message, now)
+                self._log_bad_frames()
             self._watch(now)
+
+    def _log_bad_frames(self) -> None:
+        stats = self.codec.stats
+        bad = (stats.crc_errors, stats.decode_errors)
+        if bad != self._bad_frames_seen:
+            crc, other = (now - seen for now, seen in zip(bad, self._bad_frames_seen, strict=True))
+            self._bad_frames_seen = bad
+            self.monitor.log.warning("bad", f"{self.link.description}: {crc} frame(s) failed their CRC, "
+                                     f"{other} could not be decoded (last: {stats.errors[-1]})")
 
     def _watch(self, now: float) -> None:
         """Timeouts and handshake retries."""
@@ -315,13 +327,18 @@ class LinkTransport(Transport):
                         self._latest = sample
         elif isinstance(message, Status):
             self.monitor.status(message)
+            self._firmware_state = message
             with self._lock:
-                if self._status is not None:
-                    self._status.vented = message.state != FirmwareState.RUNNING
-                    self._status.fault_code = int(message.fault_active)
-                    self._status.fault_text = message.state.name.lower()
+                self._apply_state(self._status)
         elif isinstance(message, VersionInfo):
             self._handshake(message)
+
+    def _apply_state(self, status: FirmwareStatus | None) -> None:
+        state = self._firmware_state
+        if status is not None and state is not None:
+            status.vented = state.state != FirmwareState.RUNNING
+            status.fault_code = int(state.fault_active)
+            status.fault_text = state.state.name.lower()
 
     def _handshake(self, info: VersionInfo) -> None:
         wanted = self.profile.protocol_version
@@ -341,6 +358,7 @@ class LinkTransport(Transport):
             return
         with self._lock:
             self._status = FirmwareStatus(info.protocol_version, info.firmware_text)
+            self._apply_state(self._status)
         if self._phase == "handshake":
             if self._opened_once:
                 with self._lock:
