@@ -54,19 +54,36 @@ class CanLink(Link):
         while len(frames) < MAX_FRAMES_PER_READ:
             try:
                 frame = self.bus.recv(wait)
-            except (ValueError, IndexError, UnicodeDecodeError) as exc:
-                # python-can's slcan parser raises on a garbled line; after a byte that is not
-                # UTF-8 it would keep it in its buffer forever, so flush that buffer.
-                self.codec.stats.decode_errors += 1
-                self.codec.stats.note(f"unreadable line from the adapter: {exc}")
-                if isinstance(exc, UnicodeDecodeError):
-                    self.bus.flush()
+            except (ValueError, IndexError, can.CanOperationError) as exc:
+                if not self._garbled(exc):
+                    raise
                 continue
             if frame is None:
                 break
             frames.append(frame)
             wait = 0.0
         return frames
+
+    def _garbled(self, exc: Exception) -> bool:
+        """A garbled SLCAN line (count it, read on), or a real failure of the port (False).
+
+        python-can's slcan parser raises ValueError or IndexError on a malformed line. A byte
+        that is not UTF-8 comes as CanOperationError from a UnicodeDecodeError, and python-can
+        (4.6) keeps the bad line in its buffer, so every later line would fail too: the line
+        is dropped from that buffer (flush() where there is none, losing what is queued).
+        """
+        cause = exc.__cause__ if isinstance(exc, can.CanOperationError) else exc
+        if not isinstance(cause, (ValueError, IndexError)):  # UnicodeDecodeError is a ValueError
+            return False
+        self.codec.stats.decode_errors += 1
+        self.codec.stats.note(f"unreadable line from the adapter: {cause}")
+        if isinstance(cause, UnicodeDecodeError) and self.bus is not None:
+            line = getattr(self.bus, "_buffer", None)
+            if isinstance(line, bytearray):
+                line.clear()
+            else:
+                self.bus.flush()
+        return True
 
     def write(self, units: list[can.Message]) -> None:
         assert self.bus is not None

@@ -18,15 +18,18 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
+import can
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import rtcore
 from hand_service.firmware.hold import hold
 from hand_service.firmware.rig import Rig
 from hand_service.transports import HandshakeError, SensorSample
 from hand_service.transports.link import LinkTransport
-from hand_service.wire.messages import FaultKind
+from hand_service.wire.messages import FaultKind, SensorReport
 
 WAIT_S = 5.0  # generous: two cores shared with other engineers' test runs
 
@@ -80,6 +83,88 @@ FAULTS = [
               r"reconnected to firmware"),
     FaultCase(FaultKind.REBOOT, 255, 0, 300, lambda h: h["firmware_reboots"], r"firmware rebooted"),
 ]
+
+
+# -- garbage on the wire ------------------------------------------------------------------
+
+def _flip(data: bytes, where: int, bit: int) -> bytes:
+    out = bytearray(data)
+    out[where % len(out)] ^= 1 << bit
+    return bytes(out)
+
+
+def _slcan_line(frame: can.Message) -> bytes:
+    return f"t{frame.arbitration_id:03X}{frame.dlc}{bytes(frame.data).hex().upper()}\r".encode()
+
+
+class WireFeeder:
+    """The host's decoding path for one rig, fed directly: garbage, then good frames."""
+
+    def __init__(self, rig: Rig) -> None:
+        self.rig = rig
+        options = {"channel": "loop://"} if rig.name == "slcan" else {}
+        self.transport = rig.transport(**options)
+        self.codec = self.transport.codec
+        if rig.name == "slcan":  # python-can's own slcan parser, on pyserial's loopback port
+            self.transport.link.connect()
+            self.port = self.transport.link.bus.serialPortOrig  # type: ignore[attr-defined]
+            self.port.timeout = 0  # read what is there, never wait: 10,000 inputs must be quick
+        self.sequence = 0
+        self._encoded: dict[int, list[Any]] = {}
+
+    def reports(self) -> list[SensorReport]:
+        out = []
+        for _ in range(2):
+            self.sequence = (self.sequence + 1) % 256
+            out.append(SensorReport(self.sequence, 0, [100.0 + self.sequence + i for i in range(5)],
+                                    [float(i) for i in range(5)]))
+        return out
+
+    def garbage(self, raw: bytes) -> Any:
+        """Rubbish read out of random bytes: random frames or chunks, and good frames with one
+        bit flipped (bad CRCs). One cheap draw of bytes lets hypothesis try 10,000 inputs fast."""
+        good = self.encode(SensorReport(7, 0, [500.0] * 5, [10.0] * 5))
+        ids = (0x110, 0x120, 0x130, 0x140, 0x141, 0x7E0, 0x7FF, 0x000)
+        units: list[Any] = []
+        i = 0
+        while i + 2 < len(raw):
+            head, a, b = raw[i], raw[i + 1], raw[i + 2]
+            if head < 64:  # a good frame, one bit flipped
+                frame = good[head % len(good)]
+                if self.rig.name == "virtual":
+                    units.append(can.Message(arbitration_id=frame.arbitration_id,
+                                             data=_flip(bytes(frame.data), a, b % 8)))
+                else:
+                    units.append(_flip(_slcan_line(frame) if self.rig.name == "slcan" else frame, a, b % 8))
+                i += 3
+            elif self.rig.name == "virtual":  # a frame with a random id and payload
+                data = raw[i + 2:i + 2 + a % 9]
+                units.append(can.Message(arbitration_id=ids[head % len(ids)], data=data))
+                i += 2 + len(data)
+            else:  # raw bytes
+                units.append(raw[i + 1:i + 1 + head % 24])
+                i += 1 + head % 24
+        return units if self.rig.name == "virtual" else b"".join(units)
+
+    def encode(self, report: SensorReport) -> list[Any]:
+        if self.rig.name == "serial":  # serial frames carry a running frame sequence
+            return self.codec.encode(report)
+        if report.sequence not in self._encoded:
+            self._encoded[report.sequence] = self.codec.encode(report)
+        return self._encoded[report.sequence]
+
+    def feed(self, garbage: Any, reports: list[SensorReport]) -> list[Any]:
+        frames = [f for r in reports for f in self.encode(r)]
+        if self.rig.name == "virtual":
+            return [m for f in [*garbage, *frames] for m in self.codec.decode(f)]
+        if self.rig.name == "serial":
+            return self.codec.decode(garbage + b"".join(frames))
+        self.port.write(garbage + b"".join(_slcan_line(f) for f in frames))
+        out: list[Any] = []
+        while self.port.in_waiting:
+            for frame in self.transport.link.read(0.0):
+                out += self.codec.decode(frame)
+        return out
 
 
 class TestValveBoard:
@@ -168,7 +253,8 @@ class TestValveBoard:
             killed_s = time.monotonic()
             os.kill(host.pid, signal.SIGKILL)
             host.wait(timeout=5)
-        vents = wait_for(lambda: [t for t in rig.vent_times_s() if t > killed_s - watchdog_s], 10 * watchdog_s)
+        vents = wait_for(lambda: [t for t in rig.vent_times_s() if t > killed_s - watchdog_s],
+                         10 * watchdog_s)
         assert vents, "the firmware did not vent within ten watchdog times"
         assert vents[0] - killed_s < 10 * watchdog_s
         # a new host finds the valves vented: the chambers empty
@@ -177,3 +263,20 @@ class TestValveBoard:
         time.sleep(0.3)
         sample = wait_for(transport.latest)
         assert np.all(sample.pressure_meas_kpa < 5.0), sample.pressure_meas_kpa
+
+    def test_garbage_never_crashes_the_decoder(self, rig: Rig) -> None:
+        feeder = WireFeeder(rig)
+
+        @settings(max_examples=10_000, deadline=None, derandomize=True,
+                  suppress_health_check=list(HealthCheck))
+        @given(raw=st.binary(max_size=160))
+        def garbage_then_good_frames(raw: bytes) -> None:
+            reports = feeder.reports()
+            decoded = [m for m in feeder.feed(feeder.garbage(raw), reports) if isinstance(m, SensorReport)]
+            assert decoded and decoded[-1] == reports[-1]  # resynchronised
+            if rig.name == "serial":  # the serial decoder loses nothing that follows garbage
+                assert decoded[-2:] == reports
+
+        garbage_then_good_frames()
+        stats = feeder.codec.stats
+        assert stats.crc_errors + stats.decode_errors + stats.garbage_bytes > 1000
