@@ -20,6 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", type=Path, metavar="OUT", help="write the figures here")
     parser.add_argument("--quick", action="store_true", help="fewer calls: a rough figure in seconds")
     parser.add_argument("--profile", default=None, help="firmware profile (default: sim.yaml)")
+    parser.add_argument("--io", action="store_true",
+                        help="also time the bus transports against the mock firmware: command -> sensor "
+                        "round trip and host SIGKILL -> vent, per transport (io_* keys; a minute or two)")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -37,6 +40,11 @@ def main(args: argparse.Namespace) -> int:
           f"p99 {results['python_step_ns_p99']:8.0f} ns")
     print(f"  Python / C             {results['python_over_c']:.0f}x   "
           f"(timer overhead {results['timer_overhead_ns']:.0f} ns, included)")
+    if args.io:
+        from hand_service.iobench import run_io_bench
+
+        print("valve I/O against the mock firmware (virtual bus, SLCAN pty, serial pty):", flush=True)
+        results.update(run_io_bench(quick=args.quick))
     if args.json:
         args.json.write_text(json.dumps(results, indent=2) + "\n")
         print(f"wrote {args.json}")
