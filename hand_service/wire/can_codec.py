@@ -19,6 +19,7 @@ from cantools.autosar.end_to_end import apply_profile2_crc, check_profile2_crc
 
 from hand_service.errors import UserError
 from hand_service.wire.messages import (
+    SEQUENCE_MODULO,
     DecodeStats,
     FaultKind,
     FaultRequest,
@@ -105,15 +106,15 @@ class CanCodec:
     def encode(self, message: Message) -> list[can.Message]:
         if isinstance(message, SensorReport):
             return [self._frame("SensorFinger", {
-                "finger_index": i, "sequence": message.sequence,
-                "command_sequence": message.command_sequence,
+                "finger_index": i, "sequence": message.sequence % SEQUENCE_MODULO,
+                "command_sequence": message.command_sequence % SEQUENCE_MODULO,
                 "flex_mv": self._clip("SensorFinger", "flex_mv", mv),
                 "pressure_meas_kpa": self._clip("SensorFinger", "pressure_meas_kpa", kpa)})
                 for i, (mv, kpa) in enumerate(zip(message.sensor_mv, message.pressure_meas_kpa,
                                                   strict=True))]
         if isinstance(message, ValveCommand):
             return [self._frame("ValveCommand", {
-                "finger_index": i, "sequence": message.sequence,
+                "finger_index": i, "sequence": message.sequence % SEQUENCE_MODULO,
                 "pressure_cmd_kpa": self._clip("ValveCommand", "pressure_cmd_kpa", kpa)})
                 for i, kpa in enumerate(message.pressure_cmd_kpa)]
         if isinstance(message, Status):
