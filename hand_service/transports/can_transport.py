@@ -15,6 +15,7 @@ from typing import Any
 
 import can
 
+from hand_service.transports.base import FirmwareStatus
 from hand_service.transports.link import Link, LinkTransport
 from hand_service.wire.can_codec import CanCodec
 
@@ -94,31 +95,34 @@ class CanLink(Link):
 class CanTransport(LinkTransport):
     kind = "can"
 
+    def __init__(self, profile: Any, **options: Any) -> None:
+        super().__init__(profile, **options)
+        self._raw_log: can.Listener | None = None
+        self._raw_lock = threading.Lock()
+
     def _make_codec(self) -> CanCodec:
         return CanCodec(self.settings["dbc"], self.n_fingers)
 
     def _make_link(self) -> Link:
         return CanLink(self.settings, self.codec)
 
-    def open(self):  # type: ignore[no-untyped-def]
-        self._raw_log = can.Logger(self.settings["raw_log"]) if self.settings["raw_log"] else None
-        self._raw_lock = threading.Lock()
-        if self._raw_log is not None:
+    def open(self) -> FirmwareStatus:
+        if self.settings["raw_log"] and self._raw_log is None:
+            self._raw_log = can.Logger(self.settings["raw_log"])
             log.info("writing raw CAN traffic to %s", Path(self.settings["raw_log"]).resolve())
         return super().open()
 
     def close(self) -> None:
         super().close()
-        raw_log = getattr(self, "_raw_log", None)
+        with self._raw_lock:
+            raw_log, self._raw_log = self._raw_log, None
         if raw_log is not None:
-            self._raw_log = None
             raw_log.stop()
 
     def _record(self, units: list[Any], received: bool) -> None:
-        raw_log = getattr(self, "_raw_log", None)
-        if raw_log is None:
-            return
         with self._raw_lock:
+            if self._raw_log is None:
+                return
             for frame in units:
                 frame.is_rx = received
-                raw_log.on_message_received(frame)
+                self._raw_log.on_message_received(frame)
