@@ -22,6 +22,7 @@ COMMANDS: dict[str, str] = {
     "calibrate": "hand_service.commands.calibrate",
     "replicate": "hand_service.commands.replicate",
     "trials": "hand_service.commands.trials",
+    "mock-firmware": "hand_service.commands.mock_firmware",
 }
 
 DESCRIPTION = """\

@@ -11,6 +11,8 @@ which is generated from the sections below.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,12 +33,15 @@ TOP_SECTION = Section("Profile", "The top level of a profile.", (
     Key("description", "one line for people", "str", default=""),
     Key("protocol_version", "wire-protocol version the firmware must report", "int", min=1,
         max=65535),
+    Key("include", "another profile, relative to this one, whose control, safety, simulation "
+        "and hand sections are used where this file does not give them", "str", default=""),
     Key("transport", "how to reach the valve board (see Transport)", "mapping"),
     Key("control", "control settings (see Control)", "mapping", default=None),
     Key("safety", "safety limits and watchdog times (see Safety)", "mapping", default=None),
     Key("simulation", "the simulated truth for `sim` and the mock firmware", "mapping",
         default=None),
-    Key("hand", "one block per finger, keyed by finger name (see Finger)", "mapping"),
+    Key("hand", "one block per finger, keyed by finger name (see Finger); required unless "
+        "included", "mapping", default=None),
 ))
 
 CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
@@ -116,8 +121,11 @@ SIM_TRANSPORT_SECTION = Section("Transport: sim", "`transport: {kind: sim}` — 
     Key("kind", "transport kind", "choice", default="sim", choices=("sim",)),
 ))
 
-# Transport kinds register their section here (hand_service.transports adds can and serial).
+# Transport kinds register their section here (hand_service.transports adds can and serial),
+# and optionally a check of the validated values: check(values, source, block) raises.
 TRANSPORT_SECTIONS: dict[str, Section] = {"sim": SIM_TRANSPORT_SECTION}
+TRANSPORT_CHECKS: dict[str, Callable[[dict[str, Any], Path, Any], None]] = {}
+INCLUDED_SECTIONS = ("control", "safety", "simulation", "hand")
 
 
 @dataclass
@@ -248,26 +256,59 @@ def load_profile(path: str | Path | None = None) -> Profile:
         raise fail(source, transport_block, "kind",
                    f"transport.kind must be one of {', '.join(sorted(TRANSPORT_SECTIONS))}, not {kind!r}")
     transport = validate(transport_block, TRANSPORT_SECTIONS[kind], source, "transport")
-    control = _section(data, "control", CONTROL_SECTION, source)
-    safety = _section(data, "safety", SAFETY_SECTION, source)
-    if safety["angle_min_deg"] >= safety["angle_max_deg"]:
-        raise fail(source, data["safety"], "angle_min_deg",
-                   "safety.angle_min_deg must be below safety.angle_max_deg")
-    if not (safety["angle_min_deg"] <= safety["target_angle_min_deg"] < safety["target_angle_max_deg"]
-            <= safety["angle_max_deg"]):
-        raise fail(source, data["safety"], "target_angle_min_deg",
-                   "safety: the angle targets must lie inside the safe angles, "
-                   "angle_min_deg <= target_angle_min_deg < target_angle_max_deg <= angle_max_deg")
-    simulation = _section(data, "simulation", SIMULATION_SECTION, source)
-    hand = expect_mapping(top["hand"], source, data, "hand", "hand")
-    if not 1 <= len(hand) <= rtcore.MAX_FINGERS:
-        raise fail(source, data, "hand", f"hand must have 1 to {rtcore.MAX_FINGERS} fingers, not {len(hand)}")
-    fingers = [_finger(str(name), block, source, hand) for name, block in hand.items()]
+    if kind in TRANSPORT_CHECKS:
+        TRANSPORT_CHECKS[kind](transport, source, transport_block)
+    base = _included(source, data, top["include"]) if top["include"] else None
+    if top["hand"] is None and base is None:
+        raise fail(source, data, None, "missing required key 'hand' (one block per finger), or "
+                   "'include' a profile that has one")
+
+    def own(key: str) -> bool:
+        return base is None or key in data
+
+    control = _section(data, "control", CONTROL_SECTION, source) if own("control") else base.control
+    if own("safety"):
+        safety = _section(data, "safety", SAFETY_SECTION, source)
+        if safety["angle_min_deg"] >= safety["angle_max_deg"]:
+            raise fail(source, data["safety"], "angle_min_deg",
+                       "safety.angle_min_deg must be below safety.angle_max_deg")
+        if not (safety["angle_min_deg"] <= safety["target_angle_min_deg"]
+                < safety["target_angle_max_deg"] <= safety["angle_max_deg"]):
+            raise fail(source, data["safety"], "target_angle_min_deg",
+                       "safety: the angle targets must lie inside the safe angles, "
+                       "angle_min_deg <= target_angle_min_deg < target_angle_max_deg <= angle_max_deg")
+    else:
+        safety = base.safety
+    simulation = (_section(data, "simulation", SIMULATION_SECTION, source) if own("simulation")
+                  else base.simulation)
+    if top["hand"] is None:
+        # the included hand, with gains it took from its model derived again for this
+        # profile's control settings (rate, filter)
+        fingers = [dataclasses.replace(f, kp_kpa_per_deg=None, ki_kpa_per_deg_s=None)
+                   if f.gains_from_model else f for f in base.fingers]
+    else:
+        hand = expect_mapping(top["hand"], source, data, "hand", "hand")
+        if not 1 <= len(hand) <= rtcore.MAX_FINGERS:
+            raise fail(source, data, "hand",
+                       f"hand must have 1 to {rtcore.MAX_FINGERS} fingers, not {len(hand)}")
+        fingers = [_finger(str(name), block, source, hand) for name, block in hand.items()]
     for finger in fingers:
         _fill_gains(finger, control)
     return Profile(path=source, name=top["profile"], description=top["description"],
                    protocol_version=top["protocol_version"], transport=transport, control=control,
                    safety=safety, simulation=simulation, fingers=fingers)
+
+
+def _included(source: Path, data: Any, include: str) -> Profile:
+    """The included profile, validated in its own file (one level deep: no include there)."""
+    path = Path(include) if Path(include).is_absolute() else source.parent / include
+    raw = load_yaml(path) if path.exists() else None
+    if raw is None:
+        raise fail(source, data, "include", f"include: {path} not found")
+    if isinstance(raw, dict) and raw.get("include"):
+        raise fail(source, data, "include", f"include: {path} includes another profile itself; "
+                   "include a profile that stands alone")
+    return load_profile(path)
 
 
 def _register_transports() -> None:

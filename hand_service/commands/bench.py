@@ -38,6 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--recorder", choices=["process", "thread", "off"], default="process",
                         help="record every tick through this writer (default process)")
     parser.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO")
+    parser.add_argument("--io", action="store_true",
+                        help="also time the bus transports against the mock firmware: command -> sensor "
+                        "round trip and host SIGKILL -> vent, per transport (io_* keys; a minute or two)")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -56,6 +59,11 @@ def main(args: argparse.Namespace) -> int:
     print(f"  Python / C             {results['python_over_c']:.0f}x   "
           f"(timer overhead {results['timer_overhead_ns']:.0f} ns, included)")
     results.update(_ticks(args))
+    if args.io:
+        from hand_service.iobench import run_io_bench
+
+        print("valve I/O against the mock firmware (virtual bus, SLCAN pty, serial pty):", flush=True)
+        results.update(run_io_bench(quick=args.quick))
     if args.json:
         args.json.write_text(json.dumps(results, indent=2) + "\n")
         print(f"wrote {args.json}")

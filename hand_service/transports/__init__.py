@@ -1,13 +1,16 @@
 """Transports by name, as python-can does it: kind -> (module, class), imported on demand.
 
-Each module may register the profile keys of its kind in profile.TRANSPORT_SECTIONS.
+Each kind registers its profile keys in profile.TRANSPORT_SECTIONS when this package is
+imported (the bus kinds' keys live in transports/sections.py, which loads no bus library).
 """
 
 from __future__ import annotations
 
 import importlib
 
+from hand_service import profile as _profile
 from hand_service.errors import UserError
+from hand_service.transports import sections as _sections
 from hand_service.transports.base import (
     FirmwareStatus,
     HandshakeError,
@@ -18,7 +21,11 @@ from hand_service.transports.base import (
 
 REGISTRY: dict[str, tuple[str, str]] = {
     "sim": ("hand_service.transports.sim", "SimTransport"),
+    "can": ("hand_service.transports.can_transport", "CanTransport"),
+    "serial": ("hand_service.transports.serial_transport", "SerialTransport"),
 }
+_profile.TRANSPORT_SECTIONS.update(_sections.SECTIONS)
+_profile.TRANSPORT_CHECKS.update(_sections.CHECKS)
 
 
 def transport_class(kind: str) -> type[Transport]:

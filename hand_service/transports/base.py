@@ -21,6 +21,7 @@ class SensorSample:
     received_s: float  # host monotonic clock when the sample was complete
     sensor_mv: np.ndarray
     pressure_meas_kpa: np.ndarray  # NaN where the board does not report it
+    command_sequence: int = -1  # newest of our valve commands the board held at sampling (-1: none)
 
 
 @dataclass

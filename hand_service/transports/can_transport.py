@@ -1,0 +1,128 @@
+"""The `can` transport: a valve board on CAN through python-can; frames from the profile's DBC.
+
+Any python-can interface works (SocketCAN, PCAN, Kvaser, ...). Two are tested here:
+`virtual` (in-process; the mock firmware runs in a thread) and `slcan` on a pseudo-
+terminal (the mock firmware plays the adapter in another process). With `raw_log`,
+every frame in and out is written with can.Logger (.asc, .blf, ...) for lab tools.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from pathlib import Path
+from typing import Any
+
+import can
+
+from hand_service.transports.base import FirmwareStatus
+from hand_service.transports.link import Link, LinkTransport
+from hand_service.wire.can_codec import CanCodec
+
+log = logging.getLogger("hand_service.transports")
+
+MAX_FRAMES_PER_READ = 256
+
+
+def bus_arguments(settings: dict[str, Any]) -> dict[str, Any]:
+    """can.Bus keyword arguments for a profile's transport settings."""
+    kwargs: dict[str, Any] = {"interface": settings["interface"], "channel": settings["channel"],
+                              "bitrate": settings["bitrate_bps"]}
+    if settings["interface"] == "slcan":
+        kwargs.update(tty_baudrate=settings["tty_baudrate_bps"], sleep_after_open=0)
+    return kwargs
+
+
+class CanLink(Link):
+    def __init__(self, settings: dict[str, Any], codec: CanCodec) -> None:
+        self.kwargs = bus_arguments(settings)
+        self.codec = codec
+        self.description = f"CAN {settings['interface']}:{settings['channel']}"
+        self.bus: can.BusABC | None = None
+
+    def connect(self) -> None:
+        self.bus = can.Bus(**self.kwargs)
+
+    def close(self) -> None:
+        if self.bus is not None:
+            bus, self.bus = self.bus, None
+            bus.shutdown()
+
+    def read(self, timeout_s: float) -> list[can.Message]:
+        assert self.bus is not None
+        frames: list[can.Message] = []
+        wait = timeout_s
+        while len(frames) < MAX_FRAMES_PER_READ:
+            try:
+                frame = self.bus.recv(wait)
+            except (ValueError, IndexError, can.CanOperationError) as exc:
+                if not self._garbled(exc):
+                    raise
+                continue
+            if frame is None:
+                break
+            frames.append(frame)
+            wait = 0.0
+        return frames
+
+    def _garbled(self, exc: Exception) -> bool:
+        """A garbled SLCAN line (count it, read on), or a real failure of the port (False).
+
+        python-can's slcan parser raises ValueError or IndexError on a malformed line. A byte
+        that is not UTF-8 comes as CanOperationError from a UnicodeDecodeError, and python-can
+        (4.6) keeps the bad line in its buffer, so every later line would fail too: the line
+        is dropped from that buffer (flush() where there is none, losing what is queued).
+        """
+        cause = exc.__cause__ if isinstance(exc, can.CanOperationError) else exc
+        if not isinstance(cause, (ValueError, IndexError)):  # UnicodeDecodeError is a ValueError
+            return False
+        self.codec.stats.decode_errors += 1
+        self.codec.stats.note(f"unreadable line from the adapter: {cause}")
+        if isinstance(cause, UnicodeDecodeError) and self.bus is not None:
+            line = getattr(self.bus, "_buffer", None)
+            if isinstance(line, bytearray):
+                line.clear()
+            else:
+                self.bus.flush()
+        return True
+
+    def write(self, units: list[can.Message]) -> None:
+        assert self.bus is not None
+        for frame in units:
+            self.bus.send(frame, timeout=0.5)
+
+
+class CanTransport(LinkTransport):
+    kind = "can"
+
+    def __init__(self, profile: Any, **options: Any) -> None:
+        super().__init__(profile, **options)
+        self._raw_log: can.Listener | None = None
+        self._raw_lock = threading.Lock()
+
+    def _make_codec(self) -> CanCodec:
+        return CanCodec(self.settings["dbc"], self.n_fingers)
+
+    def _make_link(self) -> Link:
+        return CanLink(self.settings, self.codec)
+
+    def open(self) -> FirmwareStatus:
+        if self.settings["raw_log"] and self._raw_log is None:
+            self._raw_log = can.Logger(self.settings["raw_log"])
+            log.info("writing raw CAN traffic to %s", Path(self.settings["raw_log"]).resolve())
+        return super().open()
+
+    def close(self) -> None:
+        super().close()
+        with self._raw_lock:
+            raw_log, self._raw_log = self._raw_log, None
+        if raw_log is not None:
+            raw_log.stop()
+
+    def _record(self, units: list[Any], received: bool) -> None:
+        with self._raw_lock:
+            if self._raw_log is None:
+                return
+            for frame in units:
+                frame.is_rx = received
+                self._raw_log.on_message_received(frame)
