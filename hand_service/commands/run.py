@@ -44,6 +44,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="SCHED_FIFO priority, used when permitted (default 50)")
     parser.add_argument("--no-realtime", action="store_true", help="stay with the normal scheduler")
     parser.add_argument("--no-mlock", action="store_true", help="do not lock memory (mlockall)")
+    parser.add_argument("--port", metavar="DEVICE",
+                        help="the serial device or CAN channel to use instead of the profile's "
+                             "(e.g. /dev/ttyUSB1, can1)")
     parser.add_argument("--seed", type=int, help="simulator seed (sim transport; default: the profile's)")
     parser.add_argument("--status", choices=["auto", "line", "off"], default="auto",
                         help="live status line: auto shows it on a terminal (default)")
@@ -69,6 +72,10 @@ def main(args: argparse.Namespace) -> int:
             raise UserError(f"--demo runs on the simulated hand (transport sim), not {kind}")
         from hand_service.pinch_demo import contacts
         transport_options["contacts"] = contacts(profile)
+    if args.port is not None:
+        if kind == "sim":
+            raise UserError("--port needs a bus profile (transport can or serial), not sim")
+        transport_options["port" if kind == "serial" else "channel"] = args.port
     if args.seed is not None:
         if kind != "sim":
             raise UserError("--seed applies to the sim transport only")
