@@ -10,7 +10,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 CSRC = ROOT / "csrc"
-SOURCES = [*sorted(str(p) for p in CSRC.glob("rtcore_*.c")), str(CSRC / "test" / "test_rtcore.c")]
+SOURCES = [str(p) for p in [*sorted(CSRC.glob("rtcore_*.c")), *sorted((CSRC / "test").glob("*.c"))]]
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic"]
 BUILDS = {
     "optimised": ["-O2"],

@@ -1,0 +1,94 @@
+/* What the supervisor calls beside the step: the safety gate and the tick's ring row. */
+#include "check.h"
+
+static void test_gate(void)
+{
+    rtcore_gate gate;
+    rtcore_gate_result r;
+    rtcore_inputs in;
+    rtcore_outputs out;
+    double sent[RTCORE_MAX_FINGERS];
+    int i;
+    int t;
+
+    memset(&gate, 0, sizeof(gate));
+    memset(&out, 0, sizeof(out));
+    gate.config.n_fingers = 2;
+    gate.config.angle_min_deg = -60.0;
+    gate.config.angle_max_deg = 200.0;
+    gate.config.leak_tolerance_kpa = 30.0;
+    gate.config.leak_ticks = 5;
+    for (i = 0; i < 2; ++i) {
+        gate.config.pressure_min_kpa[i] = 10.0;
+        gate.config.pressure_max_kpa[i] = 200.0;
+        gate.config.follow_alpha[i] = 1.0;
+        sent[i] = 0.0;
+    }
+    rtcore_gate_reset(&gate);
+    clear_inputs(&in);
+    CHECK(rtcore_gate_inputs(&gate, &in, &r) == RTCORE_GATE_OK, "clean inputs");
+    in.sensor_mv[1] = NAN;
+    CHECK(rtcore_gate_inputs(&gate, &in, &r) == RTCORE_GATE_NON_FINITE && r.finger == 1, "NaN sensor");
+    in.sensor_mv[1] = 50.0;
+    in.pressure_meas_kpa[0] = INFINITY;
+    CHECK(rtcore_gate_inputs(&gate, &in, &r) == RTCORE_GATE_NON_FINITE && r.finger == 0, "inf pressure");
+    in.pressure_meas_kpa[0] = NAN; /* not reported: fine */
+    CHECK(rtcore_gate_inputs(&gate, &in, &r) == RTCORE_GATE_OK, "NaN pressure is 'not reported'");
+
+    out.angle_deg[1] = 250.0;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_ANGLE_OUT_OF_RANGE && r.limit == 200.0,
+          "angle range");
+    out.angle_deg[1] = 30.0;
+    out.pressure_cmd_kpa[0] = 200.5;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_PRESSURE_OVER_LIMIT && r.finger == 0,
+          "over the limit");
+    out.pressure_cmd_kpa[0] = 0.0; /* a vent, below the 10 kPa minimum, is allowed */
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_OK, "vent allowed");
+    out.pressure_cmd_kpa[0] = 5.0;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_PRESSURE_OVER_LIMIT, "under the minimum");
+    out.pressure_cmd_kpa[0] = NAN;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_NON_FINITE, "NaN command");
+
+    /* the chamber stays at 0 while 100 kPa is sent: the first tick compares with the
+     * expectation before the send, so the 5th tick outside the tolerance is tick 6 */
+    sent[0] = 100.0;
+    in.pressure_meas_kpa[0] = 0.0;
+    for (t = 0; t < 5; ++t) {
+        CHECK(rtcore_gate_follow(&gate, sent, &in, &r) == RTCORE_GATE_OK, "tick %d: not yet", t);
+    }
+    CHECK(rtcore_gate_follow(&gate, sent, &in, &r) == RTCORE_GATE_LEAK_OR_BURST && r.finger == 0
+          && r.limit == 100.0, "leak on tick 6");
+    in.pressure_meas_kpa[0] = 100.0;
+    CHECK(rtcore_gate_follow(&gate, sent, &in, &r) == RTCORE_GATE_OK, "following again");
+    CHECK(rtcore_gate_inputs(0, &in, &r) == RTCORE_GATE_NON_FINITE, "null gate refused");
+}
+
+static void test_ring_tick(void)
+{
+    static double rows[3 * 22];
+    int64_t count = 0;
+    rtcore_inputs in;
+    rtcore_outputs out;
+    double sent[RTCORE_MAX_FINGERS] = {7.0, 8.0};
+    clear_inputs(&in);
+    memset(&out, 0, sizeof(out));
+    in.angle_ref_deg[1] = 42.0;
+    in.mode[1] = RTCORE_MODE_POSITION;
+    out.flags[0] = RTCORE_FLAG_SATURATED;
+    out.force_est_n[1] = 1.5;
+    CHECK(rtcore_ring_push_tick(rows, &count, 3, 22, 2, &in, &out, sent, 0.25, 4) == 1, "pushed");
+    CHECK(rows[0] == 0.25 && rows[1] == 4.0, "head");
+    CHECK(rows[2 + 1] == 42.0 && rows[2 + 2] == 7.0 && rows[2 + 6 * 2 + 1] == 1.5, "blocks");
+    CHECK(rows[2 + 8 * 2 + 1] == 2.0 && rows[2 + 9 * 2] == 1.0, "mode and flags");
+    CHECK(rtcore_ring_push_tick(rows, &count, 3, 21, 2, &in, &out, sent, 0.0, 0) == -1, "bad width");
+    for (int k = 0; k < 5; ++k) {
+        rtcore_ring_push_tick(rows, &count, 3, 22, 2, &in, &out, sent, 0.01 * k, 4);
+    }
+    CHECK(count == 6 && rows[22 * (5 % 3)] == 0.04, "wraps: count %lld", (long long)count);
+}
+
+void run_supervisor_tests(void)
+{
+    test_gate();
+    test_ring_tick();
+}
