@@ -1,0 +1,156 @@
+"""Naming the missing physics: every library effect fitted jointly with the plain model.
+
+Round by round (forward selection), each effect not yet in the model is fitted together
+with k, B, N (A held) and the effects already accepted. An effect is accepted when
+
+- the information criterion favours it strongly (ΔBIC > SIGNIFICANT_BIC), and
+- it predicts the held-out data better by more than the noise allows (z > SIGNIFICANT_Z),
+- and no other effect explains the same residual nearly as well: when the runner-up is
+  within NAME_MARGIN_BIC and fitting both together is not better than the best alone,
+  the recording cannot tell them apart and the search stops there (ambiguous).
+
+Each fit starts from the Gauss-Newton step of the effect's signature: the sensitivity of
+the angle to the effect's parameter, with what k, B and N can absorb projected out. Its
+correlation with the residual is the score (Lagrange multiplier) test, and is reported
+as the effect's signature correlation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hand_service import effects as fx
+from hand_service.diagnose import stats
+from hand_service.diagnose.fit import Fit, fit, sensitivity
+from hand_service.diagnose.problem import Param, Problem
+
+SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
+SIGNIFICANT_Z = 3.0
+NAME_MARGIN_BIC = 10.0
+MAX_EFFECTS = 3
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class Candidate:
+    name: str
+    param: Param
+    signature_corr: float  # corr(residual, signature after projecting out the model's own parameters)
+    separability: float  # share of the signature the model's own parameters cannot absorb
+    start: float
+    fit: Fit
+    delta_bic: float  # against the model of this round
+    z_heldout: float
+    rmse_heldout_deg: float
+
+    @property
+    def estimate(self) -> float:
+        return float(self.fit.values[-1])
+
+    @property
+    def std(self) -> float:
+        return float(self.fit.std()[-1])
+
+    @property
+    def significant(self) -> bool:
+        return self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z
+
+
+@dataclass
+class Round:
+    base: Fit  # the model this round starts from
+    candidates: list[Candidate]  # strongest first
+
+    def best(self) -> Candidate | None:
+        return self.candidates[0] if self.candidates else None
+
+
+@dataclass
+class Selection:
+    rounds: list[Round] = field(default_factory=list)
+    accepted: list[Candidate] = field(default_factory=list)
+    final: Fit | None = None
+    ambiguous: tuple[Candidate, Candidate] | None = None
+
+
+def project_out(jacobian: np.ndarray, signal: np.ndarray) -> np.ndarray:
+    coeffs, *_ = np.linalg.lstsq(jacobian, signal, rcond=None)
+    return signal - jacobian @ coeffs
+
+
+def start_value(param: Param, neutral: float, step: float) -> float:
+    """The Gauss-Newton guess, kept inside the bounds and off a bound it would stick to."""
+    value = neutral + step
+    if value <= param.lower:
+        value = param.lower + 0.1 * param.scale
+    return float(min(value, param.upper - 1e-9 * (param.upper - param.lower)))
+
+
+def score(problem: Problem, base: Fit, name: str, sigma: float) -> Candidate:
+    """Fit effect `name` jointly with every parameter of `base`."""
+    spec = fx.BY_NAME[name]
+    param = Param.effect(name)
+    mask = problem.fit_mask
+    residual = base.residual(problem)
+    signature = sensitivity(problem, param, base.finger, base.angle_deg)[mask]
+    projected = project_out(base.jacobian, signature)
+    norm = float(np.sqrt(projected @ projected))
+    raw = float(np.sqrt(signature @ signature))
+    r = residual[mask] - residual[mask].mean()
+    corr = float(projected @ r) / (norm * float(np.sqrt(r @ r))) if norm > 0 and r.any() else 0.0
+    step = float(projected @ residual[mask]) / norm**2 if norm > 0 else 0.0
+    neutral = spec.neutral
+    params = (*base.params, param)
+    joint = fit(problem, params, [*base.values, start_value(param, neutral, step)], base=base.finger)
+    if joint.rss_fit > base.rss_fit:  # never worse than the model without it
+        joint = fit(problem, params, [*base.values, start_value(param, neutral, 0.0)], base=base.finger)
+    held = problem.held_mask
+    measured = problem.measured_deg[held]
+    separability = norm / raw if raw > 0 else 0.0
+    return Candidate(name, param, corr, separability, start_value(param, neutral, step), joint,
+                     stats.delta_bic(base.rss_fit, joint.rss_fit, problem.n_fit),
+                     stats.heldout_z(measured, base.angle_deg[held], joint.angle_deg[held], sigma),
+                     stats.rmse(measured - joint.angle_deg[held]))
+
+
+def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None) -> Round:
+    sigma = base.sigma_deg
+    candidates = []
+    for i, name in enumerate(names):
+        if progress:
+            progress(f"fitting {name} with the model ({i + 1}/{len(names)})")
+        candidates.append(score(problem, base, name, sigma))
+    candidates.sort(key=lambda c: -c.delta_bic)
+    return Round(base, candidates)
+
+
+def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None) -> Selection:
+    """Forward selection over the effects `names`, from the refitted plain model."""
+    selection = Selection()
+    current = refit
+    remaining = list(names)
+    while remaining and len(selection.accepted) < MAX_EFFECTS:
+        round_ = run_round(problem, current, remaining, progress)
+        selection.rounds.append(round_)
+        best = round_.best()
+        if best is None or not best.significant:
+            break
+        runner = round_.candidates[1] if len(round_.candidates) > 1 else None
+        if runner is not None and runner.significant and best.delta_bic - runner.delta_bic < NAME_MARGIN_BIC:
+            # Both explain the residual about as well: unless the two together do clearly
+            # better than the best alone, they are two names for one signature.
+            if progress:
+                progress(f"{best.name} or {runner.name}? fitting both together")
+            both = score(problem, best.fit, runner.name, best.fit.sigma_deg)
+            if not both.significant:
+                selection.ambiguous = (best, runner)
+                break
+        selection.accepted.append(best)
+        current = best.fit
+        remaining.remove(best.name)
+    selection.final = current
+    return selection
