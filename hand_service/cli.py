@@ -17,6 +17,8 @@ from hand_service.errors import UserError
 COMMANDS: dict[str, str] = {
     "run": "hand_service.commands.run",
     "bench": "hand_service.commands.bench",
+    "diagnose": "hand_service.commands.diagnose",
+    "simulate": "hand_service.commands.simulate",
 }
 
 DESCRIPTION = """\

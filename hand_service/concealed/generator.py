@@ -69,6 +69,8 @@ def plain_residual_rms(truth: FingerModel, known: fx.EffectParams, command_kpa: 
     plain_model = truth.with_changes(effects=known)
     problem = build_problem(plain_model, t, command_kpa, angle, rate_hz)
     clean = problem.simulate(sim_finger(truth))
+    if not np.all(np.isfinite(clean)):
+        return np.inf, clean
     problem.measured_deg = clean
     problem.fit_mask = problem.fit_mask | problem.held_mask
     params = [Param.plain(name, getattr(truth, name)) for name in PLAIN]
@@ -90,14 +92,15 @@ def conceal_magnitude(base: FingerModel, name: str, sign: float, ratio: float, n
 
     def residual_for(deviation: float) -> float:
         truth = base.with_changes(effects={**base.effects, name: {spec.param: spec.neutral + deviation}})
-        return plain_residual_rms(truth, base.effects, command_kpa, rate_hz)[0]
+        rms = plain_residual_rms(truth, base.effects, command_kpa, rate_hz)[0]
+        return rms if np.isfinite(rms) and rms < 1e3 else np.inf  # inf: the truth ran away
 
     deviation = sign * spec.scale
     achieved = residual_for(deviation)
-    for _ in range(8):
+    for _ in range(10):
         if abs(achieved / target - 1.0) < 0.03:
             break
-        factor = target / max(achieved, 1e-12)
+        factor = target / max(achieved, 1e-12) if np.isfinite(achieved) else 0.3
         deviation = float(np.clip(deviation * np.clip(factor, 0.1, 10.0), -abs(limit), abs(limit)))
         achieved = residual_for(deviation)
     return spec.neutral + deviation, achieved / noise_deg

@@ -26,6 +26,9 @@ from hand_service.model import FingerModel
 
 MAX_RELATIVE_STD = 0.1  # a plain parameter known worse than ±10 % is not identified
 STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
+# An effect whose signature k, B and N absorb all but this share of could hide in a refit:
+# an effect ten times the noise would leave less than the noise behind.
+SEPARABLE_MIN = 0.1
 
 
 @dataclass
@@ -63,6 +66,7 @@ class Diagnosis:
     input_xcorr: stats.CrossCorrelation
     seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
+    partial_effects: list[FoundEffect] = field(default_factory=list)  # significant, yet not explaining
 
     def refit_model(self, with_effects: bool = True) -> FingerModel:
         """The refitted model; with the found effects added to its `effects` block."""
@@ -99,6 +103,7 @@ class Diagnosis:
                                         "worst_rho": self.input_xcorr.worst[1],
                                         "band_99": self.input_xcorr.band},
             "candidates": [candidate_json(c) for c in round1],
+            "partial_effects": [e.to_json() for e in self.partial_effects],
             "notes": self.notes,
             "seconds": self.seconds,
         }
@@ -167,15 +172,22 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
             "augmented": stats.rmse((measured - final.angle_deg)[held])}
     refit_gain = stats.heldout_z(measured[held], nominal_angle[held], refit.angle_deg[held], refit.sigma_deg)
     refit_bic = stats.delta_bic(nominal_fit.rss_fit, refit.rss_fit, problem.n_fit, len(params))
+    round1 = selection.rounds[0].candidates if selection.rounds else []
+    inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative_std, selection, found, refit_white, final_white,
-                           refit_gain, refit_bic, warnings)
+                           refit_gain, refit_bic, inseparable, warnings)
+    partial: list[FoundEffect] = []
+    if verdict == "unexplained" and found:
+        # a name is given only to what explains the mismatch: these do not, so they are
+        # reported apart, and neither the JSON's effects nor --write-model carries them
+        partial, found = found, []
     for candidate in (selection.rounds[0].candidates if selection.rounds else []):
         if candidate.separability == 0.0:
             warnings.append(f"this recording cannot reveal {candidate.name}: it has no effect on "
                             "the simulated angle here (see the excitation advice in docs/diagnose.md)")
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
-                     time.perf_counter() - started, notes)
+                     time.perf_counter() - started, notes, partial)
 
 
 def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundEffect:
@@ -196,7 +208,8 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundE
 
 def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray, selection: Selection,
           found: list[FoundEffect], refit_white: stats.Whiteness, final_white: stats.Whiteness,
-          refit_gain_z: float, refit_bic: float, warnings: list[str]) -> tuple[str, list[str]]:
+          refit_gain_z: float, refit_bic: float, inseparable: list[str],
+          warnings: list[str]) -> tuple[str, list[str]]:
     notes: list[str] = []
     if unidentified:
         worst = ", ".join(f"{p.label} ±{100 * r:.0f} %" for p, r in zip(params, relative_std, strict=True)
@@ -213,14 +226,22 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
             return "insufficient_excitation", notes
     if found:
         if final_white.p_value < STRUCTURE_P:
-            warnings.append("a structured residual remains after the found effects (Ljung-Box p = "
-                            f"{final_white.p_value:.1g}): they explain only part of the mismatch")
+            names = ", ".join(e.name for e in found)
+            warnings.append(f"{names} reduce the residual, but a structured residual remains (Ljung-Box "
+                            f"p = {final_white.p_value:.1g}): they explain only part of the mismatch, so "
+                            "they are not named (see partial_effects)")
             return "unexplained", notes
         return "missing_physics", notes
     if refit_white.p_value < STRUCTURE_P:
         warnings.append("the refitted model leaves a structured residual (Ljung-Box p = "
                         f"{refit_white.p_value:.1g}) that no library effect explains")
         return "unexplained", notes
+    if inseparable:
+        warnings.append(f"this recording cannot tell {', '.join(inseparable)} from a change of k, B and N "
+                        f"(k, B and N absorb over {100 * (1 - SEPARABLE_MIN):.0f} % of "
+                        f"{'its' if len(inseparable) == 1 else 'their'} signature): the refit may be "
+                        "hiding it; excite with steps or a chirp")
+        return "insufficient_excitation", notes
     if refit_bic > 10.0 and refit_gain_z > 3.0:
         notes.append("the refit predicts held-out data better than the nominal model "
                      f"(z = {refit_gain_z:.1f})")

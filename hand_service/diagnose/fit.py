@@ -17,6 +17,8 @@ from scipy.optimize import least_squares
 from hand_service.diagnose.problem import Param, Problem
 from rtcore.sim import SimFinger
 
+DIVERGED_DEG = 1e4  # residual that stands for a simulation that ran away
+
 
 @dataclass
 class Fit:
@@ -84,7 +86,9 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
 
     def residual(x: np.ndarray) -> np.ndarray:
         angle = problem.simulate(problem.finger(params, x * scales, base))
-        return angle[mask] - measured
+        error = angle[mask] - measured
+        # a finger driven unstable (strong softening, say) is a very bad fit, not a crash
+        return np.where(np.isfinite(error), np.clip(error, -DIVERGED_DEG, DIVERGED_DEG), DIVERGED_DEG)
 
     x0 = _into_bounds(np.asarray(start, dtype=float) / scales, lower, upper)
     result = least_squares(residual, x0, bounds=(lower, upper), method="trf", x_scale="jac",

@@ -56,8 +56,17 @@ class Candidate:
         return float(self.fit.std()[-1])
 
     @property
+    def at_bound(self) -> bool:
+        """Pinned at a plausible bound other than neutral: the effect is being stretched to
+        mimic something else, so it is not evidence for itself."""
+        p = self.param
+        span = p.upper - p.lower
+        neutral = fx.BY_NAME[self.name].neutral
+        return any(abs(self.estimate - b) < 1e-6 * span and b != neutral for b in (p.lower, p.upper))
+
+    @property
     def significant(self) -> bool:
-        return self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z
+        return self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z and not self.at_bound
 
 
 @dataclass
@@ -90,6 +99,31 @@ def start_value(param: Param, neutral: float, step: float) -> float:
     return float(min(value, param.upper - 1e-9 * (param.upper - param.lower)))
 
 
+SCAN_SPAN = np.geomspace(0.03, 30.0, 13)  # deviations from neutral, in units of the effect's scale
+
+
+def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> float:
+    """The effect value whose residual, after the best linear readjustment of the model's
+    own parameters, is smallest over a logarithmic grid on both sides of neutral: one
+    simulation per point, to start the joint fit in the right basin (the joint fit of dry
+    friction, for one, has a second minimum where B absorbs part of it)."""
+    mask = problem.fit_mask
+    basis, _ = np.linalg.qr(base.jacobian)
+    measured = problem.measured_deg[mask]
+    best, best_cost = neutral, np.inf
+    for deviation in np.concatenate((SCAN_SPAN, -SCAN_SPAN)) * param.scale:
+        value = neutral + deviation
+        if not param.lower < value < param.upper:
+            continue
+        angle = problem.simulate(problem.finger([param], [value], base.finger))
+        r = measured - angle[mask]
+        r -= basis @ (basis.T @ r)
+        cost = float(r @ r)
+        if cost < best_cost:
+            best, best_cost = value, cost
+    return best
+
+
 def score(problem: Problem, base: Fit, name: str, sigma: float) -> Candidate:
     """Fit effect `name` jointly with every parameter of `base`."""
     spec = fx.BY_NAME[name]
@@ -105,9 +139,12 @@ def score(problem: Problem, base: Fit, name: str, sigma: float) -> Candidate:
     step = float(projected @ residual[mask]) / norm**2 if norm > 0 else 0.0
     neutral = spec.neutral
     params = (*base.params, param)
-    joint = fit(problem, params, [*base.values, start_value(param, neutral, step)], base=base.finger)
-    if joint.rss_fit > base.rss_fit:  # never worse than the model without it
-        joint = fit(problem, params, [*base.values, start_value(param, neutral, 0.0)], base=base.finger)
+    starts = [start_value(param, neutral, step)]
+    scanned = scan(problem, base, param, neutral)
+    if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - neutral) + 1e-12:
+        starts.append(scanned)
+    joint = min((fit(problem, params, [*base.values, s], base=base.finger) for s in starts),
+                key=lambda f: f.rss_fit)
     held = problem.held_mask
     measured = problem.measured_deg[held]
     separability = norm / raw if raw > 0 else 0.0
