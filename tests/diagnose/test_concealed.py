@@ -110,3 +110,12 @@ def test_physics_outside_the_library_is_unexplained() -> None:
     t_in_contact = c.t_s[c.angle_true_deg > 50.0]
     a, b, _ = d.windows[0]
     assert np.any((t_in_contact >= a - 0.5) & (t_in_contact <= b + 0.5))
+
+
+def test_dry_friction_is_found_past_the_second_minimum() -> None:
+    """Here a joint fit started from the Gauss-Newton step stops at Tc ≈ 0.002 N·m with B
+    absorbing the rest (true Tc ≈ 0.0098 N·m): the grid scan must find the right basin."""
+    c = generate(index_model(), {"coulomb_friction": None}, "steps", noise_deg=0.5, seed=5, conceal_ratio=0.8)
+    d = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0)
+    assert d.verdict == "missing_physics"
+    assert d.effects[0].value == pytest.approx(c.hidden["coulomb_friction"]["torque_nm"], rel=0.1)
