@@ -55,7 +55,8 @@ def test_windows_mark_where_the_residual_stands_out() -> None:
     burst = (t > 12.0) & (t < 13.0)
     residual[burst] += 1.0 * np.sin(2 * np.pi * 9.0 * t[burst])
     found = stats.windows(residual, np.ones(t.size, dtype=bool), t, 0.5, 100.0)
-    assert found and found[0][0] == pytest.approx(12.0, abs=0.4) and found[0][1] == pytest.approx(13.0, abs=0.4)
+    assert found
+    assert found[0][0] == pytest.approx(12.0, abs=0.4) and found[0][1] == pytest.approx(13.0, abs=0.4)
     assert stats.windows(rng.normal(0, 0.5, t.size), np.ones(t.size, dtype=bool), t, 0.5, 100.0) == []
 
 
