@@ -69,3 +69,10 @@ def sine(full_kpa: float, duration_s: float, rate_hz: float, rng: np.random.Gene
 
 Excitation = Callable[[float, float, float, np.random.Generator], np.ndarray]
 EXCITATIONS: dict[str, Excitation] = {"steps": steps, "sweep": sweep, "sine": sine}
+
+# One excitation per effect for the quick tests and the README table (the battery runs
+# both steps and sweep for every effect): both reveal every effect.
+REPRESENTATIVE: dict[str, str] = {
+    "valve_lag": "sweep", "dead_time": "steps", "coulomb_friction": "steps", "cubic_stiffness": "sweep",
+    "gravity": "steps", "asymmetric_stiffness": "steps", "quadratic_damping": "steps",
+    "pressure_deadzone": "sweep"}

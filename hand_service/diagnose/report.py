@@ -40,7 +40,21 @@ def overview_figure(d: Diagnosis, span: tuple[float, float] | None = None):
     p = d.problem
     keep = np.ones_like(p.t_s, dtype=bool) if span is None else (p.t_s >= span[0]) & (p.t_s <= span[1])
     t = p.t_s[keep]
-    fig, (ax, axp) = plt.subplots(2, 1, figsize=(11, 5.2), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    if span is None:
+        fig, (ax, axp) = plt.subplots(2, 1, figsize=(11, 5.2), sharex=True,
+                                      gridspec_kw={"height_ratios": [3, 1]})
+    else:
+        fig, (ax, axr, axp) = plt.subplots(3, 1, figsize=(11, 7.0), sharex=True,
+                                           gridspec_kw={"height_ratios": [3, 2, 1]})
+        axr.plot(t, (p.measured_deg - d.refit.angle_deg)[keep], ".", ms=3, color=COLOURS["recording"],
+                 label="recording − refitted plain model")
+        if d.effects or d.partial_effects:
+            axr.plot(t, (d.final.angle_deg - d.refit.angle_deg)[keep], lw=1.5, color=COLOURS["augmented"],
+                     label="augmented − refitted: what the found effect adds")
+        axr.axhline(0.0, color="k", lw=0.5)
+        axr.set_ylabel("residual (deg)")
+        axr.legend(loc="upper right", fontsize=8)
+        _shade(axr, d)
     ax.plot(t, p.measured_deg[keep], ".", ms=2.5, color=COLOURS["recording"], label="recording")
     ax.plot(t, d.nominal_angle_deg[keep], lw=1.0, color=COLOURS["nominal"], label="nominal model")
     ax.plot(t, d.refit.angle_deg[keep], lw=1.0, color=COLOURS["refit"], label="refitted plain model")

@@ -8,16 +8,13 @@ import numpy as np
 import pytest
 
 from hand_service import effects as fx
+from hand_service.concealed.excitations import REPRESENTATIVE as EXCITATION
 from hand_service.concealed.generator import generate
 from hand_service.diagnose.engine import diagnose
 from hand_service.profile import load_profile
 from hand_service.simulator import Contact, sim_finger
 from rtcore.sim import Simulator
 
-# one excitation that can reveal each effect; the battery runs both for every effect
-EXCITATION = {"valve_lag": "sweep", "dead_time": "steps", "coulomb_friction": "steps",
-              "cubic_stiffness": "sweep", "gravity": "steps", "asymmetric_stiffness": "steps",
-              "quadratic_damping": "steps", "pressure_deadzone": "sweep"}
 CONCEAL = 0.6  # the refitted plain model's residual is 0.6 x the noise
 NOISE_DEG = 0.5
 
@@ -119,3 +116,22 @@ def test_dry_friction_is_found_past_the_second_minimum() -> None:
     d = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0)
     assert d.verdict == "missing_physics"
     assert d.effects[0].value == pytest.approx(c.hidden["coulomb_friction"]["torque_nm"], rel=0.1)
+
+
+def test_two_hidden_effects_are_both_named() -> None:
+    c = generate(index_model(), {"cubic_stiffness": 0.01, "pressure_deadzone": 1.0}, "steps", noise_deg=0.5,
+                 seed=7)
+    d = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0)
+    assert d.verdict == "missing_physics"
+    assert {e.name for e in d.effects} == {"cubic_stiffness", "pressure_deadzone"}
+
+
+def test_timing_jitter_is_tolerated() -> None:
+    from hand_service.commands.diagnose import check_uniform
+
+    c = generate(index_model(), {"dead_time": None}, "steps", noise_deg=0.5, seed=9, conceal_ratio=CONCEAL)
+    t = c.t_s + np.random.default_rng(0).uniform(-0.002, 0.002, c.t_s.size)  # ±20 % of the period
+    rate_hz = check_uniform(t, "jittered.csv")
+    assert rate_hz == pytest.approx(100.0, rel=1e-3)
+    d = diagnose(c.nominal, t, c.pressure_kpa, c.angle_deg, rate_hz)
+    assert [e.name for e in d.effects] == ["dead_time"]
