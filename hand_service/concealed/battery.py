@@ -142,13 +142,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--clean-seeds", type=int, default=6)
     parser.add_argument("--excitations", default="steps,sweep")
+    parser.add_argument("--rate", type=float, default=100.0, help="sample rate in Hz (default 100)")
+    parser.add_argument("--duration", type=float, default=30.0, help="seconds per recording (default 30)")
     parser.add_argument("--json", default=None)
     parser.add_argument("--markdown", default=None)
     args = parser.parse_args(argv)
     cases = plan(args.seeds, tuple(args.excitations.split(",")), args.clean_seeds)
     started = time.perf_counter()
     for i, case in enumerate(cases, start=1):
-        run_case(case)
+        run_case(case, args.duration, args.rate)
         mark = "ok" if (case.top1 if case.effect != "clean" else not case.false_positive) else "MISS"
         print(f"[{i:3d}/{len(cases)} {time.perf_counter() - started:6.0f} s] {case.effect:<21} "
               f"{case.excitation:<6} "

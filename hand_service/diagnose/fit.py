@@ -92,7 +92,7 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
 
     x0 = _into_bounds(np.asarray(start, dtype=float) / scales, lower, upper)
     result = least_squares(residual, x0, bounds=(lower, upper), method="trf", x_scale="jac",
-                           diff_step=1e-6, max_nfev=max_nfev, xtol=1e-10, ftol=1e-10, gtol=1e-10)
+                           diff_step=1e-6, max_nfev=max_nfev, xtol=1e-8, ftol=1e-9, gtol=1e-9)
     values = result.x * scales
     finger = problem.finger(params, values, base)
     return Fit(params, values, finger, problem.simulate(finger), float(2.0 * result.cost),

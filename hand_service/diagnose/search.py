@@ -102,11 +102,24 @@ def start_value(param: Param, neutral: float, step: float) -> float:
 SCAN_SPAN = np.geomspace(0.03, 30.0, 13)  # deviations from neutral, in units of the effect's scale
 
 
-def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> float:
+@dataclass
+class Screen:
+    """What one simulation per grid point says about an effect, before any joint fit."""
+
+    name: str
+    param: Param
+    signature_corr: float
+    separability: float
+    starts: list[float]
+    predicted_bic: float  # ΔBIC if k, B, N readjusted linearly: a cheap stand-in for the fit
+
+
+def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[float, float]:
     """The effect value whose residual, after the best linear readjustment of the model's
-    own parameters, is smallest over a logarithmic grid on both sides of neutral: one
-    simulation per point, to start the joint fit in the right basin (the joint fit of dry
-    friction, for one, has a second minimum where B absorbs part of it)."""
+    own parameters, is smallest over a logarithmic grid on both sides of neutral, and that
+    residual's sum of squares: one simulation per point, to start the joint fit in the
+    right basin (the joint fit of dry friction, for one, has a second minimum where B
+    absorbs part of it)."""
     mask = problem.fit_mask
     basis, _ = np.linalg.qr(base.jacobian)
     measured = problem.measured_deg[mask]
@@ -121,46 +134,62 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> float:
         cost = float(r @ r)
         if cost < best_cost:
             best, best_cost = value, cost
-    return best
+    return best, best_cost
 
 
-def score(problem: Problem, base: Fit, name: str, sigma: float) -> Candidate:
-    """Fit effect `name` jointly with every parameter of `base`."""
+def screen(problem: Problem, base: Fit, name: str) -> Screen:
+    """The effect's signature against the residual (score test) and the grid scan."""
     spec = fx.BY_NAME[name]
     param = Param.effect(name)
     mask = problem.fit_mask
-    residual = base.residual(problem)
+    residual = base.residual(problem)[mask]
     signature = sensitivity(problem, param, base.finger, base.angle_deg)[mask]
     projected = project_out(base.jacobian, signature)
     norm = float(np.sqrt(projected @ projected))
     raw = float(np.sqrt(signature @ signature))
-    r = residual[mask] - residual[mask].mean()
+    r = residual - residual.mean()
     corr = float(projected @ r) / (norm * float(np.sqrt(r @ r))) if norm > 0 and r.any() else 0.0
-    step = float(projected @ residual[mask]) / norm**2 if norm > 0 else 0.0
-    neutral = spec.neutral
-    params = (*base.params, param)
-    starts = [start_value(param, neutral, step)]
-    scanned = scan(problem, base, param, neutral)
-    if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - neutral) + 1e-12:
+    step = float(projected @ residual) / norm**2 if norm > 0 else 0.0
+    starts = [start_value(param, spec.neutral, step)]
+    scanned, scan_rss = scan(problem, base, param, spec.neutral)
+    if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - spec.neutral) + 1e-12:
         starts.append(scanned)
-    joint = min((fit(problem, params, [*base.values, s], base=base.finger) for s in starts),
+    linear_rss = base.rss_fit * (1.0 - corr**2)  # the Gauss-Newton step's prediction
+    predicted = stats.delta_bic(base.rss_fit, max(min(scan_rss, linear_rss), 1e-300), problem.n_fit)
+    return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted)
+
+
+def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candidate:
+    """Fit the screened effect jointly with every parameter of `base`, from each start."""
+    params = (*base.params, screened.param)
+    joint = min((fit(problem, params, [*base.values, s], base=base.finger) for s in screened.starts),
                 key=lambda f: f.rss_fit)
     held = problem.held_mask
     measured = problem.measured_deg[held]
-    separability = norm / raw if raw > 0 else 0.0
-    return Candidate(name, param, corr, separability, start_value(param, neutral, step), joint,
-                     stats.delta_bic(base.rss_fit, joint.rss_fit, problem.n_fit),
+    return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
+                     screened.starts[0], joint, stats.delta_bic(base.rss_fit, joint.rss_fit, problem.n_fit),
                      stats.heldout_z(measured, base.angle_deg[held], joint.angle_deg[held], sigma),
                      stats.rmse(measured - joint.angle_deg[held]))
 
 
-def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None) -> Round:
+def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None,
+              fit_all: bool) -> Round:
+    """Screen every effect; fit jointly all of them (`fit_all`, the first round, whose
+    table the report shows) or, in later rounds, the two most promising and any whose
+    screen predicts ΔBIC above half the threshold."""
     sigma = base.sigma_deg
-    candidates = []
+    screens = []
     for i, name in enumerate(names):
         if progress:
-            progress(f"fitting {name} with the model ({i + 1}/{len(names)})")
-        candidates.append(score(problem, base, name, sigma))
+            progress(f"screening {name} ({i + 1}/{len(names)})")
+        screens.append(screen(problem, base, name))
+    screens.sort(key=lambda s: -s.predicted_bic)
+    chosen = [s for i, s in enumerate(screens) if fit_all or i < 2 or s.predicted_bic > SIGNIFICANT_BIC / 2]
+    candidates = []
+    for i, screened in enumerate(chosen):
+        if progress:
+            progress(f"fitting {screened.name} with the model ({i + 1}/{len(chosen)})")
+        candidates.append(score(problem, base, screened, sigma))
     candidates.sort(key=lambda c: -c.delta_bic)
     return Round(base, candidates)
 
@@ -171,7 +200,7 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
     current = refit
     remaining = list(names)
     while remaining and len(selection.accepted) < MAX_EFFECTS:
-        round_ = run_round(problem, current, remaining, progress)
+        round_ = run_round(problem, current, remaining, progress, fit_all=not selection.rounds)
         selection.rounds.append(round_)
         best = round_.best()
         if best is None or not best.significant:
@@ -182,7 +211,7 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
             # better than the best alone, they are two names for one signature.
             if progress:
                 progress(f"{best.name} or {runner.name}? fitting both together")
-            both = score(problem, best.fit, runner.name, best.fit.sigma_deg)
+            both = score(problem, best.fit, screen(problem, best.fit, runner.name), best.fit.sigma_deg)
             if not both.significant:
                 selection.ambiguous = (best, runner)
                 break
