@@ -28,7 +28,7 @@ from hand_service.diagnose.fit import Fit, fit, sensitivity
 from hand_service.diagnose.problem import Param, Problem
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
-SIGNIFICANT_Z = 3.0
+SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
 NAME_MARGIN_BIC = 10.0
 MAX_EFFECTS = 3
 
@@ -159,11 +159,30 @@ def screen(problem: Problem, base: Fit, name: str) -> Screen:
     return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted)
 
 
+ABSORBED = 0.15  # a refitted plain parameter this far from the nominal may be hiding an effect
+
+
+def nominal_start(problem: Problem, base: Fit) -> np.ndarray | None:
+    """`base` with k, B, N back at the model's values, when the refit moved any of them by
+    more than ABSORBED: the refit may have bent them to absorb the missing effect (B
+    taking up dry friction, say), and the joint fit must be able to undo that."""
+    values = base.values.copy()
+    nominal = problem.values(base.params)
+    plain = [i for i, p in enumerate(base.params) if not p.is_effect]
+    if np.max(np.abs(values[plain] / nominal[plain] - 1.0)) < ABSORBED:
+        return None
+    values[plain] = nominal[plain]
+    return values
+
+
 def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candidate:
     """Fit the screened effect jointly with every parameter of `base`, from each start."""
     params = (*base.params, screened.param)
-    joint = min((fit(problem, params, [*base.values, s], base=base.finger) for s in screened.starts),
-                key=lambda f: f.rss_fit)
+    starts = [[*base.values, s] for s in screened.starts]
+    reset = nominal_start(problem, base)
+    if reset is not None:
+        starts.append([*reset, screened.starts[-1]])
+    joint = min((fit(problem, params, start, base=base.finger) for start in starts), key=lambda f: f.rss_fit)
     held = problem.held_mask
     measured = problem.measured_deg[held]
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
