@@ -38,7 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", default=None, metavar="OUT.html",
                         help="write a self-contained HTML report with plots and the evidence table")
     parser.add_argument("--write-model", default=None, metavar="OUT.yaml",
-                        help="write the refitted model with the found effects in its effects block")
+                        help="write the refitted model with the found effects in its effects block "
+                             "(not written when the verdict is insufficient_excitation)")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
@@ -96,7 +97,10 @@ def main(args: argparse.Namespace) -> int:
 
         write_report(result, args.report, str(args.recording))
         print(f"wrote {args.report}")
-    if args.write_model:
+    if args.write_model and result.verdict == "insufficient_excitation":
+        print(f"not writing {args.write_model}: this recording cannot separate the parameters, so the "
+              "refit is not to be trusted (see the warnings)")
+    elif args.write_model:
         from hand_service.version import software_version
 
         save_model(result.refit_model(), args.write_model,

@@ -123,3 +123,32 @@ def test_bad_inputs_give_one_clear_line(case: str, expected: str, tmp_path: Path
     assert "Traceback" not in result.stderr
     assert result.stderr.strip().count("\n") == 0
     assert expected in result.stderr
+
+
+def test_daemon_recording_with_a_profile_and_finger(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A multi-finger recording (suffixed columns) and the profile as the model."""
+    from hand_service.concealed.generator import generate
+
+    model = load_profile(ROOT / MODEL).finger("middle").model
+    c = generate(model, {"gravity": None}, "steps", duration_s=20.0, seed=8, perturbation=0.0)
+    other = np.zeros_like(c.t_s)
+    path = tmp_path / "daemon.csv"
+    write_recording(path, {"t": c.t_s, "pressure_kpa_index": other, "angle_deg_index": other,
+                           "pressure_kpa_middle": c.pressure_kpa, "angle_deg_middle": c.angle_deg,
+                           "mode_middle": ["position"] * c.t_s.size})
+    assert main(["diagnose", str(path), "--model", str(ROOT / MODEL), "--finger", "middle", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "verdict: missing_physics" in out and "1. gravity" in out
+
+
+def test_no_model_written_when_the_excitation_is_insufficient(tmp_path: Path,
+                                                             capsys: pytest.CaptureFixture[str]) -> None:
+    csv, nominal, written = tmp_path / "sine.csv", tmp_path / "n.yaml", tmp_path / "out.yaml"
+    assert main(["simulate", "--excitation", "sine", "--effect", "valve_lag=0.05", "--duration", "20",
+                 "-o", str(csv), "--nominal-model", str(nominal)]) == 0
+    assert main(["diagnose", str(csv), "--model", str(nominal), "--write-model", str(written),
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "verdict: insufficient_excitation" in out and "not writing" in out
+    assert not written.exists()
