@@ -141,7 +141,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     params = plain_params(problem, model, warnings)
     if progress:
         progress(f"refitting {', '.join(p.label for p in params)} (A held)")
-    nominal_fit = fit(problem, params, problem.values(params), max_nfev=1)
+    nominal_rss_deg2 = float(np.sum((measured - nominal_angle)[fit_mask] ** 2))
     refit = fit(problem, params, problem.values(params))
     for factor in (0.85, 1.2):  # a second start guards against a wrong ringing frequency
         if stats.ljung_box(refit.residual(problem)[fit_mask], stats.whiteness_lags(rate_hz)).white:
@@ -149,7 +149,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
         start = refit.values.copy()
         start[0] *= factor
         other = fit(problem, params, start)
-        if other.rss_fit < refit.rss_fit:
+        if other.rss_deg2 < refit.rss_deg2:
             refit = other
     lags = stats.whiteness_lags(rate_hz)
     refit_white = stats.ljung_box(refit.residual(problem)[fit_mask], lags)
@@ -171,7 +171,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
             "refit": stats.rmse((measured - refit.angle_deg)[held]),
             "augmented": stats.rmse((measured - final.angle_deg)[held])}
     refit_gain = stats.heldout_z(measured[held], nominal_angle[held], refit.angle_deg[held], refit.sigma_deg)
-    refit_bic = stats.delta_bic(nominal_fit.rss_fit, refit.rss_fit, problem.n_fit, len(params))
+    refit_bic = stats.delta_bic(nominal_rss_deg2, refit.rss_deg2, problem.n_fit, len(params))
     round1 = selection.rounds[0].candidates if selection.rounds else []
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative_std, selection, found, refit_white, final_white,

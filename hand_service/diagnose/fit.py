@@ -26,7 +26,7 @@ class Fit:
     values: np.ndarray
     finger: SimFinger
     angle_deg: np.ndarray  # simulated, every sample
-    rss_fit: float  # residual sum of squares on the fitting samples (deg²)
+    rss_deg2: float  # residual sum of squares on the fitting samples (deg²)
     jacobian: np.ndarray  # d angle / d value on the fitting samples, physical units
     n_fit: int
 
@@ -36,7 +36,7 @@ class Fit:
     @property
     def sigma_deg(self) -> float:
         """Noise estimate from the fitting residual, with the fitted degrees of freedom removed."""
-        return float(np.sqrt(self.rss_fit / max(self.n_fit - len(self.params), 1)))
+        return float(np.sqrt(self.rss_deg2 / max(self.n_fit - len(self.params), 1)))
 
     def covariance(self) -> np.ndarray:
         """σ²·(JᵀJ)⁻¹, by pseudo-inverse so that a rank-deficient J shows as huge variance."""

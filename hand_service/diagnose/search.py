@@ -151,11 +151,12 @@ def screen(problem: Problem, base: Fit, name: str) -> Screen:
     corr = float(projected @ r) / (norm * float(np.sqrt(r @ r))) if norm > 0 and r.any() else 0.0
     step = float(projected @ residual) / norm**2 if norm > 0 else 0.0
     starts = [start_value(param, spec.neutral, step)]
-    scanned, scan_rss = scan(problem, base, param, spec.neutral)
+    scanned, scan_rss_deg2 = scan(problem, base, param, spec.neutral)
     if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - spec.neutral) + 1e-12:
         starts.append(scanned)
-    linear_rss = base.rss_fit * (1.0 - corr**2)  # the Gauss-Newton step's prediction
-    predicted = stats.delta_bic(base.rss_fit, max(min(scan_rss, linear_rss), 1e-300), problem.n_fit)
+    linear_rss_deg2 = base.rss_deg2 * (1.0 - corr**2)  # the Gauss-Newton step's prediction
+    best_rss_deg2 = max(min(scan_rss_deg2, linear_rss_deg2), 1e-300)
+    predicted = stats.delta_bic(base.rss_deg2, best_rss_deg2, problem.n_fit)
     return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted)
 
 
@@ -182,11 +183,11 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candid
     reset = nominal_start(problem, base)
     if reset is not None:
         starts.append([*reset, screened.starts[-1]])
-    joint = min((fit(problem, params, start, base=base.finger) for start in starts), key=lambda f: f.rss_fit)
+    joint = min((fit(problem, params, start, base=base.finger) for start in starts), key=lambda f: f.rss_deg2)
     held = problem.held_mask
     measured = problem.measured_deg[held]
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
-                     screened.starts[0], joint, stats.delta_bic(base.rss_fit, joint.rss_fit, problem.n_fit),
+                     screened.starts[0], joint, stats.delta_bic(base.rss_deg2, joint.rss_deg2, problem.n_fit),
                      stats.heldout_z(measured, base.angle_deg[held], joint.angle_deg[held], sigma),
                      stats.rmse(measured - joint.angle_deg[held]))
 
