@@ -17,12 +17,20 @@ from hand_service.errors import UserError
 COLOURS = {"recording": "#9a9a9a", "nominal": "#d62728", "refit": "#1f77b4", "augmented": "#2ca02c"}
 
 
+def _pyplot():
+    """pyplot on the Agg backend (no display here, and none needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
 def _png(figure) -> str:
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=90, bbox_inches="tight")
-    import matplotlib.pyplot as plt
-
-    plt.close(figure)
+    _pyplot().close(figure)
     return base64.b64encode(buffer.getvalue()).decode()
 
 
@@ -32,11 +40,7 @@ def _shade(ax, d: Diagnosis) -> None:
 
 
 def overview_figure(d: Diagnosis, span: tuple[float, float] | None = None):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     p = d.problem
     keep = np.ones_like(p.t_s, dtype=bool) if span is None else (p.t_s >= span[0]) & (p.t_s <= span[1])
     t = p.t_s[keep]
@@ -77,8 +81,7 @@ def overview_figure(d: Diagnosis, span: tuple[float, float] | None = None):
 
 
 def residual_figure(d: Diagnosis):
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     p = d.problem
     valid = p.fit_mask | p.held_mask
     width = max(20, round(0.5 * p.rate_hz))
@@ -99,8 +102,7 @@ def residual_figure(d: Diagnosis):
 
 
 def tests_figure(d: Diagnosis):
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     p = d.problem
     lags = stats.whiteness_lags(p.rate_hz)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 3.2))
