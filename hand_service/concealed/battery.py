@@ -144,10 +144,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--excitations", default="steps,sweep")
     parser.add_argument("--rate", type=float, default=100.0, help="sample rate in Hz (default 100)")
     parser.add_argument("--duration", type=float, default=30.0, help="seconds per recording (default 30)")
+    parser.add_argument("--ratio", type=float, default=None,
+                        help="concealment for every case instead of a draw in 0.4-1.5 "
+                             "(the sign still alternates)")
+    parser.add_argument("--noise", type=float, default=None, help="sensor noise (deg) instead of a draw")
     parser.add_argument("--json", default=None)
     parser.add_argument("--markdown", default=None)
     args = parser.parse_args(argv)
     cases = plan(args.seeds, tuple(args.excitations.split(",")), args.clean_seeds)
+    for case in cases:
+        if args.ratio is not None:
+            case.ratio_target = float(np.copysign(args.ratio, case.ratio_target))
+        if args.noise is not None:
+            case.noise_deg = args.noise
     started = time.perf_counter()
     for i, case in enumerate(cases, start=1):
         run_case(case, args.duration, args.rate)
