@@ -70,7 +70,7 @@ class Diagnosis:
 
     def refit_model(self, with_effects: bool = True) -> FingerModel:
         """The refitted model; with the found effects added to its `effects` block."""
-        source = self.final if with_effects else self.refit
+        source = self.final if with_effects and self.effects else self.refit
         changes = {name: float(getattr(source.finger, name)) for name in PLAIN}
         effects = dict(self.model.effects)
         if with_effects:

@@ -102,6 +102,9 @@ def test_physics_outside_the_library_is_unexplained() -> None:
     d = diagnose(c.nominal, c.t_s, c.pressure_kpa, angle, 100.0)
     assert d.verdict == "unexplained"
     assert d.effects == []
+    written = d.refit_model()  # what --write-model writes: the plain refit, nothing partial
+    assert set(written.effects) == set(c.nominal.effects)
+    assert written.stiffness_nm_per_rad == pytest.approx(d.refit.value("stiffness_nm_per_rad"))
     assert d.windows
     # the windows are where the finger is pressed into the object
     t_in_contact = c.t_s[c.angle_true_deg > 50.0]
