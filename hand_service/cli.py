@@ -23,6 +23,8 @@ COMMANDS: dict[str, str] = {
     "replicate": "hand_service.commands.replicate",
     "trials": "hand_service.commands.trials",
     "mock-firmware": "hand_service.commands.mock_firmware",
+    "diagnose": "hand_service.commands.diagnose",
+    "simulate": "hand_service.commands.simulate",
 }
 
 DESCRIPTION = """\

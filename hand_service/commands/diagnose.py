@@ -1,0 +1,130 @@
+"""`hand-service diagnose RECORDING.csv --model MODEL.yaml`: name the physics a model leaves out."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+HELP = "find where a model and a recording disagree, and name the missing physics"
+DESCRIPTION = """\
+Compare a finger model with a recording (t, pressure_kpa, angle_deg; formats.md), find
+where and why they differ, and name the physics the model leaves out.
+
+It simulates the model on the recorded command, refits k, B and N (A held) by
+output-error least squares, tests the residual (whiteness, cross-correlation with the
+command, time windows), then fits each library effect the model does not already
+include (valve_lag, dead_time, coulomb_friction, cubic_stiffness, gravity,
+asymmetric_stiffness, quadratic_damping, pressure_deadzone) jointly with k, B and N.
+An effect is named only when the information criterion and held-out data both favour it
+and no other effect explains the same residual as well. A quarter of the data, in
+interleaved blocks, is held out from every fit.
+
+Verdicts: consistent, parameters_only, missing_physics, unexplained,
+insufficient_excitation. See docs/diagnose.md.
+
+examples:
+  hand-service diagnose run.csv --model firmware_profiles/sim.yaml --finger index \\
+      --json diag.json --report diag.html --write-model index_fixed.yaml
+"""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("recording", help="recording CSV (formats.md)")
+    parser.add_argument("--model", required=True, help="model YAML, or a profile with --finger")
+    parser.add_argument("--finger", default=None,
+                        help="finger to pick from a profile or a multi-finger recording")
+    parser.add_argument("--json", default=None, metavar="OUT.json", help="write the result as JSON")
+    parser.add_argument("--report", default=None, metavar="OUT.html",
+                        help="write a self-contained HTML report with plots and the evidence table")
+    parser.add_argument("--write-model", default=None, metavar="OUT.yaml",
+                        help="write the refitted model with the found effects in its effects block "
+                             "(not written when the verdict is insufficient_excitation)")
+    parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+
+def check_uniform(t_s, path: str) -> float:
+    """The sample rate, after checking the time stamps are uniform up to small jitter."""
+    import numpy as np
+
+    from hand_service.errors import UserError
+
+    dt = np.diff(t_s)
+    period = float((t_s[-1] - t_s[0]) / (t_s.size - 1))  # the mean period: unbiased under jitter
+    worst = int(np.argmax(np.abs(dt - period)))
+    if abs(dt[worst] - period) > 0.5 * period:
+        raise UserError(f"{path}: the samples are not uniform: t jumps by {dt[worst]:.4g} s after "
+                        f"t = {t_s[worst]:.4g} s where the period is {period:.4g} s (diagnose needs one "
+                        "uniform rate; small jitter is fine)")
+    return 1.0 / period
+
+
+def main(args: argparse.Namespace) -> int:
+    import json
+
+    from hand_service.diagnose.engine import diagnose
+    from hand_service.errors import UserError
+    from hand_service.model import load_model, save_model
+    from hand_service.recording import read_recording
+
+    recording = read_recording(args.recording, args.finger)
+    model = load_model(args.model, args.finger or recording.finger)
+    model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m",
+                  purpose="diagnose")
+    rate_hz = check_uniform(recording.t_s, args.recording)
+    if recording.duration_s * rate_hz < 100:
+        raise UserError(f"{args.recording}: only {len(recording)} samples; diagnose needs at least 100")
+    started = time.perf_counter()
+
+    def progress(message: str) -> None:
+        if not args.quiet:
+            print(f"\r[{time.perf_counter() - started:5.1f} s] {message:<70}", end="", file=sys.stderr,
+                  flush=True)
+
+    result = diagnose(model, recording.t_s, recording.pressure_kpa, recording.angle_deg, rate_hz, progress)
+    if not args.quiet:
+        print(file=sys.stderr)
+    print_summary(result)
+    if args.json:
+        try:
+            with open(args.json, "w") as handle:
+                json.dump(result.to_json(), handle, indent=2)
+        except OSError as exc:
+            raise UserError(f"{args.json}: cannot write: {exc.strerror or exc}") from None
+        print(f"wrote {args.json}")
+    if args.report:
+        from hand_service.diagnose.report import write_report
+
+        write_report(result, args.report, str(args.recording))
+        print(f"wrote {args.report}")
+    if args.write_model and result.verdict == "insufficient_excitation":
+        print(f"not writing {args.write_model}: this recording cannot separate the parameters, so the "
+              "refit is not to be trusted (see the warnings)")
+    elif args.write_model:
+        from hand_service.version import software_version
+
+        save_model(result.refit_model(), args.write_model,
+                   header=f"refitted by hand-service diagnose {software_version()} from {args.recording}\n"
+                          f"verdict: {result.verdict}")
+        print(f"wrote {args.write_model}")
+    return 0
+
+
+def print_summary(result) -> None:
+    j = result.to_json()
+    print(f"verdict: {j['verdict']}")
+    model = result.model
+    print(f"{'parameter':<28} {'nominal':>11} {'refit':>11} {'±':>9}")
+    for name in ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa"):
+        print(f"{name:<28} {getattr(model, name):11.5g} {j['refit'][name]:11.5g} "
+              f"{j['refit_std'].get(name, float('nan')):9.2g}")
+    for i, effect in enumerate(result.effects, start=1):
+        print(f"{i}. {effect.name}: {effect.evidence}")
+    rm = j["rmse_deg"]
+    print(f"held-out RMSE (deg): nominal {rm['nominal']:.3f}, refit {rm['refit']:.3f}, "
+          f"augmented {rm['augmented']:.3f}; noise {result.noise_deg:.3f}")
+    if j["windows"]:
+        print("windows (s): " + ", ".join(f"{a:.2f}-{b:.2f}" for a, b in j["windows"]))
+    for warning in j["warnings"]:
+        print(f"warning: {warning}")
+    print(f"({result.seconds:.1f} s)")

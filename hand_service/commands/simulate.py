@@ -1,0 +1,130 @@
+"""`hand-service simulate`: recordings of a simulated finger, with effects concealed in them."""
+
+from __future__ import annotations
+
+import argparse
+
+HELP = "write a simulated recording, optionally with an effect concealed from the model"
+DESCRIPTION = """\
+Simulate one finger on a pressure excitation and write the recording (formats.md), the
+nominal model a lab would have (k, B, N off by up to --perturb) and the hidden truth.
+
+With --effect NAME=VALUE the truth includes that effect at that value. With --effect NAME
+alone, the effect is scaled until the refitted plain model (k, B, N; A held) leaves a
+residual of --conceal times the sensor noise: concealed, so nobody can see it in a plot.
+Hidden effects are left out of the nominal model even when the profile includes them;
+the profile's other effects stay in both. This is how `diagnose` is proven.
+
+excitations: steps (random staircase with vents), sweep (ramps, chirp 0.3-15 Hz,
+inflate-and-vent swings), sine (one 1 Hz sine: too poor to separate parameters).
+
+examples:
+  hand-service simulate --effect coulomb_friction -o conceal.csv --nominal-model nominal.yaml
+  hand-service simulate --effect gravity=0.05 --excitation sweep --noise 0.3 -o g.csv
+  hand-service simulate -o clean.csv --nominal-model nominal.yaml     # nothing hidden
+"""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("-o", "--output", required=True, metavar="OUT.csv", help="recording to write")
+    parser.add_argument("--profile", default=None, help="profile holding the finger (default: sim.yaml)")
+    parser.add_argument("--finger", default="index", help="finger of the profile (default: index)")
+    parser.add_argument("--model", default=None, help="a model file instead of a profile's finger")
+    parser.add_argument("--effect", action="append", default=[], metavar="NAME[=VALUE]",
+                        help="hidden effect (repeatable); without a value it is scaled to --conceal")
+    parser.add_argument("--conceal", type=float, default=0.8, metavar="RATIO",
+                        help="residual/noise the refitted plain model leaves (default 0.8); a negative "
+                             "ratio deviates the other way from neutral (softening, negative gravity)")
+    parser.add_argument("--excitation", default="steps", help="steps, sweep or sine (default steps)")
+    parser.add_argument("--duration", type=float, default=30.0, help="seconds (default 30)")
+    parser.add_argument("--rate", type=float, default=100.0, help="sample rate in Hz (default 100)")
+    parser.add_argument("--noise", type=float, default=0.5, help="sensor noise in deg (default 0.5)")
+    parser.add_argument("--adc-step-deg", type=float, default=0.122,
+                        help="ADC quantisation in deg (default 0.122: 1.22 mV at 0.1 deg/mV)")
+    parser.add_argument("--perturb", type=float, default=0.1,
+                        help="k, B and N of the nominal model off by up to this fraction (default 0.1)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (excitation, noise, perturbation)")
+    parser.add_argument("--nominal-model", default=None, metavar="OUT.yaml",
+                        help="write the nominal model (perturbed, hidden effects left out)")
+    parser.add_argument("--truth", default=None, metavar="OUT.json", help="write the hidden truth as JSON")
+
+
+def parse_effects(items: list[str]) -> dict[str, float | None]:
+    from hand_service import effects as fx
+    from hand_service.errors import UserError
+
+    hidden: dict[str, float | None] = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        name = name.strip()
+        if name not in fx.BY_NAME:
+            raise UserError(f"--effect {item}: unknown effect '{name}' (known: {', '.join(fx.BY_NAME)})")
+        if not value:
+            hidden[name] = None
+            continue
+        try:
+            number = float(value)
+        except ValueError:
+            raise UserError(f"--effect {item}: '{value}' is not a number") from None
+        spec = fx.BY_NAME[name]
+        if not spec.lower <= number <= spec.upper:
+            raise UserError(f"--effect {item}: {spec.param} must be within {spec.lower:g} to {spec.upper:g} "
+                            f"{spec.unit}")
+        hidden[name] = number
+    return hidden
+
+
+def main(args: argparse.Namespace) -> int:
+    import json
+
+    import numpy as np
+
+    from hand_service.concealed.generator import generate
+    from hand_service.errors import UserError
+    from hand_service.model import load_model, save_model
+    from hand_service.profile import load_profile
+    from hand_service.recording import write_recording
+    from hand_service.version import software_version
+
+    if args.model:
+        model = load_model(args.model, args.finger)
+        source = args.model
+    else:
+        profile = load_profile(args.profile)
+        model = profile.finger(args.finger).model
+        source = str(profile.path)
+    model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m",
+                  purpose="simulation")
+    if not (args.duration >= 1.0 and 10.0 <= args.rate <= 10000.0 and args.noise > 0.0
+            and 0.0 <= args.perturb < 1.0 and args.adc_step_deg >= 0.0 and args.conceal != 0.0):
+        raise UserError("need --duration >= 1 s, --rate 10-10000 Hz, --noise > 0, --perturb in [0, 1), "
+                        "--adc-step-deg >= 0 and a non-zero --conceal")
+    hidden = parse_effects(args.effect)
+    c = generate(model, hidden, args.excitation, args.duration, args.rate, args.noise, args.adc_step_deg,
+                 args.perturb, args.seed, args.conceal)
+    metadata = {**c.metadata(), "model": source, "software_version": software_version()}
+    write_recording(args.output, {"t": c.t_s, "pressure_kpa": c.pressure_kpa, "angle_deg": c.angle_deg,
+                                  "angle_true_deg": c.angle_true_deg}, metadata)
+    print(f"wrote {args.output}: {c.t_s.size} samples at {args.rate:g} Hz, excitation {args.excitation}, "
+          f"noise {args.noise:g} deg")
+    for name, params in c.hidden.items():
+        print(f"hidden {name}: {params}; refitted plain model's residual = {c.concealment:.2f} x noise")
+    if args.nominal_model:
+        save_model(c.nominal, args.nominal_model,
+                   header=f"nominal model from hand-service simulate (seed {args.seed}): k, B, N perturbed "
+                          f"by up to {100 * args.perturb:g} %, hidden effects left out")
+        print(f"wrote {args.nominal_model}")
+    if args.truth:
+        truth = {"hidden_effects": c.hidden, "concealment_residual_over_noise": c.concealment,
+                 "truth": {k: v for k, v in c.truth.to_dict().items() if k != "effects"},
+                 "truth_effects": c.truth.effects,
+                 "nominal": {k: v for k, v in c.nominal.to_dict().items() if k != "effects"},
+                 "noise_deg": args.noise, "seed": args.seed, "excitation": args.excitation,
+                 "angle_rms_deg": float(np.sqrt(np.mean(c.angle_true_deg**2)))}
+        try:
+            with open(args.truth, "w") as handle:
+                json.dump(truth, handle, indent=2)
+        except OSError as exc:
+            raise UserError(f"{args.truth}: cannot write: {exc.strerror or exc}") from None
+        print(f"wrote {args.truth}")
+    return 0

@@ -1,0 +1,249 @@
+"""`diagnose` end to end: nominal, refit, locate, name, judge (formats.md contract).
+
+    a. simulate the nominal model on the recorded command, from the recorded state;
+    b. refit k, B, N (A and the model's own effects held) by output-error least squares;
+    c. locate: residual whiteness, cross-correlation with the past input, windows in time,
+       and each library effect's signature correlation;
+    d. name: forward selection over the library effects the model leaves out (search.py);
+    e. judge: consistent / parameters_only / missing_physics / unexplained /
+       insufficient_excitation.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hand_service import effects as fx
+from hand_service.diagnose import stats
+from hand_service.diagnose.evidence import Context, sentence
+from hand_service.diagnose.fit import Fit, fit
+from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
+from hand_service.diagnose.search import Candidate, Progress, Selection, select
+from hand_service.model import FingerModel
+
+MAX_RELATIVE_STD = 0.1  # a plain parameter known worse than ±10 % is not identified
+STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
+# An effect whose signature k, B and N absorb all but this share of could hide in a refit:
+# an effect ten times the noise would leave less than the noise behind.
+SEPARABLE_MIN = 0.1
+
+
+@dataclass
+class FoundEffect:
+    name: str
+    value: float
+    std: float
+    evidence: str
+    delta_bic: float
+    z_heldout: float
+    signature_corr: float
+
+    def to_json(self) -> dict:
+        param = fx.BY_NAME[self.name].param
+        return {"name": self.name, "params": {param: self.value}, "evidence": self.evidence,
+                "std": {param: self.std}, "delta_bic": self.delta_bic, "heldout_z": self.z_heldout,
+                "signature_corr": self.signature_corr}
+
+
+@dataclass
+class Diagnosis:
+    verdict: str
+    model: FingerModel
+    refit: Fit
+    final: Fit
+    problem: Problem
+    nominal_angle_deg: np.ndarray
+    effects: list[FoundEffect]
+    windows: list[tuple[float, float, float]]
+    rmse_deg: dict[str, float]
+    warnings: list[str]
+    selection: Selection
+    noise_deg: float
+    whiteness: dict[str, stats.Whiteness]
+    input_xcorr: stats.CrossCorrelation
+    seconds: float = 0.0
+    notes: list[str] = field(default_factory=list)
+    partial_effects: list[FoundEffect] = field(default_factory=list)  # significant, yet not explaining
+
+    def refit_model(self, with_effects: bool = True) -> FingerModel:
+        """The refitted model; with the found effects added to its `effects` block."""
+        source = self.final if with_effects and self.effects else self.refit
+        changes = {name: float(getattr(source.finger, name)) for name in PLAIN}
+        effects = dict(self.model.effects)
+        if with_effects:
+            for found in self.effects:
+                effects[found.name] = {fx.BY_NAME[found.name].param: found.value}
+        return self.model.with_changes(**changes, effects=effects)
+
+    def to_json(self) -> dict:
+        source = self.final if self.effects else self.refit
+        refit = {"inertia_kgm2": self.model.inertia_kgm2,
+                 **{name: float(getattr(source.finger, name)) for name in
+                    ("damping_nms_per_rad", "stiffness_nm_per_rad", "pressure_gain_nm_per_kpa")}}
+        stds = dict(zip([p.label for p in source.params], source.std(), strict=True))
+        round1 = self.selection.rounds[0].candidates if self.selection.rounds else []
+        return {
+            "verdict": self.verdict,
+            "refit": refit,
+            "effects": [e.to_json() for e in self.effects],
+            "windows": [[round(a, 3), round(b, 3)] for a, b, _ in self.windows],
+            "rmse_deg": self.rmse_deg,
+            "warnings": self.warnings,
+            "refit_std": {k: float(stds[k]) for k in PLAIN if k in stds},
+            "noise_deg": self.noise_deg,
+            "sample_rate_hz": self.problem.rate_hz,
+            "samples": {"fit": int(self.problem.fit_mask.sum()),
+                        "held_out": int(self.problem.held_mask.sum())},
+            "whiteness": {k: {"ljung_box_q": w.q, "lags": w.lags, "p_value": w.p_value}
+                          for k, w in self.whiteness.items()},
+            "input_cross_correlation": {"worst_lag_s": self.input_xcorr.worst[0],
+                                        "worst_rho": self.input_xcorr.worst[1],
+                                        "band_99": self.input_xcorr.band},
+            "candidates": [candidate_json(c) for c in round1],
+            "partial_effects": [e.to_json() for e in self.partial_effects],
+            "notes": self.notes,
+            "seconds": self.seconds,
+        }
+
+
+def candidate_json(c: Candidate) -> dict:
+    return {"name": c.name, "estimate": c.estimate, "std": c.std, "delta_bic": c.delta_bic,
+            "heldout_z": c.z_heldout, "signature_corr": c.signature_corr, "separability": c.separability,
+            "significant": c.significant}
+
+
+def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
+    params = [Param.plain(name, getattr(model, name)) for name in PLAIN]
+    if np.ptp(problem.pressure_kpa) == 0.0 and problem.pressure_kpa[0] == 0.0:
+        warnings.append("the pressure command is zero throughout: the pressure gain N cannot be "
+                        "measured and is held at the model's value")
+        params = [p for p in params if p.label != "pressure_gain_nm_per_kpa"]
+    return params
+
+
+def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
+    return np.gradient(angle_deg) * rate_hz
+
+
+def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
+             rate_hz: float, progress: Progress | None = None) -> Diagnosis:
+    started = time.perf_counter()
+    warnings: list[str] = []
+    problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz)
+    held, fit_mask = problem.held_mask, problem.fit_mask
+    measured = problem.measured_deg
+    if progress:
+        progress("simulating the nominal model on the recorded command")
+    nominal_angle = problem.simulate(problem.base)
+    params = plain_params(problem, model, warnings)
+    if progress:
+        progress(f"refitting {', '.join(p.label for p in params)} (A held)")
+    nominal_rss_deg2 = float(np.sum((measured - nominal_angle)[fit_mask] ** 2))
+    refit = fit(problem, params, problem.values(params))
+    for factor in (0.85, 1.2):  # a second start guards against a wrong ringing frequency
+        if stats.ljung_box(refit.residual(problem)[fit_mask], stats.whiteness_lags(rate_hz)).white:
+            break
+        start = refit.values.copy()
+        start[0] *= factor
+        other = fit(problem, params, start)
+        if other.rss_deg2 < refit.rss_deg2:
+            refit = other
+    lags = stats.whiteness_lags(rate_hz)
+    refit_white = stats.ljung_box(refit.residual(problem)[fit_mask], lags)
+    missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]
+    relative_std = refit.std() / np.maximum(np.abs(refit.values), 1e-300)
+    unidentified = [p.label for p, r in zip(params, relative_std, strict=True) if not r < MAX_RELATIVE_STD]
+    selection = Selection(final=refit)
+    if not unidentified:
+        selection = select(problem, refit, missing, progress)
+    final = selection.final or refit
+    found = [found_effect(problem, c, selection) for c in selection.accepted]
+    sigma = final.sigma_deg
+    residual = refit.residual(problem)
+    valid = fit_mask | held
+    win = stats.windows(residual, valid, problem.t_s, sigma, rate_hz)
+    final_white = stats.ljung_box(final.residual(problem)[fit_mask], lags)
+    xcorr = stats.cross_correlation(residual[fit_mask], problem.pressure_kpa[fit_mask], lags, rate_hz)
+    rmse = {"nominal": stats.rmse((measured - nominal_angle)[held]),
+            "refit": stats.rmse((measured - refit.angle_deg)[held]),
+            "augmented": stats.rmse((measured - final.angle_deg)[held])}
+    refit_gain = stats.heldout_z(measured[held], nominal_angle[held], refit.angle_deg[held], refit.sigma_deg)
+    refit_bic = stats.delta_bic(nominal_rss_deg2, refit.rss_deg2, problem.n_fit, len(params))
+    round1 = selection.rounds[0].candidates if selection.rounds else []
+    inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
+    verdict, notes = judge(unidentified, params, relative_std, selection, found, refit_white, final_white,
+                           refit_gain, refit_bic, inseparable, warnings)
+    partial: list[FoundEffect] = []
+    if verdict == "unexplained" and found:
+        # a name is given only to what explains the mismatch: these do not, so they are
+        # reported apart, and neither the JSON's effects nor --write-model carries them
+        partial, found = found, []
+    for candidate in (selection.rounds[0].candidates if selection.rounds else []):
+        if candidate.separability == 0.0:
+            warnings.append(f"this recording cannot reveal {candidate.name}: it has no effect on "
+                            "the simulated angle here (see the excitation advice in docs/diagnose.md)")
+    return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
+                     selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
+                     time.perf_counter() - started, notes, partial)
+
+
+def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundEffect:
+    final = selection.final
+    assert final is not None
+    value = final.value(c.name)
+    std = float(final.std()[[p.label for p in final.params].index(c.name)])
+    angle = final.angle_deg
+    context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
+                      final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
+    held = problem.held_mask
+    measured = problem.measured_deg[held]
+    base_angle = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
+    rmse_before = stats.rmse(measured - base_angle[held])
+    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, rmse_before, c.rmse_heldout_deg)
+    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)
+
+
+def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray, selection: Selection,
+          found: list[FoundEffect], refit_white: stats.Whiteness, final_white: stats.Whiteness,
+          refit_gain_z: float, refit_bic: float, inseparable: list[str],
+          warnings: list[str]) -> tuple[str, list[str]]:
+    notes: list[str] = []
+    if unidentified:
+        worst = ", ".join(f"{p.label} ±{100 * r:.0f} %" for p, r in zip(params, relative_std, strict=True)
+                          if p.label in unidentified)
+        warnings.append(f"the recording cannot separate the plain parameters ({worst}): excite the finger "
+                        "with steps or a chirp rather than a single slow sine")
+        return "insufficient_excitation", notes
+    if selection.ambiguous is not None:
+        a, b = selection.ambiguous
+        warnings.append(f"{a.name} and {b.name} explain the residual about equally well (ΔBIC "
+                        f"{a.delta_bic:.0f} and {b.delta_bic:.0f}) and not better together: this "
+                        "recording cannot tell them apart")
+        if not found:
+            return "insufficient_excitation", notes
+    if found:
+        if final_white.p_value < STRUCTURE_P:
+            names = ", ".join(e.name for e in found)
+            warnings.append(f"{names} reduce the residual, but a structured residual remains (Ljung-Box "
+                            f"p = {final_white.p_value:.1g}): they explain only part of the mismatch, so "
+                            "they are not named (see partial_effects)")
+            return "unexplained", notes
+        return "missing_physics", notes
+    if refit_white.p_value < STRUCTURE_P:
+        warnings.append("the refitted model leaves a structured residual (Ljung-Box p = "
+                        f"{refit_white.p_value:.1g}) that no library effect explains")
+        return "unexplained", notes
+    if inseparable:
+        warnings.append(f"this recording cannot tell {', '.join(inseparable)} from a change of k, B and N "
+                        f"(k, B and N absorb over {100 * (1 - SEPARABLE_MIN):.0f} % of "
+                        f"{'its' if len(inseparable) == 1 else 'their'} signature): the refit may be "
+                        "hiding it; excite with steps or a chirp")
+        return "insufficient_excitation", notes
+    if refit_bic > 10.0 and refit_gain_z > 3.0:
+        notes.append("the refit predicts held-out data better than the nominal model "
+                     f"(z = {refit_gain_z:.1f})")
+        return "parameters_only", notes
+    return "consistent", notes

@@ -1,0 +1,99 @@
+"""Evidence a researcher can read: what each found effect does to this finger, in numbers.
+
+An entry here is optional: an effect without one gets the generic sentence (its estimate
+and the statistics), so adding an effect to the library needs nothing in this file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_service import effects as fx
+from hand_service.diagnose.problem import Problem
+
+
+@dataclass
+class Context:
+    """What the sentences may quote: the problem, the augmented finger's simulated angle and
+    the found value of the effect."""
+
+    problem: Problem
+    angle_deg: np.ndarray
+    velocity_deg_per_s: np.ndarray
+    stiffness_nm_per_rad: float
+    damping_nms_per_rad: float
+    value: float
+
+
+def _valve_lag(c: Context) -> str:
+    return (f"the angle trails the pressure command by about {1e3 * c.value:.1f} ms more than the model "
+            "allows, rounding off every change of pressure: a first-order valve lag")
+
+
+def _dead_time(c: Context) -> str:
+    return (f"the finger starts to move about {1e3 * c.value:.1f} ms later after each change of pressure "
+            "than the model predicts, with the shape of the response unchanged: a transport delay")
+
+
+def _coulomb(c: Context) -> str:
+    per_cycle_deg = np.degrees(4.0 * c.value / c.stiffness_nm_per_rad)
+    return (f"free swings lose amplitude linearly, about {per_cycle_deg:.2g} deg per cycle "
+            f"(4·Tc/k): dry friction of about {c.value:.2g} N·m")
+
+
+def _cubic(c: Context) -> str:
+    peak = np.radians(np.percentile(np.abs(c.angle_deg), 99))
+    extra = c.value * peak**3
+    share = 100.0 * extra / (c.stiffness_nm_per_rad * peak)
+    kind = "stiffens" if c.value > 0 else "softens"
+    return (f"the finger {kind} as it bends: at {np.degrees(peak):.0f} deg the extra torque k3·θ³ is "
+            f"{extra:.2g} N·m, {share:+.1f} % of k·θ")
+
+
+def _gravity(c: Context) -> str:
+    peak = np.radians(np.percentile(np.abs(c.angle_deg), 99))
+    torque = c.value * (1.0 - np.cos(peak))
+    share = 100.0 * torque / (c.stiffness_nm_per_rad * peak)
+    return (f"a torque growing as 1 − cos θ, as gravity on a horizontal finger: G = {c.value:.2g} N·m, "
+            f"{torque:.2g} N·m at {np.degrees(peak):.0f} deg ({share:+.1f} % of k·θ)")
+
+
+def _asymmetric(c: Context) -> str:
+    behind = c.angle_deg < 0
+    seconds = behind.sum() / c.problem.rate_hz
+    low = float(c.angle_deg.min())
+    return (f"bending backwards the finger is {c.value:.2f}× as stiff as bending forwards; it swung "
+            f"below zero (down to {low:.0f} deg) for {seconds:.1f} s of the recording")
+
+
+def _quadratic(c: Context) -> str:
+    speed = np.radians(np.percentile(np.abs(c.velocity_deg_per_s), 99))
+    share = 100.0 * c.value * speed / max(c.damping_nms_per_rad, 1e-12)
+    return (f"fast swings are damped more than slow ones (air drag c2·|θ'|·θ'): at {np.degrees(speed):.0f} "
+            f"deg/s it adds {share:.0f} % to the viscous damping B")
+
+
+def _deadzone(c: Context) -> str:
+    command = c.problem.pressure_kpa
+    inside = 100.0 * np.mean((command > 0) & (command < c.value))
+    return (f"the first {c.value:.2g} kPa of pressure make no torque (the bellows' slack); "
+            f"{inside:.0f} % of the recording's commands are inside that dead zone")
+
+
+SENTENCES: dict[str, Callable[[Context], str]] = {
+    "valve_lag": _valve_lag, "dead_time": _dead_time, "coulomb_friction": _coulomb,
+    "cubic_stiffness": _cubic, "gravity": _gravity, "asymmetric_stiffness": _asymmetric,
+    "quadratic_damping": _quadratic, "pressure_deadzone": _deadzone,
+}
+
+
+def sentence(name: str, context: Context, std: float, delta_bic: float, z_heldout: float,
+             rmse_before: float, rmse_after: float) -> str:
+    spec = fx.BY_NAME[name]
+    physics = SENTENCES[name](context) if name in SENTENCES else spec.physics
+    return (f"{physics}. Estimate {spec.param} = {context.value:.4g} ± {std:.2g} {spec.unit}; "
+            f"the information criterion favours it by ΔBIC = {delta_bic:.0f}, and held-out RMSE "
+            f"drops from {rmse_before:.3f} to {rmse_after:.3f} deg (z = {z_heldout:.1f}).")

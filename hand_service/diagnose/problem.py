@@ -1,0 +1,142 @@
+"""The output-error problem `diagnose` solves: a finger model driven by the recorded input.
+
+A `Problem` holds the recorded command and angle, the nominal finger (its inertia, lever
+arm and the effects already in its `effects` block), the integration settings, the initial
+state read off the data, and the split of the samples into a fitting set and a held-out
+set. Parameters are named `Param`s (plain PRBM ones and library effects), so one fit routine
+serves the refit of the plain model and every augmented model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_service import effects as fx
+from hand_service.model import FingerModel
+from hand_service.simulator import sim_finger
+from rtcore.sim import SimFinger, simulate
+
+# Sub-steps of at most 1 ms: the simulator's own integration quality (rtcore_sim.c).
+MAX_STEP_S = 1e-3
+HOLDOUT_EVERY = 4  # every 4th block is held out from fitting
+BLOCKS_WANTED = 16
+PLAIN = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa")
+
+
+@dataclass(frozen=True)
+class Param:
+    """One free parameter: a SimFinger field, or a library effect's rtcore field."""
+
+    label: str  # plain field name, or the effect's name
+    field: str  # SimFinger field, or rtcore Effects field
+    is_effect: bool
+    scale: float  # typical magnitude: the optimiser works in value/scale
+    lower: float
+    upper: float
+    unit: str = ""
+
+    @staticmethod
+    def plain(name: str, nominal: float) -> Param:
+        unit = {"stiffness_nm_per_rad": "N·m/rad", "damping_nms_per_rad": "N·m·s/rad",
+                "pressure_gain_nm_per_kpa": "N·m/kPa"}[name]
+        scale = abs(nominal) if nominal > 0 else 1e-3
+        # B may vanish; k and N are positive and stay within a factor of 5 of the nominal
+        lower = 0.0 if name == "damping_nms_per_rad" else nominal / 5.0
+        return Param(name, name, False, scale, lower, nominal * 5.0 + 10 * scale, unit)
+
+    @staticmethod
+    def effect(name: str) -> Param:
+        spec = fx.BY_NAME[name]
+        return Param(name, spec.rtcore_field, True, spec.scale, spec.lower, spec.upper, spec.unit)
+
+
+def substeps_for(rate_hz: float) -> int:
+    """Integration sub-steps per sample so that each is at most 1 ms."""
+    return max(1, math.ceil(1.0 / (rate_hz * MAX_STEP_S) - 1e-9))
+
+
+@dataclass
+class Problem:
+    base: SimFinger
+    pressure_kpa: np.ndarray
+    measured_deg: np.ndarray
+    t_s: np.ndarray
+    rate_hz: float
+    substeps: int
+    angle0_deg: float
+    chamber0_kpa: float
+    fit_mask: np.ndarray  # samples the fits use
+    held_mask: np.ndarray  # samples held out from every fit
+    blocks: list[tuple[int, int]]  # (start, stop) index of every block, for the report
+
+    @property
+    def n_fit(self) -> int:
+        return int(self.fit_mask.sum())
+
+    def finger(self, params: Sequence[Param], values: Sequence[float],
+               base: SimFinger | None = None) -> SimFinger:
+        """The base finger with `params` set to `values`."""
+        finger = base or self.base
+        plain = {p.field: float(v) for p, v in zip(params, values, strict=True) if not p.is_effect}
+        effect = {p.field: float(v) for p, v in zip(params, values, strict=True) if p.is_effect}
+        if effect:
+            plain["effects"] = dataclasses.replace(finger.effects, **effect)
+        return finger.replace(**plain) if plain else finger
+
+    def simulate(self, finger: SimFinger) -> np.ndarray:
+        angle, _ = simulate(finger, self.pressure_kpa, self.rate_hz, self.substeps, self.angle0_deg,
+                            0.0, self.chamber0_kpa)
+        return angle
+
+    def values(self, params: Sequence[Param], finger: SimFinger | None = None) -> np.ndarray:
+        finger = finger or self.base
+        return np.array([getattr(finger.effects, p.field) if p.is_effect else getattr(finger, p.field)
+                         for p in params])
+
+
+def settle_time_s(finger: SimFinger) -> float:
+    """Three decay time constants of the finger's ringing, 1/(ζ·ωn) each."""
+    decay_per_s = finger.damping_nms_per_rad / (2.0 * finger.inertia_kgm2)
+    return 3.0 / max(decay_per_s, 1.0)
+
+
+def split_blocks(n: int, rate_hz: float, start: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
+    """Interleaved blocks after `start`: every HOLDOUT_EVERY-th one is held out.
+
+    Interleaving puts held-out data in every part of the excitation (steps, chirps,
+    ramps), which a single held-out tail would not."""
+    usable = n - start
+    block = int(np.clip(usable / BLOCKS_WANTED, 0.5 * rate_hz, 3.0 * rate_hz))
+    block = max(block, 1)
+    fit = np.zeros(n, dtype=bool)
+    held = np.zeros(n, dtype=bool)
+    blocks = []
+    for i, first in enumerate(range(start, n, block)):
+        stop = min(first + block, n)
+        blocks.append((first, stop))
+        target = held if i % HOLDOUT_EVERY == HOLDOUT_EVERY // 2 else fit
+        target[first:stop] = True
+    return fit, held, blocks
+
+
+def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
+                  rate_hz: float) -> Problem:
+    """The model driven by the recorded command, starting from the recorded state.
+
+    The finger is taken to start at rest at its first angle (the median of the first
+    samples, to keep the sensor noise out), with the chamber at the first command. The
+    first three decay times are left out of every fit and score, so that a start that is
+    not quite at rest does not count."""
+    base = sim_finger(model)
+    substeps = substeps_for(rate_hz)
+    angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
+    start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
+    fit, held, blocks = split_blocks(len(t_s), rate_hz, start)
+    return Problem(base, np.ascontiguousarray(pressure_kpa, dtype=float),
+                   np.ascontiguousarray(angle_deg, dtype=float), np.asarray(t_s, dtype=float), rate_hz,
+                   substeps, angle0, float(pressure_kpa[0]), fit, held, blocks)

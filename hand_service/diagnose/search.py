@@ -1,0 +1,242 @@
+"""Naming the missing physics: every library effect fitted jointly with the plain model.
+
+Round by round (forward selection), each effect not yet in the model is fitted together
+with k, B, N (A held) and the effects already accepted. An effect is accepted when
+
+- the information criterion favours it strongly (ΔBIC > SIGNIFICANT_BIC), and
+- it predicts the held-out data better by more than the noise allows (z > SIGNIFICANT_Z),
+- and no other effect explains the same residual nearly as well: when the runner-up is
+  within NAME_MARGIN_BIC and fitting both together is not better than the best alone,
+  the recording cannot tell them apart and the search stops there (ambiguous).
+
+Each fit starts from the Gauss-Newton step of the effect's signature: the sensitivity of
+the angle to the effect's parameter, with what k, B and N can absorb projected out. Its
+correlation with the residual is the score (Lagrange multiplier) test, and is reported
+as the effect's signature correlation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hand_service import effects as fx
+from hand_service.diagnose import stats
+from hand_service.diagnose.fit import Fit, fit, sensitivity
+from hand_service.diagnose.problem import Param, Problem
+
+SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
+SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
+NAME_MARGIN_BIC = 10.0
+MAX_EFFECTS = 3
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class Candidate:
+    name: str
+    param: Param
+    signature_corr: float  # corr(residual, signature after projecting out the model's own parameters)
+    separability: float  # share of the signature the model's own parameters cannot absorb
+    start: float
+    fit: Fit
+    delta_bic: float  # against the model of this round
+    z_heldout: float
+    rmse_heldout_deg: float
+
+    @property
+    def estimate(self) -> float:
+        return float(self.fit.values[-1])
+
+    @property
+    def std(self) -> float:
+        return float(self.fit.std()[-1])
+
+    @property
+    def at_bound(self) -> bool:
+        """Pinned at a plausible bound other than neutral: the effect is being stretched to
+        mimic something else, so it is not evidence for itself."""
+        p = self.param
+        span = p.upper - p.lower
+        neutral = fx.BY_NAME[self.name].neutral
+        return any(abs(self.estimate - b) < 1e-6 * span and b != neutral for b in (p.lower, p.upper))
+
+    @property
+    def significant(self) -> bool:
+        return self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z and not self.at_bound
+
+
+@dataclass
+class Round:
+    base: Fit  # the model this round starts from
+    candidates: list[Candidate]  # strongest first
+
+    def best(self) -> Candidate | None:
+        return self.candidates[0] if self.candidates else None
+
+
+@dataclass
+class Selection:
+    rounds: list[Round] = field(default_factory=list)
+    accepted: list[Candidate] = field(default_factory=list)
+    final: Fit | None = None
+    ambiguous: tuple[Candidate, Candidate] | None = None
+
+
+def project_out(jacobian: np.ndarray, signal: np.ndarray) -> np.ndarray:
+    coeffs, *_ = np.linalg.lstsq(jacobian, signal, rcond=None)
+    return signal - jacobian @ coeffs
+
+
+def start_value(param: Param, neutral: float, step: float) -> float:
+    """The Gauss-Newton guess, kept inside the bounds and off a bound it would stick to."""
+    value = neutral + step
+    if value <= param.lower:
+        value = param.lower + 0.1 * param.scale
+    return float(min(value, param.upper - 1e-9 * (param.upper - param.lower)))
+
+
+SCAN_SPAN = np.geomspace(0.03, 30.0, 13)  # deviations from neutral, in units of the effect's scale
+
+
+@dataclass
+class Screen:
+    """What one simulation per grid point says about an effect, before any joint fit."""
+
+    name: str
+    param: Param
+    signature_corr: float
+    separability: float
+    starts: list[float]
+    predicted_bic: float  # ΔBIC if k, B, N readjusted linearly: a cheap stand-in for the fit
+
+
+def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[float, float]:
+    """The effect value whose residual, after the best linear readjustment of the model's
+    own parameters, is smallest over a logarithmic grid on both sides of neutral, and that
+    residual's sum of squares: one simulation per point, to start the joint fit in the
+    right basin (the joint fit of dry friction, for one, has a second minimum where B
+    absorbs part of it)."""
+    mask = problem.fit_mask
+    basis, _ = np.linalg.qr(base.jacobian)
+    measured = problem.measured_deg[mask]
+    best, best_cost = neutral, np.inf
+    for deviation in np.concatenate((SCAN_SPAN, -SCAN_SPAN)) * param.scale:
+        value = neutral + deviation
+        if not param.lower < value < param.upper:
+            continue
+        angle = problem.simulate(problem.finger([param], [value], base.finger))
+        r = measured - angle[mask]
+        r -= basis @ (basis.T @ r)
+        cost = float(r @ r)
+        if cost < best_cost:
+            best, best_cost = value, cost
+    return best, best_cost
+
+
+def screen(problem: Problem, base: Fit, name: str) -> Screen:
+    """The effect's signature against the residual (score test) and the grid scan."""
+    spec = fx.BY_NAME[name]
+    param = Param.effect(name)
+    mask = problem.fit_mask
+    residual = base.residual(problem)[mask]
+    signature = sensitivity(problem, param, base.finger, base.angle_deg)[mask]
+    projected = project_out(base.jacobian, signature)
+    norm = float(np.sqrt(projected @ projected))
+    raw = float(np.sqrt(signature @ signature))
+    r = residual - residual.mean()
+    corr = float(projected @ r) / (norm * float(np.sqrt(r @ r))) if norm > 0 and r.any() else 0.0
+    step = float(projected @ residual) / norm**2 if norm > 0 else 0.0
+    starts = [start_value(param, spec.neutral, step)]
+    scanned, scan_rss_deg2 = scan(problem, base, param, spec.neutral)
+    if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - spec.neutral) + 1e-12:
+        starts.append(scanned)
+    linear_rss_deg2 = base.rss_deg2 * (1.0 - corr**2)  # the Gauss-Newton step's prediction
+    best_rss_deg2 = max(min(scan_rss_deg2, linear_rss_deg2), 1e-300)
+    predicted = stats.delta_bic(base.rss_deg2, best_rss_deg2, problem.n_fit)
+    return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted)
+
+
+ABSORBED = 0.15  # a refitted plain parameter this far from the nominal may be hiding an effect
+
+
+def nominal_start(problem: Problem, base: Fit) -> np.ndarray | None:
+    """`base` with k, B, N back at the model's values, when the refit moved any of them by
+    more than ABSORBED: the refit may have bent them to absorb the missing effect (B
+    taking up dry friction, say), and the joint fit must be able to undo that."""
+    values = base.values.copy()
+    nominal = problem.values(base.params)
+    plain = [i for i, p in enumerate(base.params) if not p.is_effect]
+    if np.max(np.abs(values[plain] / nominal[plain] - 1.0)) < ABSORBED:
+        return None
+    values[plain] = nominal[plain]
+    return values
+
+
+def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candidate:
+    """Fit the screened effect jointly with every parameter of `base`, from each start."""
+    params = (*base.params, screened.param)
+    starts = [[*base.values, s] for s in screened.starts]
+    reset = nominal_start(problem, base)
+    if reset is not None:
+        starts.append([*reset, screened.starts[-1]])
+    joint = min((fit(problem, params, start, base=base.finger) for start in starts), key=lambda f: f.rss_deg2)
+    held = problem.held_mask
+    measured = problem.measured_deg[held]
+    return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
+                     screened.starts[0], joint, stats.delta_bic(base.rss_deg2, joint.rss_deg2, problem.n_fit),
+                     stats.heldout_z(measured, base.angle_deg[held], joint.angle_deg[held], sigma),
+                     stats.rmse(measured - joint.angle_deg[held]))
+
+
+def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None,
+              fit_all: bool) -> Round:
+    """Screen every effect; fit jointly all of them (`fit_all`, the first round, whose
+    table the report shows) or, in later rounds, the two most promising and any whose
+    screen predicts ΔBIC above half the threshold."""
+    sigma = base.sigma_deg
+    screens = []
+    for i, name in enumerate(names):
+        if progress:
+            progress(f"screening {name} ({i + 1}/{len(names)})")
+        screens.append(screen(problem, base, name))
+    screens.sort(key=lambda s: -s.predicted_bic)
+    chosen = [s for i, s in enumerate(screens) if fit_all or i < 2 or s.predicted_bic > SIGNIFICANT_BIC / 2]
+    candidates = []
+    for i, screened in enumerate(chosen):
+        if progress:
+            progress(f"fitting {screened.name} with the model ({i + 1}/{len(chosen)})")
+        candidates.append(score(problem, base, screened, sigma))
+    candidates.sort(key=lambda c: -c.delta_bic)
+    return Round(base, candidates)
+
+
+def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None) -> Selection:
+    """Forward selection over the effects `names`, from the refitted plain model."""
+    selection = Selection()
+    current = refit
+    remaining = list(names)
+    while remaining and len(selection.accepted) < MAX_EFFECTS:
+        round_ = run_round(problem, current, remaining, progress, fit_all=not selection.rounds)
+        selection.rounds.append(round_)
+        best = round_.best()
+        if best is None or not best.significant:
+            break
+        runner = round_.candidates[1] if len(round_.candidates) > 1 else None
+        if runner is not None and runner.significant and best.delta_bic - runner.delta_bic < NAME_MARGIN_BIC:
+            # Both explain the residual about as well: unless the two together do clearly
+            # better than the best alone, they are two names for one signature.
+            if progress:
+                progress(f"{best.name} or {runner.name}? fitting both together")
+            both = score(problem, best.fit, screen(problem, best.fit, runner.name), best.fit.sigma_deg)
+            if not both.significant:
+                selection.ambiguous = (best, runner)
+                break
+        selection.accepted.append(best)
+        current = best.fit
+        remaining.remove(best.name)
+    selection.final = current
+    return selection

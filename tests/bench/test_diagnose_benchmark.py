@@ -1,0 +1,19 @@
+"""Time to diagnose a 30 s, 100 Hz concealed recording (`make bench`; target <= 20 s)."""
+
+from __future__ import annotations
+
+import pytest
+
+from hand_service.concealed.generator import generate
+from hand_service.diagnose.engine import diagnose
+from hand_service.profile import load_profile
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("effect", ["coulomb_friction", "gravity"])
+def test_diagnose_30_s_at_100_hz(benchmark, effect: str) -> None:
+    model = load_profile(None).finger("index").model
+    c = generate(model, {effect: None}, "steps", noise_deg=0.5, seed=1, conceal_ratio=0.8)
+    result = benchmark.pedantic(diagnose, args=(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0),
+                                rounds=3, iterations=1)
+    assert result.effects[0].name == effect

@@ -1,0 +1,34 @@
+"""The full concealed-effect battery (slow: `make bench` or `pytest -m slow`).
+
+Every library effect x {steps, sweep} x 3 seeds, plus 12 clean recordings: fingers, noise
+(0.3-1.0 deg), concealment (0.4-1.5 x noise) and ±10 % parameter errors drawn per seed.
+The README's figures come from `python -m hand_service.concealed.battery`, which runs the
+same plan.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from hand_service.concealed.battery import markdown, plan, run_case, summarise
+
+
+@pytest.mark.slow
+def test_battery_meets_the_targets(capsys: pytest.CaptureFixture[str]) -> None:
+    cases = plan(seeds=3, excitations=("steps", "sweep"), clean_seeds=6)
+    for i, case in enumerate(cases, start=1):
+        run_case(case)
+        with capsys.disabled():
+            print(f"\r  battery {i}/{len(cases)}: {case.effect} {case.excitation} seed {case.seed} -> "
+                  f"{case.verdict} {case.named}".ljust(100), end="", file=sys.stderr, flush=True)
+    summary = summarise(cases)
+    with capsys.disabled():
+        print("\n" + markdown(summary, cases), file=sys.stderr)
+    assert summary["top1_rate"] >= 0.9
+    assert summary["false_positive_rate"] == 0.0
+    assert summary["wrong_name_rate"] <= 0.05
+    assert summary["median_parameter_error"] <= 0.25
+    for name, figures in summary["per_effect"].items():
+        assert figures["top1_rate"] >= 2 / 3, name
