@@ -232,7 +232,8 @@ const char *rtcore_error_name(int32_t code);
 
 /* ---- The simulated hand (csrc/rtcore_sim.c) -----------------------------------------
  * The PRBM of every finger with the same torque model and effects as the controller,
- * integrated with RK4 at sample_period/substeps; the valve is a first-order lag behind a
+ * integrated with RK4 at sample_period/substeps, or finer where a stiff term (dry
+ * friction's smoothed slope, a stiff contact) needs it; the valve is a first-order lag behind a
  * dead time, integrated exactly (the dead time's breakpoints split the sub-steps); an
  * optional object is a spring-damper at the force point; the flex sensor reads the angle
  * through the inverse calibration with noise and ADC quantisation.
@@ -280,6 +281,8 @@ typedef struct {
     int32_t head;
     int32_t delay_samples;
     double delay_fraction;
+    /* longest RK4 step that keeps the fastest mode accurate (stiff friction, contact) */
+    double max_step_s;
 } rtcore_sim_finger_state;
 
 typedef struct {
