@@ -8,12 +8,14 @@ method, because the decrement-drift check (hand_service.decrement_drift) needs i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy import signal
 
 from hand_service import ldm
 from hand_service.decrement_drift import CycleAmplitudes, Drift, cycle_amplitudes, decrement_drift
@@ -120,9 +122,47 @@ class IdentifyResult:
         return "\n".join(rows)
 
 
+HOLD_BEFORE_LAST_COMMAND_S = 1.0  # how much of the hold to keep before the last command change
+COMMAND_TOLERANCE_KPA = 0.5
+SETTLED_CHAMBER_KPA = 2.0  # a vented chamber reads within this of its final pressure
+
+
+def free_span_start(recording: Recording) -> int:
+    """The first sample from which the release can be sought. A free decay can only follow
+    the last change of the commanded pressure (in a push-and-release trial it never
+    changes; in a daemon recording the finger is vented and rings down after it), so the
+    search starts a hold's length before that change."""
+    pressure = recording.pressure_kpa
+    changed = np.flatnonzero(np.abs(pressure - pressure[-1]) > COMMAND_TOLERANCE_KPA)
+    if changed.size == 0:
+        return 0
+    last_change_s = recording.t_s[changed[-1]]
+    return int(np.searchsorted(recording.t_s, last_change_s - HOLD_BEFORE_LAST_COMMAND_S))
+
+
+def after_the_chamber_empties(recording: Recording, decay: ldm.FreeDecay) -> ldm.FreeDecay:
+    """A release by venting is not free until the chamber has emptied through the valve's
+    lag and dead time (~0.1 s, a cycle of the finger). When the recording has the measured
+    chamber pressure, the decay starts where it has settled at its final level."""
+    measured = recording.columns.get("pressure_meas_kpa")
+    if measured is None or not np.all(np.isfinite(measured[decay.start_index:])):
+        return decay  # not reported (NaN before the first frame is fine, during the decay not)
+    after = signal.medfilt(measured[decay.start_index:], 5)  # robust to single noisy readings
+    final = float(np.median(after[after.size // 2:]))
+    settled = np.flatnonzero(np.abs(after - final) <= SETTLED_CHAMBER_KPA)
+    skip = int(settled[0]) if settled.size else 0
+    if skip == 0 or skip >= after.size - 10:
+        return decay
+    return dataclasses.replace(decay, t_s=decay.t_s[skip:], angle_deg=decay.angle_deg[skip:],
+                               start_index=decay.start_index + skip)
+
+
 def identify_trial(recording: Recording, inertia_kgm2: float, method: str = "fit") -> TrialResult:
     source = str(recording.path)
-    decay = ldm.extract_decay(recording.t_s, recording.angle_deg, source)
+    first = free_span_start(recording)
+    decay = ldm.extract_decay(recording.t_s[first:], recording.angle_deg[first:], source)
+    decay.start_index += first  # an index into the whole recording
+    decay = after_the_chamber_empties(recording, decay)
     fit = ldm.damped_sine_fit(decay, source)
     estimate = fit if method == "fit" else ldm.estimate(decay, method, source)
     return TrialResult(source, decay, estimate, fit, cycle_amplitudes(decay, fit), inertia_kgm2, recording)

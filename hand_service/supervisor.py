@@ -223,6 +223,7 @@ class Supervisor:
         fault = self.gate.overrun(self._last_missed)
         inputs, outputs = self.hand.inputs, self.hand.outputs
         try:
+            self.transport.on_tick(self.tick_index)
             sample = self.transport.latest()
             status = self.transport.status()
         except Exception as exc:  # any failure of the link is a lost transport

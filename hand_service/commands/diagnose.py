@@ -43,26 +43,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
-def check_uniform(t_s, path: str) -> float:
-    """The sample rate, after checking the time stamps are uniform up to small jitter."""
-    import numpy as np
-
-    from hand_service.errors import UserError
-
-    dt = np.diff(t_s)
-    period = float((t_s[-1] - t_s[0]) / (t_s.size - 1))  # the mean period: unbiased under jitter
-    worst = int(np.argmax(np.abs(dt - period)))
-    if abs(dt[worst] - period) > 0.5 * period:
-        raise UserError(f"{path}: the samples are not uniform: t jumps by {dt[worst]:.4g} s after "
-                        f"t = {t_s[worst]:.4g} s where the period is {period:.4g} s (diagnose needs one "
-                        "uniform rate; small jitter is fine)")
-    return 1.0 / period
-
-
 def main(args: argparse.Namespace) -> int:
     import json
 
     from hand_service.diagnose.engine import diagnose
+    from hand_service.diagnose.timebase import regular_grid
     from hand_service.errors import UserError
     from hand_service.model import load_model, save_model
     from hand_service.recording import read_recording
@@ -71,7 +56,11 @@ def main(args: argparse.Namespace) -> int:
     model = load_model(args.model, args.finger or recording.finger)
     model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m",
                   purpose="diagnose")
-    rate_hz = check_uniform(recording.t_s, args.recording)
+    grid = regular_grid(recording.t_s, recording.pressure_kpa, recording.angle_deg, args.recording)
+    rate_hz = grid.rate_hz
+    if grid.n_missing:
+        print(f"{args.recording}: {grid.n_missing} skipped samples (t jumps): the command is held "
+              "through them and they are left out of every fit", file=sys.stderr)
     if recording.duration_s * rate_hz < 100:
         raise UserError(f"{args.recording}: only {len(recording)} samples; diagnose needs at least 100")
     started = time.perf_counter()
@@ -81,7 +70,7 @@ def main(args: argparse.Namespace) -> int:
             print(f"\r[{time.perf_counter() - started:5.1f} s] {message:<70}", end="", file=sys.stderr,
                   flush=True)
 
-    result = diagnose(model, recording.t_s, recording.pressure_kpa, recording.angle_deg, rate_hz, progress)
+    result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress, grid.missing)
     if not args.quiet:
         print(file=sys.stderr)
     print_summary(result)

@@ -129,10 +129,11 @@ def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
 
 
 def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
-             rate_hz: float, progress: Progress | None = None) -> Diagnosis:
+             rate_hz: float, progress: Progress | None = None,
+             missing: np.ndarray | None = None) -> Diagnosis:
     started = time.perf_counter()
     warnings: list[str] = []
-    problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz)
+    problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing)
     held, fit_mask = problem.held_mask, problem.fit_mask
     measured = problem.measured_deg
     if progress:

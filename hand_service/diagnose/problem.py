@@ -125,18 +125,21 @@ def split_blocks(n: int, rate_hz: float, start: int) -> tuple[np.ndarray, np.nda
 
 
 def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
-                  rate_hz: float) -> Problem:
+                  rate_hz: float, missing: np.ndarray | None = None) -> Problem:
     """The model driven by the recorded command, starting from the recorded state.
 
     The finger is taken to start at rest at its first angle (the median of the first
     samples, to keep the sensor noise out), with the chamber at the first command. The
     first three decay times are left out of every fit and score, so that a start that is
-    not quite at rest does not count."""
+    not quite at rest does not count; so are `missing` samples (see regular_grid)."""
     base = sim_finger(model)
     substeps = substeps_for(rate_hz)
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
     fit, held, blocks = split_blocks(len(t_s), rate_hz, start)
+    if missing is not None:  # samples the recording lacks (skipped ticks): in no fit or score
+        fit &= ~missing
+        held &= ~missing
     return Problem(base, np.ascontiguousarray(pressure_kpa, dtype=float),
                    np.ascontiguousarray(angle_deg, dtype=float), np.asarray(t_s, dtype=float), rate_hz,
                    substeps, angle0, float(pressure_kpa[0]), fit, held, blocks)

@@ -87,6 +87,12 @@ class Transport(ABC):
     def health(self) -> TransportHealth:
         """Frame counters and error counts."""
 
+    def on_tick(self, tick_index: int) -> None:
+        """The supervisor's schedule index for the tick about to read. A board on a bus
+        keeps its own clock and has no use for it; the in-process simulated hand uses it
+        to keep time with the host when the host skipped deadlines."""
+        del tick_index
+
     def vent(self) -> None:
         """Command every valve to 0 kPa now."""
         self.send(np.zeros(self.n_fingers))

@@ -1,8 +1,10 @@
 """The `sim` transport: the simulated hand in this process, in lockstep with the tick.
 
 Each send() holds the commands for one sample period of the simulator and makes the
-sample at its end available to the next latest(). There is no bus, so no frame is ever
-lost; the counters still count, so the supervisor sees the same health as on hardware.
+sample at its end available to the next latest(). When the host skips deadlines,
+on_tick() lets the simulated time pass with the valves holding the last command. There
+is no bus, so no frame is ever lost; the counters still count, so the supervisor sees
+the same health as on hardware.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ class SimTransport(Transport):
         self._sequence = 0
         self._fresh = False
         self._open = False
+        self._tick_index: int | None = None
 
     def open(self) -> FirmwareStatus:
         self._open = True
@@ -49,6 +52,17 @@ class SimTransport(Transport):
                               out.pressure_meas_kpa.copy())
         self._sequence += 1
         return sample
+
+    def on_tick(self, tick_index: int) -> None:
+        """Deadlines the host skipped still pass for the hand: the valves hold the last
+        command through them, as a firmware on its own clock would, so the recording's
+        time and the physics stay in step."""
+        last, self._tick_index = self._tick_index, tick_index
+        if not self._open or last is None or tick_index <= last + 1:
+            return
+        for _ in range(tick_index - last - 1):
+            self.simulator.step()
+        self._fresh = True
 
     def send(self, pressure_cmd_kpa: np.ndarray) -> None:
         if not self._open:

@@ -90,7 +90,8 @@ ROOT = Path(__file__).resolve().parents[2]
     ("missing_column", "missing required column 'angle_deg'"),
     ("nan", "where a finite number is required"),
     ("too_short", "at least 1 s is needed"),
-    ("gap", "not uniform"),
+    ("gap", "samples are missing"),
+    ("off_grid", "not on one rate"),
     ("model_without_keys", "has no 'stiffness_nm_per_rad'"),
     ("unknown_effect", "unknown effect"),
 ])
@@ -106,9 +107,13 @@ def test_bad_inputs_give_one_clear_line(case: str, expected: str, tmp_path: Path
         small_recording(path, angle_deg=angle)
     elif case == "too_short":
         small_recording(path, n=50)
-    elif case == "gap":
+    elif case == "gap":  # 50 of 350 samples missing: too many
         t = np.arange(300) / 100.0
         t[150:] += 0.5
+        small_recording(path, t=t)
+    elif case == "off_grid":  # a step of 2.5 periods: no whole number of them
+        t = np.arange(300) / 100.0
+        t[150:] += 0.015
         small_recording(path, t=t)
     elif case == "model_without_keys":
         small_recording(path)

@@ -130,11 +130,28 @@ def test_two_hidden_effects_are_both_named() -> None:
 
 
 def test_timing_jitter_is_tolerated() -> None:
-    from hand_service.commands.diagnose import check_uniform
+    from hand_service.diagnose.timebase import regular_grid
 
     c = generate(index_model(), {"dead_time": None}, "steps", noise_deg=0.5, seed=9, conceal_ratio=CONCEAL)
     t = c.t_s + np.random.default_rng(0).uniform(-0.002, 0.002, c.t_s.size)  # ±20 % of the period
-    rate_hz = check_uniform(t, "jittered.csv")
-    assert rate_hz == pytest.approx(100.0, rel=1e-3)
-    d = diagnose(c.nominal, t, c.pressure_kpa, c.angle_deg, rate_hz)
+    grid = regular_grid(t, c.pressure_kpa, c.angle_deg, "jittered.csv")
+    assert grid.rate_hz == pytest.approx(100.0, rel=1e-3) and grid.n_missing == 0
+    d = diagnose(c.nominal, grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz)
+    assert [e.name for e in d.effects] == ["dead_time"]
+
+
+def test_skipped_ticks_are_held_and_left_out() -> None:
+    """A daemon that skipped deadlines leaves rows out; the valves held the last command.
+    On its grid again, the recording is diagnosed as if nothing were missing."""
+    from hand_service.diagnose.timebase import regular_grid
+
+    c = generate(index_model(), {"dead_time": None}, "steps", noise_deg=0.5, seed=9, conceal_ratio=CONCEAL)
+    keep = np.ones(c.t_s.size, dtype=bool)
+    keep[[5, 6, 7, 800, 1500, 1501, 2400]] = False  # skipped ticks, the start-up's among them
+    grid = regular_grid(c.t_s[keep], c.pressure_kpa[keep], c.angle_deg[keep], "skipped.csv")
+    assert grid.n_missing == 7 and grid.t_s.size == c.t_s.size
+    np.testing.assert_allclose(grid.t_s, c.t_s, atol=1e-9)
+    assert grid.pressure_kpa[800] == c.pressure_kpa[799]  # the command held through the gap
+    assert grid.missing[[5, 6, 7, 800, 1500, 1501, 2400]].all() and not grid.missing[799]
+    d = diagnose(c.nominal, grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz, missing=grid.missing)
     assert [e.name for e in d.effects] == ["dead_time"]

@@ -1,0 +1,98 @@
+"""run -> identify and diagnose: the daemon's recording goes straight into the model tools.
+
+The real `hand-service run` process drives the simulated hand through its control socket:
+the middle finger steps between angles (pressure that varies, for diagnose), then holds
+and is vented (a release: a free decay, for identify; the middle finger rings longest,
+ζ = 0.06). The recording is then read by both tools with `--finger middle` and no
+conversion."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from hand_service.cli import main
+from hand_service.client import HandClient
+from hand_service.profile import DEFAULT_PROFILE, load_profile
+
+TRAJECTORY = """\
+t,angle_ref_deg_middle
+0.0,0
+1.0,0
+1.2,30
+3.0,30
+3.2,60
+5.0,60
+5.2,20
+7.0,20
+7.2,45
+8.5,45
+8.51,
+12.0,
+"""
+
+
+def wait_for(predicate, timeout_s: float, what: str) -> None:
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        if predicate():
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    tmp = tmp_path_factory.mktemp("run_to_tools")
+    trajectory, record, socket_path = tmp / "steps.csv", tmp / "run.csv", tmp / "api.sock"
+    trajectory.write_text(TRAJECTORY)
+    daemon = subprocess.Popen(
+        [sys.executable, "-m", "hand_service.cli", "--log-level", "warning", "run", "--record",
+         str(record), "--socket", str(socket_path), "--no-realtime", "--duration", "60"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for(socket_path.exists, 30.0, "the control socket")
+        with HandClient(socket_path) as client:
+            wait_for(lambda: client.status()["state"] == "DISARMED", 30.0, "the handshake")
+            client.load_trajectory(trajectory)
+            client.arm()
+            client.start()
+            wait_for(lambda: client.status()["state"] == "HOLD", 40.0, "the end of the trajectory")
+        daemon.send_signal(signal.SIGTERM)
+        _out, err = daemon.communicate(timeout=10)
+        assert daemon.returncode == 0, err[-2000:]
+    finally:
+        if daemon.poll() is None:
+            daemon.kill()
+            daemon.communicate()
+    return record
+
+
+def test_identify_reads_the_release_in_a_daemon_recording(recording: Path, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "identify.json"
+    assert main(["identify", str(recording), "--model", str(DEFAULT_PROFILE), "--finger", "middle",
+                 "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    truth = load_profile().finger("middle").model
+    assert result["stiffness_nm_per_rad"] == pytest.approx(truth.stiffness_nm_per_rad, rel=0.02)
+    assert result["damping_nms_per_rad"] == pytest.approx(truth.damping_nms_per_rad, rel=0.08)
+    capsys.readouterr()
+
+
+def test_diagnose_finds_the_daemon_recording_consistent(recording: Path, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    """The simulated hand is exactly the profile's model: nothing may be named missing."""
+    out = tmp_path / "diagnose.json"
+    assert main(["diagnose", str(recording), "--model", str(DEFAULT_PROFILE), "--finger", "middle",
+                 "--json", str(out)]) == 0
+    result = json.loads(out.read_text())
+    assert result["verdict"] in ("consistent", "parameters_only"), result
+    assert result["effects"] == []
+    capsys.readouterr()
