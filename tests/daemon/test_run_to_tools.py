@@ -9,17 +9,13 @@ conversion."""
 from __future__ import annotations
 
 import json
-import signal
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
 
 from hand_service.cli import main
-from hand_service.client import HandClient
 from hand_service.profile import DEFAULT_PROFILE, load_profile
+from tests.daemon.process import DaemonProcess, wait_for
 
 TRAJECTORY = """\
 t,angle_ref_deg_middle
@@ -38,40 +34,23 @@ t,angle_ref_deg_middle
 """
 
 
-def wait_for(predicate, timeout_s: float, what: str) -> None:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if predicate():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     tmp = tmp_path_factory.mktemp("run_to_tools")
-    trajectory, record, socket_path = tmp / "steps.csv", tmp / "run.csv", tmp / "api.sock"
+    trajectory = tmp / "steps.csv"
     trajectory.write_text(TRAJECTORY)
-    daemon = subprocess.Popen(
-        [sys.executable, "-m", "hand_service.cli", "--log-level", "warning", "run", "--record",
-         str(record), "--socket", str(socket_path), "--no-realtime", "--duration", "60"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    daemon = DaemonProcess(tmp, "--duration", "60")
     try:
-        wait_for(socket_path.exists, 30.0, "the control socket")
-        with HandClient(socket_path) as client:
-            wait_for(lambda: client.status()["state"] == "DISARMED", 30.0, "the handshake")
+        with daemon.client() as client:
+            daemon.disarmed(client)
             client.load_trajectory(trajectory)
             client.arm()
             client.start()
             wait_for(lambda: client.status()["state"] == "HOLD", 40.0, "the end of the trajectory")
-        daemon.send_signal(signal.SIGTERM)
-        _out, err = daemon.communicate(timeout=10)
-        assert daemon.returncode == 0, err[-2000:]
+        assert daemon.terminate() == 0, daemon.stderr.read_text()[-2000:]
     finally:
-        if daemon.poll() is None:
-            daemon.kill()
-            daemon.communicate()
-    return record
+        daemon.close()
+    return daemon.record
 
 
 def test_identify_reads_the_release_in_a_daemon_recording(recording: Path, tmp_path: Path,

@@ -4,12 +4,9 @@ reads back for every finger with its provenance."""
 
 from __future__ import annotations
 
-import contextlib
 import os
 import signal
 import socket
-import subprocess
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,49 +14,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service.client import HandClient
 from hand_service.profile import load_profile
 from hand_service.recording import read_recording
+from tests.daemon.process import DaemonProcess
 
 FINGERS = load_profile(None).finger_names
 
 
-class Process:
-    def __init__(self, tmp_path: Path, *extra: str, env: dict[str, str] | None = None) -> None:
-        self.socket = tmp_path / "api.sock"
-        self.record = tmp_path / "run.csv"
-        self.stderr = tmp_path / "stderr.txt"
-        with open(self.stderr, "w") as err:
-            self.proc = subprocess.Popen(
-                [sys.executable, "-m", "hand_service.cli", "run", "--no-realtime", "--socket",
-                 str(self.socket), "--record", str(self.record), *extra],
-                stdout=subprocess.PIPE, stderr=err, text=True, env={**os.environ, **(env or {})})
-
-    def client(self, timeout_s: float = 20.0) -> HandClient:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                return HandClient(self.socket)
-            except ConnectionError:
-                assert self.proc.poll() is None, self.stderr.read_text()
-                assert time.monotonic() < deadline, "the daemon never answered"
-                time.sleep(0.05)
-
+class Process(DaemonProcess):
     def running(self) -> float:
         """Arm and run every finger at 40 deg; returns the daemon's t."""
         with self.client() as hand:
-            while hand.status()["state"] != "DISARMED":
-                time.sleep(0.02)
+            self.disarmed(hand)
             hand.arm()
             hand.target("all", angle_deg=40.0)
             hand.start()
             time.sleep(1.5)
             return hand.status()["t_s"]
-
-    def kill(self) -> None:
-        with contextlib.suppress(ProcessLookupError):
-            self.proc.kill()
-        self.proc.wait(10)
 
 
 @pytest.fixture
@@ -68,9 +39,7 @@ def process(tmp_path: Path) -> Iterator[Process]:
     try:
         yield running
     finally:
-        running.kill()
-        assert running.proc.stdout is not None
-        running.proc.stdout.close()
+        running.close()
 
 
 def test_sigterm_vents_flushes_and_exits_0(process: Process) -> None:
@@ -150,7 +119,7 @@ def test_sd_notify_ready_and_watchdog(tmp_path: Path) -> None:
             messages.append(sink.recv(4096).decode())
         assert running.proc.wait(10) == 0
     finally:
-        running.kill()
+        running.close()
         sink.close()
     ready = [m for m in messages if m.startswith("READY=1")]
     assert len(ready) == 1 and "DISARMED" in ready[0]

@@ -7,31 +7,19 @@ through its control socket like a lab script would."""
 
 from __future__ import annotations
 
-import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from hand_service.client import HandClient
 from hand_service.firmware.rig import Rig
 from hand_service.recording import read_recording
 from hand_service.states import Event, State
 from hand_service.supervisor import Supervisor
 from rtcore import MODE_POSITION, clock
+from tests.daemon.process import DaemonProcess
 
 TARGET_DEG = 40.0
-
-
-def wait_for(predicate, timeout_s: float, what: str) -> None:
-    end = time.monotonic() + timeout_s
-    while time.monotonic() < end:
-        if predicate():
-            return
-        time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def test_supervisor_holds_a_target_through_the_bus(rig: Rig, tmp_path: Path) -> None:
@@ -60,17 +48,11 @@ def test_supervisor_holds_a_target_through_the_bus(rig: Rig, tmp_path: Path) -> 
         assert abs(np.mean(angles[-100:]) - TARGET_DEG) < 2.0
         return
 
-    socket_path = tmp_path / "api.sock"
-    record = tmp_path / "run.csv"
-    daemon = subprocess.Popen(
-        [sys.executable, "-m", "hand_service.cli", "--log-level", "warning", "run", "--profile",
-         str(rig.profile_path), "--port", rig.channel, "--socket", str(socket_path), "--record",
-         str(record), "--no-realtime", "--duration", "30"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    daemon = DaemonProcess(tmp_path, "--profile", str(rig.profile_path), "--port", rig.channel,
+                           "--duration", "30")
     try:
-        wait_for(socket_path.exists, 30.0, "the control socket")
-        with HandClient(socket_path) as client:
-            wait_for(lambda: client.status()["state"] == "DISARMED", 30.0, "the handshake")
+        with daemon.client() as client:
+            daemon.disarmed(client)
             client.mode("index", "position")
             client.target("index", angle_deg=TARGET_DEG)
             client.arm()
@@ -78,13 +60,9 @@ def test_supervisor_holds_a_target_through_the_bus(rig: Rig, tmp_path: Path) -> 
             time.sleep(3.0)
             status = client.status()
             assert status["state"] == "RUNNING", client.faults()
-        daemon.send_signal(signal.SIGTERM)
-        _out, err = daemon.communicate(timeout=10)
-        assert daemon.returncode == 0, err[-2000:]
+        assert daemon.terminate() == 0, daemon.stderr.read_text()[-2000:]
     finally:
-        if daemon.poll() is None:
-            daemon.kill()
-            daemon.communicate()
-    rec = read_recording(record, finger="index")
+        daemon.close()
+    rec = read_recording(daemon.record, finger="index")
     held = rec.columns["angle_filt_deg"][-150:-20]  # the last second or so before SIGTERM
     assert abs(np.mean(held) - TARGET_DEG) < 2.0, np.mean(held)
