@@ -373,6 +373,7 @@ int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, in
 #define RTCORE_GATE_ANGLE_OUT_OF_RANGE 2
 #define RTCORE_GATE_PRESSURE_OVER_LIMIT 3
 #define RTCORE_GATE_LEAK_OR_BURST 4
+#define RTCORE_GATE_SENSOR_REJECTED 5
 
 typedef struct {
     int32_t n_fingers;
@@ -385,12 +386,15 @@ typedef struct {
     /* the measured chamber pressure is expected to follow the sent command through a
      * first-order lag: expected += follow_alpha * (sent - expected) every tick */
     double follow_alpha[RTCORE_MAX_FINGERS];
+    /* ticks in a row the step may hold a rejected sensor reading before it is a fault */
+    int32_t sensor_rejected_ticks;
 } rtcore_gate_config;
 
 typedef struct {
     rtcore_gate_config config;
     double expected_kpa[RTCORE_MAX_FINGERS];
     int32_t leak_ticks[RTCORE_MAX_FINGERS];
+    int32_t rejected_ticks[RTCORE_MAX_FINGERS];
 } rtcore_gate;
 
 typedef struct {
@@ -404,9 +408,11 @@ void rtcore_gate_reset(rtcore_gate *gate);
 /* Sensor mV finite; a measured pressure finite, or NaN (not reported), never infinite. */
 int32_t rtcore_gate_inputs(const rtcore_gate *gate, const rtcore_inputs *in,
                            rtcore_gate_result *result);
-/* Angle and command finite; angle within [min, max]; command within the finger's
- * limits (0 kPa, a vent, is always allowed). */
-int32_t rtcore_gate_outputs(const rtcore_gate *gate, const rtcore_outputs *out,
+/* Angle and command finite; angle within [min, max]; command at most the finger's
+ * maximum and not below min(pressure_min_kpa, 0) (between 0 and a positive minimum is
+ * the ramp out of a vent); a sensor reading the step has held (rejected) for
+ * sensor_rejected_ticks ticks in a row. */
+int32_t rtcore_gate_outputs(rtcore_gate *gate, const rtcore_outputs *out,
                             rtcore_gate_result *result);
 /* Leak or burst: the measured pressure stays more than leak_tolerance_kpa away from the
  * expectation for leak_ticks ticks. Then the expectation moves toward sent_kpa. */

@@ -30,6 +30,7 @@ void rtcore_gate_reset(rtcore_gate *gate)
     for (i = 0; i < RTCORE_MAX_FINGERS; ++i) {
         gate->expected_kpa[i] = 0.0;
         gate->leak_ticks[i] = 0;
+        gate->rejected_ticks[i] = 0;
     }
 }
 
@@ -50,17 +51,34 @@ int32_t rtcore_gate_inputs(const rtcore_gate *gate, const rtcore_inputs *in, rtc
     return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);
 }
 
-int32_t rtcore_gate_outputs(const rtcore_gate *gate, const rtcore_outputs *out, rtcore_gate_result *result)
+int32_t rtcore_gate_outputs(rtcore_gate *gate, const rtcore_outputs *out, rtcore_gate_result *result)
 {
     const rtcore_gate_config *c;
+    int32_t cause = RTCORE_GATE_OK;
     int32_t i;
     if (gate == 0 || out == 0) {
         return found(result, RTCORE_GATE_NON_FINITE, -1, NAN, NAN);
     }
     c = &gate->config;
+    for (i = 0; i < fingers(gate); ++i) { /* every finger's streak counts, every tick */
+        if (out->flags[i] & (uint32_t)RTCORE_FLAG_SENSOR_REJECTED) {
+            gate->rejected_ticks[i] += 1;
+        } else {
+            gate->rejected_ticks[i] = 0;
+        }
+        if (cause == RTCORE_GATE_OK && c->sensor_rejected_ticks > 0
+            && gate->rejected_ticks[i] >= c->sensor_rejected_ticks) {
+            cause = found(result, RTCORE_GATE_SENSOR_REJECTED, i, out->angle_deg[i],
+                          (double)gate->rejected_ticks[i]);
+        }
+    }
+    if (cause != RTCORE_GATE_OK) {
+        return cause;
+    }
     for (i = 0; i < fingers(gate); ++i) {
         const double angle = out->angle_deg[i];
         const double command = out->pressure_cmd_kpa[i];
+        const double lowest_kpa = c->pressure_min_kpa[i] < 0.0 ? c->pressure_min_kpa[i] : 0.0;
         if (!isfinite(angle)) {
             return found(result, RTCORE_GATE_NON_FINITE, i, angle, NAN);
         }
@@ -76,8 +94,8 @@ int32_t rtcore_gate_outputs(const rtcore_gate *gate, const rtcore_outputs *out, 
         if (command > c->pressure_max_kpa[i]) {
             return found(result, RTCORE_GATE_PRESSURE_OVER_LIMIT, i, command, c->pressure_max_kpa[i]);
         }
-        if (command < c->pressure_min_kpa[i] && command != 0.0) {
-            return found(result, RTCORE_GATE_PRESSURE_OVER_LIMIT, i, command, c->pressure_min_kpa[i]);
+        if (command < lowest_kpa) {
+            return found(result, RTCORE_GATE_PRESSURE_OVER_LIMIT, i, command, lowest_kpa);
         }
     }
     return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);

@@ -30,6 +30,7 @@ class Cause(str, enum.Enum):
     OVERRUN_STREAK = "overrun_streak"
     FIRMWARE_FAULT = "firmware_fault"
     LEAK_OR_BURST = "leak_or_burst"
+    SENSOR_REJECTED = "sensor_rejected"
 
 
 @dataclass
@@ -84,6 +85,7 @@ class SafetyGate:
         config.angle_max_deg = float(safety["angle_max_deg"])
         config.leak_tolerance_kpa = float(safety["leak_tolerance_kpa"])
         config.leak_ticks = int(safety["leak_ticks"])
+        config.sensor_rejected_ticks = self.stale_ticks  # held readings count like stale ones
         for i, f in enumerate(profile.fingers):
             config.pressure_min_kpa[i] = f.pressure_min_kpa
             config.pressure_max_kpa[i] = f.pressure_max_kpa
@@ -156,9 +158,12 @@ class SafetyGate:
         if cause == lib.RTCORE_GATE_ANGLE_OUT_OF_RANGE:
             return Fault(Cause.ANGLE_OUT_OF_RANGE, f"angle {angle:.1f} deg outside "
                          f"[{config.angle_min_deg:g}, {config.angle_max_deg:g}]", self.names[i])
+        if cause == lib.RTCORE_GATE_SENSOR_REJECTED:
+            return Fault(Cause.SENSOR_REJECTED, f"the sensor reading was implausible for {r.limit:.0f} "
+                         f"ticks in a row; the control step held {angle:.1f} deg "
+                         f"(stale_sensor_ticks {config.sensor_rejected_ticks})", self.names[i])
         return Fault(Cause.PRESSURE_OVER_LIMIT, f"command {command:.2f} kPa outside "
-                     f"[{config.pressure_min_kpa[i]:g}, {config.pressure_max_kpa[i]:g}] kPa",
-                     self.names[i])
+                     f"[{r.limit:g}, {config.pressure_max_kpa[i]:g}] kPa", self.names[i])
 
     def follow(self) -> Fault | None:
         """Leak or burst: the measured chamber pressure stays away from where the command

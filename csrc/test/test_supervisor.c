@@ -44,8 +44,27 @@ static void test_gate(void)
           "over the limit");
     out.pressure_cmd_kpa[0] = 0.0; /* a vent, below the 10 kPa minimum, is allowed */
     CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_OK, "vent allowed");
+    out.pressure_cmd_kpa[0] = 5.0; /* the rate-limited ramp out of a vent */
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_OK, "ramp below the minimum");
+    out.pressure_cmd_kpa[0] = -1.0; /* a vacuum the profile does not allow */
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_PRESSURE_OVER_LIMIT && r.limit == 0.0,
+          "below zero with a positive minimum");
+    gate.config.pressure_min_kpa[0] = -20.0;
+    out.pressure_cmd_kpa[0] = -15.0;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_OK, "vacuum within a negative minimum");
+    out.pressure_cmd_kpa[0] = -25.0;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_PRESSURE_OVER_LIMIT && r.limit == -20.0,
+          "vacuum beyond it");
     out.pressure_cmd_kpa[0] = 5.0;
-    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_PRESSURE_OVER_LIMIT, "under the minimum");
+    /* a sensor the step keeps rejecting (held angle) is a fault after 3 ticks in a row */
+    gate.config.sensor_rejected_ticks = 3;
+    out.flags[1] = RTCORE_FLAG_SENSOR_REJECTED;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_OK, "1 tick held");
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_OK, "2 ticks held");
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_SENSOR_REJECTED && r.finger == 1,
+          "3 ticks held");
+    out.flags[1] = 0u;
+    CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_OK, "a good reading ends the streak");
     out.pressure_cmd_kpa[0] = NAN;
     CHECK(rtcore_gate_outputs(&gate, &out, &r) == RTCORE_GATE_NON_FINITE, "NaN command");
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hand_service.profile import load_profile
+from hand_service.profile import Profile, load_profile
 from hand_service.recorder import Recorder
 from hand_service.states import Event, State
 from hand_service.supervisor import Supervisor
@@ -24,8 +24,8 @@ class SpyRecorder(Recorder):
 class Rig:
     """A supervisor over a FaultyTransport, stepped tick by tick on a fake clock."""
 
-    def __init__(self) -> None:
-        self.profile = load_profile(None)
+    def __init__(self, profile: Profile | None = None) -> None:
+        self.profile = profile or load_profile(None)
         self.transport = FaultyTransport(self.profile)
         self.recorder = SpyRecorder(self.profile.finger_names, 100.0)
         self.sup = Supervisor(self.profile, self.transport, self.recorder)

@@ -4,9 +4,11 @@ cause, counted, and flushes the recording; reset brings the hand back through IN
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
+from hand_service.profile import PROFILE_DIR, load_profile
 from hand_service.safety import Cause
 from hand_service.states import Event, State
 from rtcore import MODE_PRESSURE
@@ -194,3 +196,30 @@ def test_estop_vents_and_latches(rig: Rig) -> None:
     rig.transport.silent = False
     rig.tick()
     assert rig.sup.state is State.DISARMED
+
+
+def test_implausible_sensor_held_too_long(rig: Rig) -> None:
+    """A finite but absurd reading (|angle| > 10^6 deg) is held by the step; held for
+    stale_sensor_ticks in a row it is a fault, not a frozen angle to control on."""
+    rig.running()
+    mv = rig.transport.simulator.outputs.sensor_mv.copy()
+    mv[3] = 1e12
+    rig.transport.sensor_override = mv
+    rig.tick(rig.profile.safety["stale_sensor_ticks"] - 1)
+    assert rig.sup.state is State.RUNNING, "a few held readings are not yet a fault"
+    rig.tick()
+    rig.assert_faulted("sensor_rejected")
+    assert rig.sup.faults.faults[-1].finger == "ring"
+
+
+def test_a_positive_pressure_minimum_ramps_out_of_a_vent(tmp_path: Path) -> None:
+    """Out of a vent the command ramps up from 0 kPa at the rate limit, through values below
+    a positive pressure_min_kpa: that is no fault (the gate only refuses a command below
+    min(pressure_min_kpa, 0))."""
+    text = (PROFILE_DIR / "sim.yaml").read_text().replace(
+        "    pressure_max_kpa: 200\n", "    pressure_max_kpa: 200\n    pressure_min_kpa: 30\n")
+    (tmp_path / "sim.yaml").write_text(text)
+    rig = Rig(load_profile(tmp_path / "sim.yaml"))
+    assert rig.profile.finger("index").pressure_min_kpa == 30
+    rig.running(angle_deg=60.0)
+    assert rig.sup.faults.total == 0
