@@ -71,6 +71,10 @@ def counters(transport: LinkTransport) -> dict[str, int]:
     return transport.health().as_dict()
 
 
+def host_lines(caplog: pytest.LogCaptureFixture) -> list[str]:
+    return [r.getMessage() for r in list(caplog.records) if r.name == "hand_service.transports"]
+
+
 FAULTS = [
     FaultCase(FaultKind.DROP, 255, 600, 30, lambda h: h["sequence_gaps"], r"sensor sequence gap"),
     FaultCase(FaultKind.DELAY, 255, 300, 250, lambda h: h["late_samples"], r"no sensor sample for \d+ ms"),
@@ -227,8 +231,9 @@ class TestValveBoard:
             before = case.detected(counters(transport))
             transport.inject_fault(case.kind, case.finger_index, case.duration_ms, case.value)
             assert wait_for(lambda: case.detected(counters(transport)) > before, 8.0), counters(transport)
-            host_lines = [r.getMessage() for r in caplog.records if r.name == "hand_service.transports"]
-            assert any(re.search(case.log_line, line) for line in host_lines), host_lines
+            # the reader thread counts first and logs after: the line is an event of its own
+            assert wait_for(lambda: any(re.search(case.log_line, line) for line in host_lines(caplog))), \
+                host_lines(caplog)
             # the fault over, the link is whole again: fresh samples flow
             time.sleep(case.duration_ms / 1e3)
             transport.latest()
