@@ -26,7 +26,16 @@ def test_raw_traffic_log_replays_through_the_dbc(tmp_path: Path, suffix: str, ch
         rig.start_mock()
         transport = rig.transport(raw_log=str(log_path))
         transport.open()
-        hold(transport, 25.0, threading.Event(), seconds=0.5)
+        stop = threading.Event()
+        holder = threading.Thread(target=hold, args=(transport, 25.0, stop), daemon=True)
+        holder.start()
+        # hold for 30 samples, each answered by a command of one frame per finger (about 0.3 s;
+        # 5 s at most on a loaded machine)
+        end = time.monotonic() + 5.0
+        while transport.health().frames_out < 30 * len(rig.profile.fingers) and time.monotonic() < end:
+            time.sleep(0.01)
+        stop.set()
+        holder.join(timeout=5)
         transport.close()
         codec = rig.transport().codec
     decoded = [m for frame in can.LogReader(str(log_path)) for m in codec.decode(frame)]
