@@ -62,7 +62,8 @@ CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
 ))
 
 SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces; any breach vents.", (
-    Key("stale_sensor_ticks", "ticks without a fresh sensor frame before a fault", "int", "ticks",
+    Key("stale_sensor_ticks", "sensor samples lost in a row (by the firmware's sequence, one per tick) "
+        "before a fault", "int", "ticks",
         5, 1, 1000),
     Key("angle_min_deg", "lowest plausible angle", "float", "deg", -60.0, -360.0, 360.0),
     Key("angle_max_deg", "highest plausible angle", "float", "deg", 200.0, -360.0, 360.0),
@@ -74,7 +75,8 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
         "ticks", 50, 1, 100000),
     Key("firmware_watchdog_ms", "the firmware vents when no valid command comes for this long",
         "float", "ms", 100.0, 1.0, 10000.0),
-    Key("transport_timeout_ms", "no frame at all for this long: transport lost", "float", "ms",
+    Key("transport_timeout_ms", "no frame at all (supervisor: no sensor frame) for this long: "
+        "transport lost", "float", "ms",
         500.0, 1.0, 60000.0),
     Key("target_angle_min_deg", "lowest angle target the control API accepts", "float", "deg",
         0.0, -360.0, 360.0),

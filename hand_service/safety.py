@@ -110,28 +110,37 @@ class SafetyGate:
 
     def reset(self) -> None:
         """Forget the history (after a re-handshake)."""
-        self.missed = 0
+        self.last_sequence: int | None = None
         self.last_frame_ns: int | None = None
         self.overruns = 0
         lib.rtcore_gate_reset(self._gate)
 
     # -- inputs ----------------------------------------------------------------------
-    def frame(self, fresh: bool, now_ns: int) -> Fault | None:
-        """Whether this tick brought a fresh frame: stale sensor, transport lost."""
-        if fresh:
-            self.missed = 0
+    def frame(self, sequence: int | None, now_ns: int) -> Fault | None:
+        """Stale sensor and lost transport, given this tick's fresh sample's sequence (None:
+        no new sample this tick).
+
+        Freshness is judged on the firmware's clock: the sequence counts the firmware's
+        samples, so a jump of more than stale_ticks means that many samples in a row never
+        arrived. A tick with no new sample is not by itself a stale sensor: the firmware's
+        clock and the host's tick beat against each other, and scheduling on either side
+        delays and bunches the frames; the sample that ends such a wait carries the next
+        sequence number. Silence on the host's clock is bounded by transport_timeout_ms.
+        """
+        if sequence is not None:
+            previous, self.last_sequence = self.last_sequence, sequence
             self.last_frame_ns = now_ns
+            lost = 0 if previous is None else sequence - previous - 1
+            if lost >= self.stale_ticks:
+                return Fault(Cause.STALE_SENSOR, f"{lost} sensor samples in a row never arrived "
+                             f"(sequence {previous} -> {sequence}; stale_sensor_ticks {self.stale_ticks})")
             return None
-        self.missed += 1
         if self.last_frame_ns is None:
             self.last_frame_ns = now_ns
         silent_ns = now_ns - self.last_frame_ns
         if silent_ns >= self.timeout_ns:
-            return Fault(Cause.TRANSPORT_LOST, f"no frame for {silent_ns / 1e6:.0f} ms "
+            return Fault(Cause.TRANSPORT_LOST, f"no sensor frame for {silent_ns / 1e6:.0f} ms "
                          f"(transport_timeout_ms {self.timeout_ns / 1e6:g})")
-        if self.missed >= self.stale_ticks:
-            return Fault(Cause.STALE_SENSOR, f"no fresh sensor frame for {self.missed} ticks "
-                         f"(stale_sensor_ticks {self.stale_ticks})")
         return None
 
     def sample(self) -> Fault | None:

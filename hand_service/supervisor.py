@@ -234,7 +234,7 @@ class Supervisor:
             inputs.sensor_mv[:] = sample.sensor_mv
             inputs.pressure_meas_kpa[:] = sample.pressure_meas_kpa
             fault = fault or self.gate.sample()
-        fault = fault or self.gate.frame(fresh, woke_ns)
+        fault = fault or self.gate.frame(None if sample is None else sample.sequence, woke_ns)
         if status is not None and status.fault_code:
             fault = fault or self.gate.firmware(status.fault_code, status.fault_text)
         self._references(state)

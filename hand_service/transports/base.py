@@ -17,7 +17,7 @@ import numpy as np
 class SensorSample:
     """One reading of every finger, as the firmware sent it."""
 
-    sequence: int
+    sequence: int  # the firmware's sample count: +1 per sample it took, lost ones included
     received_s: float  # host monotonic clock when the sample was complete
     sensor_mv: np.ndarray
     pressure_meas_kpa: np.ndarray  # NaN where the board does not report it

@@ -22,6 +22,7 @@ from hand_service.wire.can_codec import CanCodec
 log = logging.getLogger("hand_service.transports")
 
 MAX_FRAMES_PER_READ = 256
+MAX_LOG_CHANNEL = 0xFFFF  # BLF stores the channel number (+1) in 16 bits
 
 
 def bus_arguments(settings: dict[str, Any]) -> dict[str, Any]:
@@ -123,6 +124,18 @@ class CanTransport(LinkTransport):
         with self._raw_lock:
             if self._raw_log is None:
                 return
-            for frame in units:
-                frame.is_rx = received
-                self._raw_log.on_message_received(frame)
+            try:
+                for frame in units:
+                    frame.is_rx = received
+                    number = can.util.channel2int(frame.channel)
+                    if number is not None and not 0 <= number < MAX_LOG_CHANNEL:
+                        frame.channel = None  # a name ending in a big number: the log's own channel
+                    self._raw_log.on_message_received(frame)
+            except Exception as exc:  # the raw log must never stop the link's I/O threads
+                raw_log, self._raw_log = self._raw_log, None
+                log.error("raw CAN log %s failed (%s: %s): raw logging stopped",
+                          self.settings["raw_log"], type(exc).__name__, exc)
+                try:
+                    raw_log.stop()
+                except Exception as stop_exc:
+                    log.debug("closing the raw CAN log: %s", stop_exc)

@@ -126,6 +126,7 @@ class LinkTransport(Transport):
         if self._threads:
             return self._require_status()
         self._stop.clear()
+        self.monitor.begin()
         try:
             self._connect()
         except Exception as exc:

@@ -58,12 +58,18 @@ class SampleMonitor:
         self._previous_mv: np.ndarray | None = None
         self._last_sequence: int | None = None
         self._sequence = -1  # unwrapped
-        self._last_sample_s = 0.0
+        self._last_sample_s: float | None = None
         self._uptime_ms: int | None = None
         self._state: FirmwareState | None = None
 
+    def begin(self) -> None:
+        """The host opens the link: nothing before counts."""
+        self._last_sequence = None
+        self._last_sample_s = None
+
     def restart(self) -> None:
-        """The stream starts over (a reconnect or a reboot): no gap is counted across it."""
+        """The stream starts over (a reconnect or a reboot): no sequence gap is counted across
+        it, but the wait for the next sample still is: a late sample is late however it ends."""
         self._last_sequence = None
 
     def sample(self, report: SensorReport, now: float, last_command: int) -> SensorSample | None:
@@ -77,14 +83,13 @@ class SampleMonitor:
                 h.sequence_gaps += delta - 1
                 self.log.warning("gap", f"sensor sequence gap: {delta - 1} sample(s) lost "
                                  f"(sequence {self._last_sequence} -> {report.sequence})")
-            interval = now - self._last_sample_s
-            if interval > self.stale_s:
-                h.extra["late_samples"] += 1
-                self.log.warning("late", f"no sensor sample for {interval * 1e3:.0f} ms "
-                                 f"(stale after {self.stale_s * 1e3:.0f} ms)")
             self._sequence += delta
         else:
             self._sequence += 1
+        if self._last_sample_s is not None and now - self._last_sample_s > self.stale_s:
+            h.extra["late_samples"] += 1
+            self.log.warning("late", f"no sensor sample for {(now - self._last_sample_s) * 1e3:.0f} ms "
+                             f"(stale after {self.stale_s * 1e3:.0f} ms)")
         self._last_sequence = report.sequence
         self._last_sample_s = now
         mv = np.array(report.sensor_mv, dtype=np.float64)

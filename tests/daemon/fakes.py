@@ -15,7 +15,8 @@ class FaultyTransport(SimTransport):
 
     def __init__(self, profile: Profile, **options: object) -> None:
         super().__init__(profile, **options)  # type: ignore[arg-type]
-        self.silent = False  # latest() returns nothing: stale frames
+        self.silent = False  # samples are lost: latest() returns nothing, the sequence runs on
+        self.late = False  # samples are late: latest() returns nothing, the next one is the next
         self.lost = False  # every call raises: the link is gone
         self.fail_handshake = 0  # this many open() calls fail
         self.sensor_override: np.ndarray | None = None  # replaces the sensor mV
@@ -35,6 +36,8 @@ class FaultyTransport(SimTransport):
     def latest(self) -> SensorSample | None:
         if self.lost:
             raise OSError("device unplugged")
+        if self.late:
+            return None
         sample = super().latest()
         if sample is None or self.silent:
             return None
