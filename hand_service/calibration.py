@@ -23,8 +23,9 @@ from hand_service import effects as fx
 from hand_service.errors import UserError
 from hand_service.model import FingerModel
 from hand_service.recording import Recording
-from rtcore import FingerConfig
+from rtcore import Effects, FingerConfig
 from rtcore.reference import effective_pressure, model_torque
+from rtcore.sim import SimFinger, simulate
 
 MIN_SPAN_KPA = 10.0
 MIN_PAIRS = 3
@@ -167,23 +168,21 @@ class ValveFit:
         return {"valve_lag": {"tau_s": self.tau_s}, "dead_time": {"delay_s": self.delay_s}}
 
 
+# A finger that never moves (no pressure gain), only there to carry the valve through the
+# simulator: the chamber then follows exactly the valve model the simulated truth uses.
+_VALVE_PROBE = SimFinger(inertia_kgm2=1.0, damping_nms_per_rad=1.0, stiffness_nm_per_rad=1.0,
+                         pressure_gain_nm_per_kpa=0.0, lever_arm_m=1.0, supply_min_kpa=-1e6,
+                         supply_max_kpa=1e6)
+
+
 def valve_response_kpa(command_kpa: np.ndarray, dt_s: float, tau_s: float, delay_s: float) -> np.ndarray:
     """Chamber pressure at each sample for commands held one sample each, delayed by
-    delay_s, through a first-order lag τ: exact, with the delay's breakpoint inside a period.
-    Sample k is read before command k acts."""
-    m = math.floor(delay_s / dt_s)
-    f = delay_s / dt_s - m
-    padded = np.concatenate([np.full(m + 1, command_kpa[0]), command_kpa])
-    decay_first = math.exp(-f * dt_s / tau_s) if tau_s > 0 else 0.0
-    decay_rest = math.exp(-(1.0 - f) * dt_s / tau_s) if tau_s > 0 else 0.0
-    out = np.empty(command_kpa.size)
-    p = float(command_kpa[0])
-    for k in range(command_kpa.size):
-        out[k] = p
-        older, newer = padded[k], padded[k + 1]  # command k-m-1 and command k-m
-        p = older + (p - older) * decay_first
-        p = newer + (p - newer) * decay_rest
-    return out
+    delay_s, through a first-order lag τ (the simulator's valve, csrc/rtcore_sim.c: exact,
+    with the delay's breakpoint inside a period). Sample k is read before command k acts."""
+    probe = _VALVE_PROBE.replace(effects=Effects(valve_lag_tau_s=tau_s, dead_time_s=delay_s))
+    _, chamber = simulate(probe, command_kpa, 1.0 / dt_s, substeps=1,
+                          chamber0_kpa=float(command_kpa[0]))
+    return chamber
 
 
 def fit_valve(recording: Recording) -> ValveFit:
