@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import math
 import os
 import selectors
 import socket
@@ -15,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from hand_service.errors import UserError
+from hand_service.jsonio import plain
 
 log = logging.getLogger(__name__)
 
@@ -32,6 +34,30 @@ def default_socket_path() -> Path:
     runtime = os.environ.get("XDG_RUNTIME_DIR")
     base = Path(runtime) / "hand-service" if runtime else Path(f"/tmp/hand-service-{os.getuid()}")
     return base / "api.sock"
+
+
+def _not_json(name: str) -> Any:
+    raise ValueError(f"{name} is not JSON (a missing value is null)")
+
+
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text} is out of range for a number")
+    return value
+
+
+def encode_reply(reply: dict[str, Any]) -> bytes:
+    """One reply line: always valid JSON (a non-finite number is null, numpy values are
+    plain), or an error reply if the result cannot be written at all."""
+    try:
+        return json.dumps(plain(reply), allow_nan=False, default=str).encode()
+    except (TypeError, ValueError, RecursionError) as exc:
+        log.error("cannot encode a reply: %s: %s", type(exc).__name__, exc)
+        error = {"ok": False, "error": f"the reply could not be encoded: {type(exc).__name__}"}
+        if isinstance(reply.get("id"), (str, int)) and not isinstance(reply.get("id"), bool):
+            error["id"] = reply["id"]
+        return json.dumps(error).encode()
 
 
 class _Client:
@@ -159,13 +185,15 @@ class ApiServer:
 
     def _answer(self, line: bytes) -> dict[str, Any]:
         try:
-            request = json.loads(line)
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            request = json.loads(line, parse_constant=_not_json, parse_float=_finite)
+        except RecursionError:
+            return {"ok": False, "error": "not JSON: nested too deeply"}
+        except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, an over-long integer
             return {"ok": False, "error": f"not JSON: {exc}"}
         return self.handle(request)
 
     def _reply(self, client: _Client, reply: dict[str, Any]) -> None:
-        client.outbuf += json.dumps(reply, allow_nan=False, default=str).encode() + b"\n"
+        client.outbuf += encode_reply(reply) + b"\n"
         self._send(client)
 
     def _send(self, client: _Client) -> None:

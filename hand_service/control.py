@@ -5,6 +5,7 @@ supervisor between ticks. One request is a JSON object with a `cmd`; the reply i
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -19,6 +20,8 @@ from hand_service.trajectory_csv import read_trajectory
 from hand_service.version import software_version
 from rtcore import MODE_FORCE, MODE_POSITION, MODE_PRESSURE
 from rtcore.config import MODE_NAMES, MODES_BY_NAME, flag_names
+
+log = logging.getLogger(__name__)
 
 
 class RequestError(Exception):
@@ -80,6 +83,11 @@ class Api:
         except (RequestError, TransitionError, UserError) as exc:
             self.errors += 1
             reply.update(ok=False, error=str(exc))
+        except Exception as exc:  # a bug in a handler must not stop the loop that vents
+            self.errors += 1
+            cmd = request.get("cmd") if isinstance(request, dict) else None
+            log.exception("request %r failed", cmd)
+            reply.update(ok=False, error=f"{cmd}: internal error: {type(exc).__name__}: {exc}")
         return reply
 
     def _dispatch(self, request: Any) -> Any:

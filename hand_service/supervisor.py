@@ -302,9 +302,14 @@ class Supervisor:
                     self.stop_reason = "ticks"
                     break
                 self.run_one(schedule)
+        except BaseException as exc:  # a bug, or KeyboardInterrupt: vent all the same, then raise
+            if self.stop_reason is None:
+                self.stop_reason = f"{type(exc).__name__} in the loop"
+            log.critical("the loop stopped on %s: %s", type(exc).__name__, exc)
+            raise
         finally:
             self.gc.stop()
-        self.shutdown()
+            self.shutdown()
 
     def run_one(self, schedule: clock.Schedule) -> None:
         """Sleep to the next deadline, tick, then the slack jobs."""
@@ -330,16 +335,19 @@ class Supervisor:
         self.gc.maybe_collect(self.stats.ticks, schedule.deadline_ns - clock.now_ns())
 
     def shutdown(self) -> None:
-        """Vent, record the vented tick, flush and close the recording, close the link."""
+        """Vent, record the vented tick, flush and close the recording, close the link.
+        Runs however the loop ended (run()'s finally); each step runs even if one before
+        it fails."""
         log.info("stopping (%s): venting", self.stop_reason)
         if self.schedule is not None:
             self.t_s = self.schedule.index / self.rate_hz  # the slot after the last tick
         self.hand.inputs.mode[:] = MODE_VENT
-        self.hand.step()
-        self._vent_and_record(self.state)
-        if self.recorder.active:
-            self.recorder.stop()
-        self._close_link()
+        for step in (self.hand.step, lambda: self._vent_and_record(self.state),
+                     self.recorder.stop, self._close_link):
+            try:
+                step()
+            except Exception as exc:
+                log.error("shutting down: %s: %s", type(exc).__name__, exc)
 
 
 __all__ = ["Supervisor", "Targets"]

@@ -19,6 +19,7 @@ from hand_service.daemon import Daemon, DaemonOptions
 from hand_service.profile import load_profile
 from hand_service.recording import read_recording
 from hand_service.transports import transport_class
+from tests.daemon.process import wait_for
 
 
 class Running:
@@ -147,15 +148,50 @@ def test_trajectory_runs_to_hold(daemon: Running, tmp_path: Path) -> None:
     (b'{"cmd": "record_start", "path": "rel.csv"}\n', "must be absolute"),
     (b'{"cmd": "record_stop"}\n', "not recording"),
     (b"{" + b" " * 70000 + b"\n", "not JSON"),
+    # JSON has no NaN or Infinity: refused, not echoed into a reply that cannot be written
+    (b'{"cmd": "status", "id": NaN}\n', "NaN is not JSON"),
+    (b'{"cmd": "status", "id": -Infinity}\n', "-Infinity is not JSON"),
+    (b'{"cmd": "status", "id": 1e999}\n', "1e999 is out of range"),
+    (b'{"cmd": "target", "finger": "index", "angle_deg": 1e999}\n', "out of range"),
+    # huge requests within the line limit: an integer of 60000 digits, nesting 30000 deep
+    (b'{"cmd": "status", "id": ' + b"9" * 60000 + b"}\n", "not JSON"),
+    (b"[" * 30000 + b"]" * 30000 + b"\n", "nested too deeply"),
+    (b'{"cmd": "status", "id": "\xff\xfe\xc3\x28"}\n', "not JSON"),  # not UTF-8
+    (b"\x80\x81\xc3\n", "not JSON"),
 ])
 def test_invalid_requests_get_a_clear_error(daemon: Running, request_: bytes, error: str) -> None:
     with daemon.client() as hand:
         daemon.wait_state(hand, "DISARMED")
+        tick = hand.status()["tick"]
     reply = raw(daemon.socket, request_)
     assert reply["ok"] is False
     assert error in reply["error"]
-    with daemon.client() as hand:  # the daemon carries on
-        assert hand.status()["state"] == "DISARMED"
+    with daemon.client() as hand:  # the daemon carries on, ticking
+        daemon.wait_state(hand, "DISARMED")
+        wait_for(lambda: hand.status()["tick"] > tick, 5.0, "the next tick")
+
+
+def test_a_handler_that_raises_is_an_error_reply_and_the_loop_goes_on(daemon: Running) -> None:
+    def broken() -> None:
+        raise ZeroDivisionError("a bug in a handler")
+
+    daemon.daemon.api.table["params"] = ({}, broken)
+    with daemon.client() as hand:
+        daemon.wait_state(hand, "DISARMED")
+        tick = hand.status()["tick"]
+        for _ in range(3):
+            with pytest.raises(ApiError, match="params: internal error: ZeroDivisionError: a bug"):
+                hand.params()
+        time.sleep(0.2)
+        status = hand.status()
+    assert status["tick"] > tick  # still ticking
+    assert status["api"]["errors"] == 3
+
+
+def test_a_non_finite_result_is_written_as_null(daemon: Running) -> None:
+    daemon.daemon.api.table["params"] = ({}, lambda: {"x_n": float("nan"), "y_n": float("inf")})
+    reply = raw(daemon.socket, b'{"cmd": "params", "id": 4}\n')
+    assert reply == {"id": 4, "ok": True, "result": {"x_n": None, "y_n": None}}
 
 
 def test_over_long_line_is_refused(daemon: Running) -> None:
