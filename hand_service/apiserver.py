@@ -99,16 +99,21 @@ class ApiServer:
     def _unix(self, path: Path) -> socket.socket:
         if not path.parent.exists():
             path.parent.mkdir(mode=0o700, parents=True)
-        if path.exists() or path.is_socket():
+        if path.is_socket():
             probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             try:
                 probe.connect(str(path))
-            except OSError:
+            except ConnectionRefusedError:
                 path.unlink()  # left by a daemon that died: nobody answers
+            except OSError as exc:
+                raise UserError(f"{path}: a socket that cannot be probed: {exc.strerror or exc}") from None
             else:
                 raise UserError(f"{path}: another hand-service daemon is listening there")
             finally:
                 probe.close()
+        elif path.exists() or path.is_symlink():
+            raise UserError(f"{path}: exists and is not a socket; the control socket is never "
+                            "created over a file (choose another --socket path)")
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         old = os.umask(0o177)  # the socket is created 0600: only this user may connect
         try:

@@ -227,3 +227,34 @@ def test_second_daemon_on_the_same_socket_is_refused(daemon: Running) -> None:
     from hand_service.errors import UserError
     with pytest.raises(UserError, match="another hand-service daemon"):
         ApiServer(lambda r: {}, daemon.socket).open()
+
+
+def test_a_file_at_the_socket_path_is_never_deleted(tmp_path: Path) -> None:
+    from hand_service.apiserver import ApiServer
+    from hand_service.errors import UserError
+    precious = tmp_path / "notes.txt"
+    precious.write_text("a week of lab notes\n")
+    with pytest.raises(UserError, match="exists and is not a socket"):
+        ApiServer(lambda r: {}, precious).open()
+    assert precious.read_text() == "a week of lab notes\n"
+    link = tmp_path / "link.sock"
+    link.symlink_to(tmp_path / "nowhere")  # a dangling symlink is not a stale socket either
+    with pytest.raises(UserError, match="exists and is not a socket"):
+        ApiServer(lambda r: {}, link).open()
+    assert link.is_symlink()
+
+
+def test_a_stale_socket_is_replaced(tmp_path: Path) -> None:
+    from hand_service.apiserver import ApiServer
+    path = tmp_path / "api.sock"
+    dead = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    dead.bind(str(path))  # a daemon that died without removing its socket
+    dead.close()
+    assert path.is_socket()
+    server = ApiServer(lambda r: {"ok": True}, path)
+    server.open()
+    try:
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+            s.connect(str(path))  # the new daemon listens there
+    finally:
+        server.close()
