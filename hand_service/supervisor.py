@@ -93,6 +93,8 @@ class Supervisor:
             log.info("%s -> %s (%s)", before.name, after.name, event.value)
             if after is State.INIT:
                 self._latched_causes.clear()
+            if event is Event.START:  # ARMED -> RUNNING: a trajectory plays from its start
+                self.trajectory_tick, self.trajectory_done = 0, False
             for callback in self.on_state:
                 callback(after)
         return after
@@ -189,7 +191,8 @@ class Supervisor:
         inputs.pressure_ref_kpa[:] = targets.pressure_kpa
 
     def set_trajectory(self, traj: Trajectory | None, loop: bool = False) -> None:
-        """Follow `traj` from its start when RUNNING. A finger it drives follows it at every
+        """Follow `traj` from its start when RUNNING (and from its start again at every
+        `start`; `resume` after `hold` continues where it paused). A finger it drives follows it at every
         tick; the others keep their API targets."""
         if traj is not None and ((traj.mode == NOT_DRIVEN) != ~traj.driven()).any():
             raise ValueError("a trajectory drives a finger at every tick or never")
