@@ -335,6 +335,8 @@ class Supervisor:
         slack_ns = schedule.deadline_ns - clock.now_ns()
         for job in self.slack:
             job(slack_ns)
+        if self.recorder.closing:  # a stopped recording's writer: collect it once it is done
+            self.recorder.reap()
         self.gc.maybe_collect(self.stats.ticks, schedule.deadline_ns - clock.now_ns())
 
     def shutdown(self) -> None:
@@ -346,7 +348,7 @@ class Supervisor:
             self.t_s = self.schedule.index / self.rate_hz  # the slot after the last tick
         self.hand.inputs.mode[:] = MODE_VENT
         for step in (self.hand.step, lambda: self._vent_and_record(self.state),
-                     self.recorder.stop, self._close_link):
+                     self.recorder.close, self._close_link):
             try:
                 step()
             except Exception as exc:

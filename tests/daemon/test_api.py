@@ -98,7 +98,11 @@ def test_a_session(daemon: Running, tmp_path: Path) -> None:
         record = tmp_path / "rec.csv"
         assert hand.record_start(record)["active"]
         time.sleep(1.3)
-        assert hand.record_stop()["complete"]
+        stopped = hand.record_stop()  # does not wait for the writer
+        assert not stopped["active"] and stopped["rows"] > 100
+        last = wait_for(lambda: hand.status()["recording"]["last"], 5.0, "the writer's end")
+        assert last["complete"] and last["rows_lost"] == 0
+        assert last["rows_written"] == stopped["rows"]
         rec = read_recording(record, finger="index")
         assert rec.duration_s > 1.0
         assert hand.disarm() == {"state": "DISARMED"}
