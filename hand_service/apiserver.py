@@ -12,6 +12,7 @@ import os
 import selectors
 import socket
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -60,15 +61,24 @@ def encode_reply(reply: dict[str, Any]) -> bytes:
         return json.dumps(error).encode()
 
 
+@dataclass
+class Deferred:
+    """A reply that comes later, for a request served off the loop: reply() is None until
+    it is ready. The client's next requests wait for it (replies stay in order)."""
+
+    reply: Callable[[], dict[str, Any] | None]
+
+
 class _Client:
     def __init__(self, sock: socket.socket) -> None:
         self.sock = sock
         self.inbuf = b""
         self.outbuf = b""
+        self.waiting: Deferred | None = None
 
 
 class ApiServer:
-    def __init__(self, handle: Callable[[Any], dict[str, Any]], socket_path: Path | None,
+    def __init__(self, handle: Callable[[Any], dict[str, Any] | Deferred], socket_path: Path | None,
                  tcp_port: int | None = None) -> None:
         self.handle = handle
         self.socket_path = socket_path
@@ -76,7 +86,7 @@ class ApiServer:
         self.selector = selectors.DefaultSelector()
         self.listeners: list[socket.socket] = []
         self.clients: dict[int, _Client] = {}
-        self.pending: set[_Client] = set()  # clients with whole lines not yet answered
+        self.pending: set[_Client] = set()  # clients with whole lines not yet answered, or waiting
 
     def open(self) -> None:
         if self.socket_path is not None:
@@ -132,6 +142,12 @@ class ApiServer:
         """Accept, read and answer whatever is ready, without blocking; returns requests served."""
         served = 0
         for client in list(self.pending):
+            if client.waiting is not None:
+                reply = client.waiting.reply()
+                if reply is None:
+                    continue
+                client.waiting = None
+                self._reply(client, reply)
             served += self._lines(client)
         for key, events in self.selector.select(0):
             sock = key.fileobj
@@ -159,6 +175,8 @@ class ApiServer:
         self.selector.register(sock, selectors.EVENT_READ, client)
 
     def _read(self, client: _Client) -> int:
+        if client.waiting is not None and len(client.inbuf) > MAX_LINE_BYTES:
+            return 0  # it waits for a reply and has sent enough: read on once it is answered
         try:
             data = client.sock.recv(65536)
         except (BlockingIOError, InterruptedError):
@@ -174,12 +192,16 @@ class ApiServer:
     def _lines(self, client: _Client) -> int:
         """Answer up to MAX_REQUESTS_PER_POLL whole lines; the rest waits for the next poll."""
         served = 0
-        while b"\n" in client.inbuf and served < MAX_REQUESTS_PER_POLL:
+        while client.waiting is None and b"\n" in client.inbuf and served < MAX_REQUESTS_PER_POLL:
             line, client.inbuf = client.inbuf.split(b"\n", 1)
             if line.strip():
-                self._reply(client, self._answer(line))
+                answer = self._answer(line)
                 served += 1
-        if b"\n" in client.inbuf:
+                if isinstance(answer, Deferred):
+                    client.waiting = answer
+                else:
+                    self._reply(client, answer)
+        if client.waiting is not None or b"\n" in client.inbuf:
             self.pending.add(client)
         else:
             self.pending.discard(client)
@@ -188,7 +210,7 @@ class ApiServer:
                 client.inbuf = b""
         return served
 
-    def _answer(self, line: bytes) -> dict[str, Any]:
+    def _answer(self, line: bytes) -> dict[str, Any] | Deferred:
         try:
             request = json.loads(line, parse_constant=_not_json, parse_float=_finite)
         except RecursionError:

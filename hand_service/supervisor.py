@@ -190,15 +190,25 @@ class Supervisor:
         inputs.force_ref_n[:] = targets.force_n
         inputs.pressure_ref_kpa[:] = targets.pressure_kpa
 
-    def set_trajectory(self, traj: Trajectory | None, loop: bool = False) -> None:
-        """Follow `traj` from its start when RUNNING (and from its start again at every
-        `start`; `resume` after `hold` continues where it paused). A finger it drives follows it at every
-        tick; the others keep their API targets."""
-        if traj is not None and ((traj.mode == NOT_DRIVEN) != ~traj.driven()).any():
+    @staticmethod
+    def check_trajectory(traj: Trajectory) -> np.ndarray:
+        """Which fingers traj drives; a ValueError unless it drives each at every tick or never."""
+        driven = traj.driven()
+        if ((traj.mode == NOT_DRIVEN) != ~driven).any():
             raise ValueError("a trajectory drives a finger at every tick or never")
+        return driven
+
+    def set_trajectory(self, traj: Trajectory | None, loop: bool = False,
+                       driven: np.ndarray | None = None) -> None:
+        """Follow `traj` from its start when RUNNING (and from its start again at every
+        `start`; `resume` after `hold` continues where it paused). A finger it drives
+        follows it at every tick; the others keep their API targets. `driven`: what
+        check_trajectory returned already (off the loop: checking an hour of trajectory
+        takes milliseconds)."""
+        if traj is not None and driven is None:
+            driven = self.check_trajectory(traj)
         self.trajectory, self.trajectory_tick = traj, 0
         self.trajectory_done, self.trajectory_loop = False, loop
-        driven = traj.driven() if traj is not None else None
         self._driven = None if driven is None or driven.all() else driven
 
     def _finish_trajectory(self, traj: Trajectory) -> None:

@@ -262,3 +262,56 @@ def test_a_stale_socket_is_replaced(tmp_path: Path) -> None:
             s.connect(str(path))  # the new daemon listens there
     finally:
         server.close()
+
+
+def _replies(sock: socket.socket, n: int) -> list[dict]:
+    data = b""
+    while data.count(b"\n") < n:
+        chunk = sock.recv(65536)
+        assert chunk, "the daemon closed the connection"
+        data += chunk
+    return [json.loads(line) for line in data.splitlines()]
+
+
+def test_a_trajectory_loads_off_the_loop(daemon: Running, tmp_path: Path,
+                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """While a trajectory is parsed the loop ticks on and serves everyone; the loader's
+    replies come in order once it is parsed, and it is applied only if the state still
+    allows it."""
+    from hand_service import control
+    release = threading.Event()
+    parse = control.read_trajectory
+
+    def slow_parse(*args: object) -> object:
+        assert release.wait(10)
+        return parse(*args)
+
+    monkeypatch.setattr(control, "read_trajectory", slow_parse)
+    traj = tmp_path / "wave.csv"
+    traj.write_text("t,angle_ref_deg_index\n0,0\n0.5,30\n1.0,30\n")
+    load = json.dumps({"cmd": "load_trajectory", "path": str(traj), "id": 1}).encode()
+    with daemon.client() as hand, socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as loader:
+        daemon.wait_state(hand, "DISARMED")
+        hand.arm()
+        hand.target("all", angle_deg=30.0)
+        hand.start()
+        hand.hold()
+        loader.settimeout(10)
+        loader.connect(str(daemon.socket))
+        loader.sendall(load + b'\n{"cmd": "status", "id": 2}\n')
+        tick = wait_for(lambda: (s := hand.status())["trajectory_loading"] and s["tick"], 5.0, "the load")
+        wait_for(lambda: hand.status()["tick"] > tick + 20, 5.0, "ticks while the trajectory loads")
+        with pytest.raises(ApiError, match="is still loading"):
+            hand.load_trajectory(traj)
+        release.set()
+        first, second = _replies(loader, 2)
+        assert first["id"] == 1 and first["ok"] and first["result"]["ticks"] == 101
+        assert second["id"] == 2 and second["result"]["trajectory"]["source"] == str(traj)
+        release.clear()
+        loader.sendall(load + b"\n")
+        wait_for(lambda: hand.status()["trajectory_loading"] == str(traj), 5.0, "the load")
+        hand.resume()  # RUNNING before the parse ends: the trajectory is not applied
+        release.set()
+        (refused,) = _replies(loader, 1)
+        assert refused == {"id": 1, "ok": False,
+                           "error": "load_trajectory: not while RUNNING (hold or disarm first)"}
