@@ -347,11 +347,10 @@ int32_t rtcore_lock_memory(void);
 int32_t rtcore_unlock_memory(void);
 /* ---- The recording ring (csrc/rtcore_ring.c) -----------------------------------------
  * One producer (the tick) and one consumer (the writer), rows of n_cols doubles in
- * caller-provided (shared) memory. push copies row into slot count % capacity, then
- * publishes count + 1 with release semantics; returns the new count, or -1.
+ * caller-provided (shared) memory. A push writes its row into slot count % capacity, then
+ * publishes count + 1 with release semantics, so while the count reads n the slot of row
+ * n - capacity may be half overwritten: a reader trusts the last capacity - 1 rows only.
  * ring_count reads the count with acquire semantics. */
-int64_t rtcore_ring_push(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
-                         const double *row);
 int64_t rtcore_ring_count(const int64_t *count);
 /* One supervisor tick as one ring row, written straight into the ring: t_s, state, then
  * blocks of n_fingers in the order angle_ref_deg, pressure_kpa (sent_kpa), pressure_meas_kpa,

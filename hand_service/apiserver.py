@@ -7,14 +7,17 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import math
 import os
 import selectors
 import socket
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from hand_service.errors import UserError
+from hand_service.jsonio import plain
 
 log = logging.getLogger(__name__)
 
@@ -34,15 +37,48 @@ def default_socket_path() -> Path:
     return base / "api.sock"
 
 
+def _not_json(name: str) -> Any:
+    raise ValueError(f"{name} is not JSON (a missing value is null)")
+
+
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text} is out of range for a number")
+    return value
+
+
+def encode_reply(reply: dict[str, Any]) -> bytes:
+    """One reply line: always valid JSON (a non-finite number is null, numpy values are
+    plain), or an error reply if the result cannot be written at all."""
+    try:
+        return json.dumps(plain(reply), allow_nan=False, default=str).encode()
+    except (TypeError, ValueError, RecursionError) as exc:
+        log.error("cannot encode a reply: %s: %s", type(exc).__name__, exc)
+        error = {"ok": False, "error": f"the reply could not be encoded: {type(exc).__name__}"}
+        if isinstance(reply.get("id"), (str, int)) and not isinstance(reply.get("id"), bool):
+            error["id"] = reply["id"]
+        return json.dumps(error).encode()
+
+
+@dataclass
+class Deferred:
+    """A reply that comes later, for a request served off the loop: reply() is None until
+    it is ready. The client's next requests wait for it (replies stay in order)."""
+
+    reply: Callable[[], dict[str, Any] | None]
+
+
 class _Client:
     def __init__(self, sock: socket.socket) -> None:
         self.sock = sock
         self.inbuf = b""
         self.outbuf = b""
+        self.waiting: Deferred | None = None
 
 
 class ApiServer:
-    def __init__(self, handle: Callable[[Any], dict[str, Any]], socket_path: Path | None,
+    def __init__(self, handle: Callable[[Any], dict[str, Any] | Deferred], socket_path: Path | None,
                  tcp_port: int | None = None) -> None:
         self.handle = handle
         self.socket_path = socket_path
@@ -50,7 +86,7 @@ class ApiServer:
         self.selector = selectors.DefaultSelector()
         self.listeners: list[socket.socket] = []
         self.clients: dict[int, _Client] = {}
-        self.pending: set[_Client] = set()  # clients with whole lines not yet answered
+        self.pending: set[_Client] = set()  # clients with whole lines not yet answered, or waiting
 
     def open(self) -> None:
         if self.socket_path is not None:
@@ -73,16 +109,21 @@ class ApiServer:
     def _unix(self, path: Path) -> socket.socket:
         if not path.parent.exists():
             path.parent.mkdir(mode=0o700, parents=True)
-        if path.exists() or path.is_socket():
+        if path.is_socket():
             probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             try:
                 probe.connect(str(path))
-            except OSError:
+            except ConnectionRefusedError:
                 path.unlink()  # left by a daemon that died: nobody answers
+            except OSError as exc:
+                raise UserError(f"{path}: a socket that cannot be probed: {exc.strerror or exc}") from None
             else:
                 raise UserError(f"{path}: another hand-service daemon is listening there")
             finally:
                 probe.close()
+        elif path.exists() or path.is_symlink():
+            raise UserError(f"{path}: exists and is not a socket; the control socket is never "
+                            "created over a file (choose another --socket path)")
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         old = os.umask(0o177)  # the socket is created 0600: only this user may connect
         try:
@@ -101,6 +142,12 @@ class ApiServer:
         """Accept, read and answer whatever is ready, without blocking; returns requests served."""
         served = 0
         for client in list(self.pending):
+            if client.waiting is not None:
+                reply = client.waiting.reply()
+                if reply is None:
+                    continue
+                client.waiting = None
+                self._reply(client, reply)
             served += self._lines(client)
         for key, events in self.selector.select(0):
             sock = key.fileobj
@@ -128,6 +175,8 @@ class ApiServer:
         self.selector.register(sock, selectors.EVENT_READ, client)
 
     def _read(self, client: _Client) -> int:
+        if client.waiting is not None and len(client.inbuf) > MAX_LINE_BYTES:
+            return 0  # it waits for a reply and has sent enough: read on once it is answered
         try:
             data = client.sock.recv(65536)
         except (BlockingIOError, InterruptedError):
@@ -143,12 +192,16 @@ class ApiServer:
     def _lines(self, client: _Client) -> int:
         """Answer up to MAX_REQUESTS_PER_POLL whole lines; the rest waits for the next poll."""
         served = 0
-        while b"\n" in client.inbuf and served < MAX_REQUESTS_PER_POLL:
+        while client.waiting is None and b"\n" in client.inbuf and served < MAX_REQUESTS_PER_POLL:
             line, client.inbuf = client.inbuf.split(b"\n", 1)
             if line.strip():
-                self._reply(client, self._answer(line))
+                answer = self._answer(line)
                 served += 1
-        if b"\n" in client.inbuf:
+                if isinstance(answer, Deferred):
+                    client.waiting = answer
+                else:
+                    self._reply(client, answer)
+        if client.waiting is not None or b"\n" in client.inbuf:
             self.pending.add(client)
         else:
             self.pending.discard(client)
@@ -157,15 +210,17 @@ class ApiServer:
                 client.inbuf = b""
         return served
 
-    def _answer(self, line: bytes) -> dict[str, Any]:
+    def _answer(self, line: bytes) -> dict[str, Any] | Deferred:
         try:
-            request = json.loads(line)
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            request = json.loads(line, parse_constant=_not_json, parse_float=_finite)
+        except RecursionError:
+            return {"ok": False, "error": "not JSON: nested too deeply"}
+        except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, an over-long integer
             return {"ok": False, "error": f"not JSON: {exc}"}
         return self.handle(request)
 
     def _reply(self, client: _Client, reply: dict[str, Any]) -> None:
-        client.outbuf += json.dumps(reply, allow_nan=False, default=str).encode() + b"\n"
+        client.outbuf += encode_reply(reply) + b"\n"
         self._send(client)
 
     def _send(self, client: _Client) -> None:

@@ -5,20 +5,29 @@ supervisor between ticks. One request is a JSON object with a `cmd`; the reply i
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from hand_service.apiserver import Deferred
+from hand_service.background import Background
 from hand_service.errors import UserError
+from hand_service.profile import Profile
 from hand_service.safety import finite_or_none
 from hand_service.states import Event, State, TransitionError
 from hand_service.supervisor import Supervisor
+from hand_service.trajectory import Trajectory
 from hand_service.trajectory_csv import read_trajectory
 from hand_service.version import software_version
 from rtcore import MODE_FORCE, MODE_POSITION, MODE_PRESSURE
 from rtcore.config import MODE_NAMES, MODES_BY_NAME, flag_names
+
+log = logging.getLogger(__name__)
 
 
 class RequestError(Exception):
@@ -38,6 +47,24 @@ def _number(name: str, value: Any) -> float:
     return float(value)
 
 
+def _parse_trajectory(path: str, profile: Profile, rate_hz: float) -> tuple[Trajectory, np.ndarray]:
+    """In the worker: read, resample and check the file; the fingers it drives."""
+    traj = read_trajectory(path, profile, rate_hz)
+    return traj, Supervisor.check_trajectory(traj)
+
+
+@dataclass
+class _Loading:
+    """A load_trajectory in progress: its worker, and its reply once poll() has it."""
+
+    job: Background[tuple[Trajectory, np.ndarray]]
+    path: str
+    finish: Callable[[], dict[str, Any]]
+    head: dict[str, Any] = field(default_factory=dict)
+    cmd: Any = None
+    reply: dict[str, Any] | None = None
+
+
 class Api:
     """Request name -> (parameters, handler). `handle(request)` never raises."""
 
@@ -46,6 +73,7 @@ class Api:
         self.metadata = metadata
         self.requests = 0
         self.errors = 0
+        self._loading: _Loading | None = None
         self.table: dict[str, tuple[dict[str, Param], Callable[..., Any]]] = {
             "status": ({}, self.status),
             "params": ({}, self.params),
@@ -70,17 +98,43 @@ class Api:
         }
 
     # -- dispatch ---------------------------------------------------------------------
-    def handle(self, request: Any) -> dict[str, Any]:
+    def handle(self, request: Any) -> dict[str, Any] | Deferred:
         self.requests += 1
-        reply: dict[str, Any] = {}
+        head: dict[str, Any] = {}
         if isinstance(request, dict) and "id" in request:
-            reply["id"] = request["id"]
+            head["id"] = request["id"]
+        cmd = request.get("cmd") if isinstance(request, dict) else None
+        return self._answer(head, cmd, lambda: self._dispatch(request))
+
+    def _answer(self, head: dict[str, Any], cmd: Any, call: Callable[[], Any]) -> dict[str, Any] | Deferred:
+        """The reply to call(): its result, its refusal, or (a bug) an internal error; a
+        Deferred when the work goes on in the background."""
+        reply = dict(head)
         try:
-            reply.update(ok=True, result=self._dispatch(request))
+            result = call()
         except (RequestError, TransitionError, UserError) as exc:
             self.errors += 1
             reply.update(ok=False, error=str(exc))
+        except Exception as exc:  # a bug in a handler must not stop the loop that vents
+            self.errors += 1
+            log.exception("request %r failed", cmd)
+            reply.update(ok=False, error=f"{cmd}: internal error: {type(exc).__name__}: {exc}")
+        else:
+            if isinstance(result, _Loading):
+                result.head, result.cmd = head, cmd
+                return Deferred(lambda: result.reply)
+            reply.update(ok=True, result=result)
         return reply
+
+    def poll(self) -> None:
+        """In the slack: take a trajectory its worker has parsed (the reply is then ready)."""
+        loading = self._loading
+        if loading is None or not loading.job.done:
+            return
+        self._loading = None
+        answer = self._answer(loading.head, loading.cmd, loading.finish)
+        assert isinstance(answer, dict)
+        loading.reply = answer
 
     def _dispatch(self, request: Any) -> Any:
         if not isinstance(request, dict):
@@ -171,16 +225,29 @@ class Api:
         targets.mode[fingers] = mode
         return {"fingers": [self.sup.names[i] for i in fingers], key: value, "mode": MODE_NAMES[mode]}
 
-    def load_trajectory(self, path: str, loop: bool = False) -> dict[str, Any]:
-        if self.sup.state is State.RUNNING:
-            raise RequestError("load_trajectory: not while RUNNING (hold or disarm first)")
+    def load_trajectory(self, path: str, loop: bool = False) -> _Loading:
+        """Parsed in a worker thread (an hour of trajectory takes seconds, which the loop
+        must not stop for while pressurised); poll() applies it between ticks, and the
+        reply comes then."""
+        self._not_running("load_trajectory")
         if not Path(path).is_absolute():
             raise RequestError("load_trajectory: the path must be absolute (the daemon has its own "
                                "working directory)")
-        traj = read_trajectory(path, self.sup.profile, self.sup.rate_hz)
-        self.sup.set_trajectory(traj, loop)
+        if self._loading is not None:
+            raise RequestError(f"load_trajectory: {self._loading.path} is still loading")
+        job = Background(_parse_trajectory, path, self.sup.profile, self.sup.rate_hz, name="trajectory")
+        self._loading = _Loading(job, path, lambda: self._loaded(*job.result(), path, loop))
+        return self._loading
+
+    def _not_running(self, what: str) -> None:
+        if self.sup.state is State.RUNNING:
+            raise RequestError(f"{what}: not while RUNNING (hold or disarm first)")
+
+    def _loaded(self, traj: Trajectory, driven: np.ndarray, path: str, loop: bool) -> dict[str, Any]:
+        self._not_running("load_trajectory")  # the state may have changed while it loaded
+        self.sup.set_trajectory(traj, loop, driven)
         return {"path": path, "duration_s": traj.duration_s, "ticks": traj.n_ticks, "loop": loop,
-                "fingers": [n for n, d in zip(self.sup.names, traj.driven(), strict=True) if d]}
+                "fingers": [n for n, d in zip(self.sup.names, driven, strict=True) if d]}
 
     def clear_trajectory(self) -> dict[str, Any]:
         if self.sup.state is State.RUNNING and self.sup.trajectory and not self.sup.trajectory_done:
@@ -253,6 +320,7 @@ class Api:
             "trajectory": None if traj is None else {
                 "source": traj.source, "duration_s": traj.duration_s, "loop": sup.trajectory_loop,
                 "t_s": min(sup.trajectory_tick, traj.n_ticks) / traj.rate_hz, "done": sup.trajectory_done},
+            "trajectory_loading": None if self._loading is None else self._loading.path,
             "recording": sup.recorder.status(),
             "transport": {"kind": sup.transport.kind, "open": sup.link_open,
                           "health": sup.transport.health().as_dict() if sup.link_open else None,

@@ -110,6 +110,7 @@ class Daemon:
 
     # -- slack ----------------------------------------------------------------------------
     def _slack(self, slack_ns: int) -> None:
+        self.api.poll()
         self.server.poll()
         ticks = self.sup.stats.ticks
         self.notifier.watchdog(clock.now_ns())

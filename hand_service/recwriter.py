@@ -87,6 +87,7 @@ class Drainer:
         block, first, lost = self.ring.read(self.next_row)
         if lost:
             self.rows_lost += lost
+            self.ring.lost = self.rows_lost  # published in the ring's header for the daemon
             self.out.write(f"# lost: {lost} rows before row {first} (the writer fell behind)\n")
         if len(block):
             self.out.write("\n".join(self._line(row) for row in block) + "\n")
@@ -126,10 +127,17 @@ class WriterThread:
     def flush(self) -> None:
         self._wake.set()
 
-    def stop(self, timeout_s: float) -> bool:
+    def request_stop(self) -> None:
+        """Drain, fsync and end, without waiting for it (join() or done)."""
         self._stop = True
         self._wake.set()
+
+    def join(self, timeout_s: float) -> bool:
         self._thread.join(timeout_s)
+        return self.done
+
+    @property
+    def done(self) -> bool:
         return not self._thread.is_alive()
 
 

@@ -93,6 +93,8 @@ class Supervisor:
             log.info("%s -> %s (%s)", before.name, after.name, event.value)
             if after is State.INIT:
                 self._latched_causes.clear()
+            if event is Event.START:  # ARMED -> RUNNING: a trajectory plays from its start
+                self.trajectory_tick, self.trajectory_done = 0, False
             for callback in self.on_state:
                 callback(after)
         return after
@@ -188,14 +190,25 @@ class Supervisor:
         inputs.force_ref_n[:] = targets.force_n
         inputs.pressure_ref_kpa[:] = targets.pressure_kpa
 
-    def set_trajectory(self, traj: Trajectory | None, loop: bool = False) -> None:
-        """Follow `traj` from its start when RUNNING. A finger it drives follows it at every
-        tick; the others keep their API targets."""
-        if traj is not None and ((traj.mode == NOT_DRIVEN) != ~traj.driven()).any():
+    @staticmethod
+    def check_trajectory(traj: Trajectory) -> np.ndarray:
+        """Which fingers traj drives; a ValueError unless it drives each at every tick or never."""
+        driven = traj.driven()
+        if ((traj.mode == NOT_DRIVEN) != ~driven).any():
             raise ValueError("a trajectory drives a finger at every tick or never")
+        return driven
+
+    def set_trajectory(self, traj: Trajectory | None, loop: bool = False,
+                       driven: np.ndarray | None = None) -> None:
+        """Follow `traj` from its start when RUNNING (and from its start again at every
+        `start`; `resume` after `hold` continues where it paused). A finger it drives
+        follows it at every tick; the others keep their API targets. `driven`: what
+        check_trajectory returned already (off the loop: checking an hour of trajectory
+        takes milliseconds)."""
+        if traj is not None and driven is None:
+            driven = self.check_trajectory(traj)
         self.trajectory, self.trajectory_tick = traj, 0
         self.trajectory_done, self.trajectory_loop = False, loop
-        driven = traj.driven() if traj is not None else None
         self._driven = None if driven is None or driven.all() else driven
 
     def _finish_trajectory(self, traj: Trajectory) -> None:
@@ -302,9 +315,14 @@ class Supervisor:
                     self.stop_reason = "ticks"
                     break
                 self.run_one(schedule)
+        except BaseException as exc:  # a bug, or KeyboardInterrupt: vent all the same, then raise
+            if self.stop_reason is None:
+                self.stop_reason = f"{type(exc).__name__} in the loop"
+            log.critical("the loop stopped on %s: %s", type(exc).__name__, exc)
+            raise
         finally:
             self.gc.stop()
-        self.shutdown()
+            self.shutdown()
 
     def run_one(self, schedule: clock.Schedule) -> None:
         """Sleep to the next deadline, tick, then the slack jobs."""
@@ -327,19 +345,24 @@ class Supervisor:
         slack_ns = schedule.deadline_ns - clock.now_ns()
         for job in self.slack:
             job(slack_ns)
+        if self.recorder.closing:  # a stopped recording's writer: collect it once it is done
+            self.recorder.reap()
         self.gc.maybe_collect(self.stats.ticks, schedule.deadline_ns - clock.now_ns())
 
     def shutdown(self) -> None:
-        """Vent, record the vented tick, flush and close the recording, close the link."""
+        """Vent, record the vented tick, flush and close the recording, close the link.
+        Runs however the loop ended (run()'s finally); each step runs even if one before
+        it fails."""
         log.info("stopping (%s): venting", self.stop_reason)
         if self.schedule is not None:
             self.t_s = self.schedule.index / self.rate_hz  # the slot after the last tick
         self.hand.inputs.mode[:] = MODE_VENT
-        self.hand.step()
-        self._vent_and_record(self.state)
-        if self.recorder.active:
-            self.recorder.stop()
-        self._close_link()
+        for step in (self.hand.step, lambda: self._vent_and_record(self.state),
+                     self.recorder.close, self._close_link):
+            try:
+                step()
+            except Exception as exc:
+                log.error("shutting down: %s: %s", type(exc).__name__, exc)
 
 
 __all__ = ["Supervisor", "Targets"]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import csv
 import math
+from array import array
 from pathlib import Path
 
 import numpy as np
@@ -62,46 +63,39 @@ def _check(value: float, quantity: str, profile: Profile, path: Path, line: int,
 
 
 def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = None) -> Trajectory:
-    """Read, validate and resample a trajectory file onto the control rate."""
+    """Read, validate and resample a trajectory file onto the control rate.
+
+    Rows are parsed one at a time into flat arrays, so an hour of trajectory never holds
+    millions of Python objects: the daemon parses it in a worker thread, and a bulk
+    allocation or deallocation would hold the GIL away from the tick for 100 ms or more
+    (and feed the young generations the loop's slack collects)."""
     path = Path(path)
     rate_hz = rate_hz or profile.control["rate_hz"]
+    n_fingers = len(profile.fingers)
+    t_s, cells_flat, modes_flat = array("d"), array("d"), array("i")
+    header: list[str] | None = None
     try:
         with open(path, newline="") as f:
-            lines = [(n, row) for n, row in enumerate(csv.reader(f), start=1)
-                     if row and not row[0].lstrip().startswith("#")]
+            for line, row in enumerate(csv.reader(f), start=1):
+                if not row or row[0].lstrip().startswith("#"):
+                    continue
+                if header is None:
+                    header = [c.strip() for c in row]
+                    columns = _columns(header, profile, path, line)
+                    t_col = header.index("t")
+                    continue
+                _row(row, line, header, columns, t_col, profile, path, t_s, cells_flat, modes_flat)
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except (UnicodeDecodeError, csv.Error) as exc:
         raise UserError(f"{path}: not a CSV text file ({exc})") from None
-    if len(lines) < 3:
+    if header is None or len(t_s) < 2:
         raise UserError(f"{path}: a trajectory needs a header and at least two rows")
-    header_line, header = lines[0][0], [c.strip() for c in lines[0][1]]
-    columns = _columns(header, profile, path, header_line)
-    rows = lines[1:]
-    n_rows, n_fingers = len(rows), len(profile.fingers)
-    t = np.empty(n_rows)
-    values = {q: np.full((n_rows, n_fingers), np.nan) for q in QUANTITIES}
-    modes = np.full((n_rows, n_fingers), -1, dtype=np.int32)
-    t_col = header.index("t")
-    for r, (line, cells) in enumerate(rows):
-        if len(cells) != len(header):
-            raise UserError(f"{where(path, line)}: {len(cells)} fields where the header has {len(header)}")
-        t[r] = _number(cells[t_col], path, line, "t", required=True)
-        if r and t[r] <= t[r - 1]:
-            raise UserError(f"{where(path, line, 't')}: t = {t[r]:g} does not increase "
-                            f"(previous {t[r - 1]:g})")
-        for quantity, fingers in columns.items():
-            for finger, col in fingers.items():
-                value = _number(cells[col], path, line, header[col])
-                if math.isnan(value):
-                    continue
-                _check(value, quantity, profile, path, line, header[col])
-                if modes[r, finger] != -1:
-                    raise UserError(f"{where(path, line, header[col])}: finger "
-                                    f"'{profile.finger_names[finger]}' has both an angle and a "
-                                    "force reference in one row; give one")
-                modes[r, finger] = QUANTITIES[quantity]
-                values[quantity][r, finger] = value
+    t = np.frombuffer(t_s, dtype=np.float64)
+    n_rows = len(t)
+    cells = np.frombuffer(cells_flat, dtype=np.float64).reshape(n_rows, len(QUANTITIES), n_fingers)
+    values = {q: cells[:, k, :] for k, q in enumerate(QUANTITIES)}
+    modes = np.frombuffer(modes_flat, dtype=np.int32).reshape(n_rows, n_fingers).copy()
     driven = np.array([any(f in c for c in columns.values()) for f in range(n_fingers)])
     modes[:, driven] = np.where(modes[:, driven] == -1, MODE_VENT, modes[:, driven])
     n_ticks = math.floor((t[-1] - t[0]) * rate_hz + 1e-9) + 1
@@ -109,6 +103,35 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
         raise UserError(f"{path}: {t[-1] - t[0]:g} s at {rate_hz:g} Hz is {n_ticks} ticks; "
                         f"the limit is {MAX_TICKS}")
     return _resample(t - t[0], modes, values, driven, rate_hz, n_ticks, str(path))
+
+
+def _row(cells: list[str], line: int, header: list[str], columns: dict[str, dict[int, int]], t_col: int,
+         profile: Profile, path: Path, t_s: array, values: array, modes: array) -> None:
+    """One data row appended to the flat arrays: t, then per quantity a value per finger
+    (NaN where empty), then a mode per finger (-1 where none)."""
+    if len(cells) != len(header):
+        raise UserError(f"{where(path, line)}: {len(cells)} fields where the header has {len(header)}")
+    t = _number(cells[t_col], path, line, "t", required=True)
+    if t_s and t <= t_s[-1]:
+        raise UserError(f"{where(path, line, 't')}: t = {t:g} does not increase (previous {t_s[-1]:g})")
+    t_s.append(t)
+    n_fingers = len(profile.fingers)
+    row_modes = [-1] * n_fingers
+    for quantity, fingers in columns.items():
+        row_values = [math.nan] * n_fingers
+        for finger, col in fingers.items():
+            value = _number(cells[col], path, line, header[col])
+            if math.isnan(value):
+                continue
+            _check(value, quantity, profile, path, line, header[col])
+            if row_modes[finger] != -1:
+                raise UserError(f"{where(path, line, header[col])}: finger "
+                                f"'{profile.finger_names[finger]}' has both an angle and a "
+                                "force reference in one row; give one")
+            row_modes[finger] = QUANTITIES[quantity]
+            row_values[finger] = value
+        values.extend(row_values)
+    modes.extend(row_modes)
 
 
 def _number(cell: str, path: Path, line: int, column: str, required: bool = False) -> float:

@@ -1,9 +1,14 @@
 """The recording ring in shared memory (csrc/rtcore_ring.c): fixed-width rows of doubles
 in a memory-mapped file, one producer (the tick), one consumer (the writer), no lock.
 
-Layout: a header of 8 int64 [magic, n_cols, capacity, count, drained, 0, 0, 0], then
+Layout: a header of 8 int64 [magic, n_cols, capacity, count, drained, lost, 0, 0], then
 capacity rows of n_cols float64. `count` is the number of rows ever pushed; row i lives
-in slot i % capacity. `drained` is the consumer's progress, for the producer to watch.
+in slot i % capacity. `drained` is the consumer's progress and `lost` the rows it found
+overwritten before it could read them, both published for the producer to watch.
+
+The producer writes row `count` into its slot before it publishes `count + 1`, so while
+the count reads n the slot of row n - capacity may be half overwritten already: a reader
+trusts only the last capacity - 1 rows below the count.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ from rtcore._rtcore import ffi, lib
 
 MAGIC = 0x48414E4452494E47  # "HANDRING"
 HEADER_INT64 = 8
-COUNT, DRAINED = 3, 4
+COUNT, DRAINED, LOST = 3, 4, 5
 
 
 class Ring:
@@ -61,13 +66,6 @@ class Ring:
                                  self.capacity, self.n_cols, n_fingers, c_inputs, c_outputs,
                                  ffi.cast("double *", ffi.from_buffer(sent_kpa)))
 
-    def pusher(self, row: np.ndarray) -> functools.partial:
-        """push() for one preallocated row buffer: a single C call per tick."""
-        if row.dtype != np.float64 or row.size != self.n_cols or not row.flags.c_contiguous:
-            raise ValueError("the row must be a contiguous float64 array of n_cols")
-        return functools.partial(lib.rtcore_ring_push, self._rows_ptr, self._count_ptr,
-                                 self.capacity, self.n_cols, ffi.cast("double *", ffi.from_buffer(row)))
-
     @property
     def count(self) -> int:
         return int(lib.rtcore_ring_count(self._count_ptr))
@@ -80,17 +78,28 @@ class Ring:
     def drained(self, value: int) -> None:
         self.header[DRAINED] = value
 
+    @property
+    def lost(self) -> int:
+        return int(self.header[LOST])
+
+    @lost.setter
+    def lost(self, value: int) -> None:
+        self.header[LOST] = value
+
     def read(self, start: int) -> tuple[np.ndarray, int, int]:
         """Copy the rows from `start` to the current count: (rows, first, lost).
 
         Rows the producer overwrote before they were read are skipped and counted as lost;
-        rows overwritten during the copy are dropped from the copy.
+        rows overwritten during the copy are dropped from the copy. Only the last
+        capacity - 1 rows below a count are whole: the producer may be writing the next
+        row into the slot of the one capacity rows back (see the module's docstring).
         """
+        window = self.capacity - 1
         end = self.count
-        lost = max(0, end - start - self.capacity)
+        lost = max(0, end - start - window)
         first = start + lost
         block = self.rows[np.arange(first, end) % self.capacity]  # a copy
-        overwritten = self.count - self.capacity - first  # slots reused while copying
+        overwritten = self.count - window - first  # slots reused (or being reused) while copying
         if overwritten > 0:
             block = block[overwritten:]
             lost += overwritten

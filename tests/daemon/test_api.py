@@ -19,6 +19,7 @@ from hand_service.daemon import Daemon, DaemonOptions
 from hand_service.profile import load_profile
 from hand_service.recording import read_recording
 from hand_service.transports import transport_class
+from tests.daemon.process import wait_for
 
 
 class Running:
@@ -97,7 +98,11 @@ def test_a_session(daemon: Running, tmp_path: Path) -> None:
         record = tmp_path / "rec.csv"
         assert hand.record_start(record)["active"]
         time.sleep(1.3)
-        assert hand.record_stop()["complete"]
+        stopped = hand.record_stop()  # does not wait for the writer
+        assert not stopped["active"] and stopped["rows"] > 100
+        last = wait_for(lambda: hand.status()["recording"]["last"], 5.0, "the writer's end")
+        assert last["complete"] and last["rows_lost"] == 0
+        assert last["rows_written"] == stopped["rows"]
         rec = read_recording(record, finger="index")
         assert rec.duration_s > 1.0
         assert hand.disarm() == {"state": "DISARMED"}
@@ -147,15 +152,50 @@ def test_trajectory_runs_to_hold(daemon: Running, tmp_path: Path) -> None:
     (b'{"cmd": "record_start", "path": "rel.csv"}\n', "must be absolute"),
     (b'{"cmd": "record_stop"}\n', "not recording"),
     (b"{" + b" " * 70000 + b"\n", "not JSON"),
+    # JSON has no NaN or Infinity: refused, not echoed into a reply that cannot be written
+    (b'{"cmd": "status", "id": NaN}\n', "NaN is not JSON"),
+    (b'{"cmd": "status", "id": -Infinity}\n', "-Infinity is not JSON"),
+    (b'{"cmd": "status", "id": 1e999}\n', "1e999 is out of range"),
+    (b'{"cmd": "target", "finger": "index", "angle_deg": 1e999}\n', "out of range"),
+    # huge requests within the line limit: an integer of 60000 digits, nesting 30000 deep
+    (b'{"cmd": "status", "id": ' + b"9" * 60000 + b"}\n", "not JSON"),
+    (b"[" * 30000 + b"]" * 30000 + b"\n", "nested too deeply"),
+    (b'{"cmd": "status", "id": "\xff\xfe\xc3\x28"}\n', "not JSON"),  # not UTF-8
+    (b"\x80\x81\xc3\n", "not JSON"),
 ])
 def test_invalid_requests_get_a_clear_error(daemon: Running, request_: bytes, error: str) -> None:
     with daemon.client() as hand:
         daemon.wait_state(hand, "DISARMED")
+        tick = hand.status()["tick"]
     reply = raw(daemon.socket, request_)
     assert reply["ok"] is False
     assert error in reply["error"]
-    with daemon.client() as hand:  # the daemon carries on
-        assert hand.status()["state"] == "DISARMED"
+    with daemon.client() as hand:  # the daemon carries on, ticking
+        daemon.wait_state(hand, "DISARMED")
+        wait_for(lambda: hand.status()["tick"] > tick, 5.0, "the next tick")
+
+
+def test_a_handler_that_raises_is_an_error_reply_and_the_loop_goes_on(daemon: Running) -> None:
+    def broken() -> None:
+        raise ZeroDivisionError("a bug in a handler")
+
+    daemon.daemon.api.table["params"] = ({}, broken)
+    with daemon.client() as hand:
+        daemon.wait_state(hand, "DISARMED")
+        tick = hand.status()["tick"]
+        for _ in range(3):
+            with pytest.raises(ApiError, match="params: internal error: ZeroDivisionError: a bug"):
+                hand.params()
+        time.sleep(0.2)
+        status = hand.status()
+    assert status["tick"] > tick  # still ticking
+    assert status["api"]["errors"] == 3
+
+
+def test_a_non_finite_result_is_written_as_null(daemon: Running) -> None:
+    daemon.daemon.api.table["params"] = ({}, lambda: {"x_n": float("nan"), "y_n": float("inf")})
+    reply = raw(daemon.socket, b'{"cmd": "params", "id": 4}\n')
+    assert reply == {"id": 4, "ok": True, "result": {"x_n": None, "y_n": None}}
 
 
 def test_over_long_line_is_refused(daemon: Running) -> None:
@@ -191,3 +231,87 @@ def test_second_daemon_on_the_same_socket_is_refused(daemon: Running) -> None:
     from hand_service.errors import UserError
     with pytest.raises(UserError, match="another hand-service daemon"):
         ApiServer(lambda r: {}, daemon.socket).open()
+
+
+def test_a_file_at_the_socket_path_is_never_deleted(tmp_path: Path) -> None:
+    from hand_service.apiserver import ApiServer
+    from hand_service.errors import UserError
+    precious = tmp_path / "notes.txt"
+    precious.write_text("a week of lab notes\n")
+    with pytest.raises(UserError, match="exists and is not a socket"):
+        ApiServer(lambda r: {}, precious).open()
+    assert precious.read_text() == "a week of lab notes\n"
+    link = tmp_path / "link.sock"
+    link.symlink_to(tmp_path / "nowhere")  # a dangling symlink is not a stale socket either
+    with pytest.raises(UserError, match="exists and is not a socket"):
+        ApiServer(lambda r: {}, link).open()
+    assert link.is_symlink()
+
+
+def test_a_stale_socket_is_replaced(tmp_path: Path) -> None:
+    from hand_service.apiserver import ApiServer
+    path = tmp_path / "api.sock"
+    dead = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    dead.bind(str(path))  # a daemon that died without removing its socket
+    dead.close()
+    assert path.is_socket()
+    server = ApiServer(lambda r: {"ok": True}, path)
+    server.open()
+    try:
+        with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+            s.connect(str(path))  # the new daemon listens there
+    finally:
+        server.close()
+
+
+def _replies(sock: socket.socket, n: int) -> list[dict]:
+    data = b""
+    while data.count(b"\n") < n:
+        chunk = sock.recv(65536)
+        assert chunk, "the daemon closed the connection"
+        data += chunk
+    return [json.loads(line) for line in data.splitlines()]
+
+
+def test_a_trajectory_loads_off_the_loop(daemon: Running, tmp_path: Path,
+                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """While a trajectory is parsed the loop ticks on and serves everyone; the loader's
+    replies come in order once it is parsed, and it is applied only if the state still
+    allows it."""
+    from hand_service import control
+    release = threading.Event()
+    parse = control.read_trajectory
+
+    def slow_parse(*args: object) -> object:
+        assert release.wait(10)
+        return parse(*args)
+
+    monkeypatch.setattr(control, "read_trajectory", slow_parse)
+    traj = tmp_path / "wave.csv"
+    traj.write_text("t,angle_ref_deg_index\n0,0\n0.5,30\n1.0,30\n")
+    load = json.dumps({"cmd": "load_trajectory", "path": str(traj), "id": 1}).encode()
+    with daemon.client() as hand, socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as loader:
+        daemon.wait_state(hand, "DISARMED")
+        hand.arm()
+        hand.target("all", angle_deg=30.0)
+        hand.start()
+        hand.hold()
+        loader.settimeout(10)
+        loader.connect(str(daemon.socket))
+        loader.sendall(load + b'\n{"cmd": "status", "id": 2}\n')
+        tick = wait_for(lambda: (s := hand.status())["trajectory_loading"] and s["tick"], 5.0, "the load")
+        wait_for(lambda: hand.status()["tick"] > tick + 20, 5.0, "ticks while the trajectory loads")
+        with pytest.raises(ApiError, match="is still loading"):
+            hand.load_trajectory(traj)
+        release.set()
+        first, second = _replies(loader, 2)
+        assert first["id"] == 1 and first["ok"] and first["result"]["ticks"] == 101
+        assert second["id"] == 2 and second["result"]["trajectory"]["source"] == str(traj)
+        release.clear()
+        loader.sendall(load + b"\n")
+        wait_for(lambda: hand.status()["trajectory_loading"] == str(traj), 5.0, "the load")
+        hand.resume()  # RUNNING before the parse ends: the trajectory is not applied
+        release.set()
+        (refused,) = _replies(loader, 1)
+        assert refused == {"id": 1, "ok": False,
+                           "error": "load_trajectory: not while RUNNING (hold or disarm first)"}

@@ -1,0 +1,75 @@
+"""The recorder against a writer that stalls: rows it loses are counted, reported in the
+status and at the end, and the recording is not called complete; stop never waits."""
+
+from __future__ import annotations
+
+import os
+import signal
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rtcore
+from hand_service.profile import load_profile
+from hand_service.recorder import Recorder
+from tests.daemon.process import wait_for
+
+
+@pytest.fixture
+def recorder() -> Iterator[Recorder]:
+    profile = load_profile()
+    hand = rtcore.Hand(profile.hand_config())
+    rec = Recorder(profile.finger_names, 100.0)
+    rec.capacity = 16  # a tiny ring
+    rec.hand = hand  # type: ignore[attr-defined]  # keeps the bound structs alive
+    rec.bind(hand.c_inputs, hand.c_outputs, np.zeros(len(profile.fingers)))
+    try:
+        yield rec
+    finally:
+        rec.close(wait_s=5.0)
+
+
+def _stalled(rec: Recorder) -> int:
+    pid = rec.writer_pid
+    assert pid is not None
+    os.kill(pid, signal.SIGSTOP)
+    return pid
+
+
+def test_rows_lost_to_a_stalled_writer_are_reported(recorder: Recorder, tmp_path: Path) -> None:
+    path = tmp_path / "lossy.csv"
+    recorder.start(path, {"test": "stalled writer"})
+    pid = _stalled(recorder)
+    try:
+        for k in range(40):
+            recorder.push_tick(k / 100, 3)
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    status = wait_for(lambda: (s := recorder.status())["rows_lost"] and s, 5.0, "the writer's drain")
+    assert status["rows"] == 40 and status["rows_lost"] == 25 and status["rows_written"] == 15
+    assert recorder.rows_lost == 25
+    result = recorder.stop(wait_s=5.0)
+    assert result["complete"] is False
+    assert result["rows_lost"] == 25 and result["rows_written"] == 15 and result["rows"] == 40
+    assert recorder.status()["last"] == {k: result[k] for k in recorder.last}  # type: ignore[union-attr]
+    assert "# lost: 25 rows before row 25" in path.read_text()
+
+
+def test_stop_does_not_wait_for_the_writer(recorder: Recorder, tmp_path: Path) -> None:
+    recorder.start(tmp_path / "slow.csv", {"test": "slow writer"})
+    for k in range(10):
+        recorder.push_tick(k / 100, 3)
+    pid = _stalled(recorder)
+    try:
+        stopped = recorder.stop()  # returns at once although the writer cannot run
+        assert stopped["closing"] and stopped["rows"] == 10 and not recorder.active
+        recorder.reap()
+        assert recorder.closing and recorder.last is None
+    finally:
+        os.kill(pid, signal.SIGCONT)
+    recorder.reap(wait_s=5.0)
+    assert not recorder.closing
+    assert recorder.last == {"path": str(tmp_path / "slow.csv"), "rows": 10, "rows_written": 10,
+                             "rows_lost": 0, "complete": True}
