@@ -15,6 +15,7 @@ import numpy as np
 
 from hand_service.apiserver import ApiServer
 from hand_service.control import Api
+from hand_service.errors import UserError
 from hand_service.profile import Profile
 from hand_service.recorder import Recorder
 from hand_service.sdnotify import Notifier
@@ -44,9 +45,18 @@ class DaemonOptions:
 
 
 def with_rate(profile: Profile, rate_hz: float | None) -> Profile:
-    """The profile at another control rate (a copy); the simulated hand follows it."""
+    """The profile at another control rate (a copy); the simulated hand follows it. A board
+    on a bus samples on its own clock at the rate its profile states, and the control step,
+    its filters and its safety counts must run at that rate: another is refused."""
     if rate_hz is None or rate_hz == profile.control["rate_hz"]:
         return profile
+    if profile.transport["kind"] != "sim":
+        raise UserError(
+            f"--rate {rate_hz:g} Hz: the firmware behind profile '{profile.name}' samples at "
+            f"{profile.control['rate_hz']:g} Hz on its own clock (control.rate_hz, {profile.path}); "
+            f"the rate a firmware samples at is a property of the firmware, and the control tick "
+            f"must match it. --rate is for the simulated hand (transport sim); for a board that "
+            f"samples at another rate, set control.rate_hz in its profile")
     changed = copy.copy(profile)
     changed.control = {**profile.control, "rate_hz": float(rate_hz)}
     return changed

@@ -124,9 +124,13 @@ SIM_TRANSPORT_SECTION = Section("Transport: sim", "`transport: {kind: sim}` — 
 ))
 
 # Transport kinds register their section here (hand_service.transports adds can and serial),
-# and optionally a check of the validated values: check(values, source, block) raises.
+# and optionally a check of the validated values: check(values, source, block) raises; and
+# the pressure commands their wire carries: command_range(values) -> (low kPa, high kPa,
+# what carries them), which every finger's limits must lie within.
 TRANSPORT_SECTIONS: dict[str, Section] = {"sim": SIM_TRANSPORT_SECTION}
 TRANSPORT_CHECKS: dict[str, Callable[[dict[str, Any], Path, Any], None]] = {}
+TRANSPORT_COMMAND_RANGES: dict[str, Callable[[dict[str, Any]], tuple[float, float, str]]] = {}
+PRESSURE_LIMIT_KEYS = ("pressure_min_kpa", "pressure_max_kpa")
 INCLUDED_SECTIONS = ("control", "safety", "simulation", "hand")
 
 
@@ -145,6 +149,8 @@ class FingerProfile:
     force_kp_kpa_per_n: float
     force_ki_kpa_per_n_s: float
     gains_from_model: bool = False  # kp/ki were absent and came from tuning.margin_gains
+    # file:line of each pressure limit, for a bus profile that checks an included hand
+    lines: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
 
     def rtcore_config(self, control: dict[str, Any], **overrides: float) -> rtcore.FingerConfig:
         m = self.model
@@ -225,7 +231,22 @@ def _finger(name: str, block: Any, source: Path, hand: Any) -> FingerProfile:
     if extra["pressure_min_kpa"] >= extra["pressure_max_kpa"]:
         raise fail(source, block, "pressure_min_kpa",
                    f"{context}: pressure_min_kpa must be below pressure_max_kpa")
-    return FingerProfile(name=name, model=model, **extra)
+    lines = {key: where(source, block.line_of(key)) for key in PRESSURE_LIMIT_KEYS}
+    return FingerProfile(name=name, model=model, **extra, lines=lines)
+
+
+def _check_command_range(fingers: list[FingerProfile], carried: tuple[float, float, str],
+                         source: Path) -> None:
+    """Every finger's pressure limits within what the transport's wire carries: a command is
+    never clipped on its way to the valves."""
+    low, high, what = carried
+    for finger in fingers:
+        for key in PRESSURE_LIMIT_KEYS:
+            value = getattr(finger, key)
+            if not low <= value <= high:
+                raise UserError(f"{finger.lines.get(key, source)}: hand.{finger.name}.{key} = {value:g} kPa, "
+                                f"but {what} carries {low:g}..{high:g} kPa (transport of {source}): "
+                                f"lower the limit, or widen the signal")
 
 
 def _fill_gains(finger: FingerProfile, control: dict[str, Any]) -> None:
@@ -296,6 +317,8 @@ def load_profile(path: str | Path | None = None) -> Profile:
         fingers = [_finger(str(name), block, source, hand) for name, block in hand.items()]
     for finger in fingers:
         _fill_gains(finger, control)
+    if kind in TRANSPORT_COMMAND_RANGES:
+        _check_command_range(fingers, TRANSPORT_COMMAND_RANGES[kind](transport), source)
     return Profile(path=source, name=top["profile"], description=top["description"],
                    protocol_version=top["protocol_version"], transport=transport, control=control,
                    safety=safety, simulation=simulation, fingers=fingers)

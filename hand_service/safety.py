@@ -17,6 +17,7 @@ import numpy as np
 
 import rtcore
 from hand_service.profile import Profile
+from hand_service.transports.base import FirmwareStatus, SensorSample
 from rtcore._rtcore import ffi, lib
 
 
@@ -29,6 +30,7 @@ class Cause(str, enum.Enum):
     TRANSPORT_LOST = "transport_lost"
     OVERRUN_STREAK = "overrun_streak"
     FIRMWARE_FAULT = "firmware_fault"
+    FIRMWARE_VENTED = "firmware_vented"
     LEAK_OR_BURST = "leak_or_burst"
     SENSOR_REJECTED = "sensor_rejected"
 
@@ -110,30 +112,30 @@ class SafetyGate:
 
     def reset(self) -> None:
         """Forget the history (after a re-handshake)."""
-        self.last_sequence: int | None = None
         self.last_frame_ns: int | None = None
+        self.firmware_vents: int | None = None  # FirmwareStatus.vents when last seen
         self.overruns = 0
         lib.rtcore_gate_reset(self._gate)
 
     # -- inputs ----------------------------------------------------------------------
-    def frame(self, sequence: int | None, now_ns: int) -> Fault | None:
-        """Stale sensor and lost transport, given this tick's fresh sample's sequence (None:
-        no new sample this tick).
+    def frame(self, sample: SensorSample | None, now_ns: int) -> Fault | None:
+        """Stale sensor and lost transport, given this tick's fresh sample (None: no new
+        sample this tick).
 
-        Freshness is judged on the firmware's clock: the sequence counts the firmware's
-        samples, so a jump of more than stale_ticks means that many samples in a row never
-        arrived. A tick with no new sample is not by itself a stale sensor: the firmware's
-        clock and the host's tick beat against each other, and scheduling on either side
-        delays and bunches the frames; the sample that ends such a wait carries the next
-        sequence number. Silence on the host's clock is bounded by transport_timeout_ms.
+        Freshness is judged on the firmware's clock: the transport counts, by the firmware's
+        sequence, the samples that never reached it, so stale_ticks of them in a row are a
+        stale sensor. Samples that did arrive but were replaced by a newer one before the
+        tick took it (a host that ticked late) are not lost. A tick with no new sample is
+        not by itself a stale sensor either: the firmware's clock and the host's tick beat
+        against each other, and scheduling on either side delays and bunches the frames.
+        Silence on the host's clock is bounded by transport_timeout_ms.
         """
-        if sequence is not None:
-            previous, self.last_sequence = self.last_sequence, sequence
+        if sample is not None:
             self.last_frame_ns = now_ns
-            lost = 0 if previous is None else sequence - previous - 1
+            lost = sample.lost_in_a_row
             if lost >= self.stale_ticks:
                 return Fault(Cause.STALE_SENSOR, f"{lost} sensor samples in a row never arrived "
-                             f"(sequence {previous} -> {sequence}; stale_sensor_ticks {self.stale_ticks})")
+                             f"(up to sequence {sample.sequence}; stale_sensor_ticks {self.stale_ticks})")
             return None
         if self.last_frame_ns is None:
             self.last_frame_ns = now_ns
@@ -194,11 +196,20 @@ class SafetyGate:
                          f"(overrun_streak {self.overrun_streak})")
         return None
 
-    @staticmethod
-    def firmware(fault_code: int, fault_text: str) -> Fault | None:
-        if fault_code:
-            return Fault(Cause.FIRMWARE_FAULT, f"firmware reports fault {fault_code}"
-                         + (f": {fault_text}" if fault_text else ""))
+    def firmware(self, status: FirmwareStatus, commanding: bool) -> Fault | None:
+        """A fault the firmware reports of its own, and, while the supervisor commands
+        (`commanding`: RUNNING, HOLD), a vent it did not ask for: the board's watchdog (the
+        host stalled, or its commands did not get through), its own fault or a reboot. The
+        next command would step the chamber from 0 kPa to where the rate limit had taken
+        it. A fault injected on the debug port is not the board's (it shows as what it does)."""
+        vents, self.firmware_vents = self.firmware_vents, status.vents
+        if status.fault_code:
+            return Fault(Cause.FIRMWARE_FAULT, f"firmware reports fault {status.fault_code}"
+                         + (f": {status.fault_text}" if status.fault_text else ""))
+        if commanding and vents is not None and status.vents > vents:
+            return Fault(Cause.FIRMWARE_VENTED, f"the firmware vented every valve on its own "
+                         f"(now {status.state or 'vented'}): its watchdog saw no command for "
+                         f"firmware_watchdog_ms, or it rebooted")
         return None
 
 

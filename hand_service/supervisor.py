@@ -247,9 +247,9 @@ class Supervisor:
             inputs.sensor_mv[:] = sample.sensor_mv
             inputs.pressure_meas_kpa[:] = sample.pressure_meas_kpa
             fault = fault or self.gate.sample()
-        fault = fault or self.gate.frame(None if sample is None else sample.sequence, woke_ns)
-        if status is not None and status.fault_code:
-            fault = fault or self.gate.firmware(status.fault_code, status.fault_text)
+        fault = fault or self.gate.frame(sample, woke_ns)
+        if status is not None:
+            fault = fault or self.gate.firmware(status, state in ACTIVE)
         self._references(state)
         if state is State.RUNNING and self.trajectory is not None and not self.trajectory_done:
             self.trajectory_tick += 1

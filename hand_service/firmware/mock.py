@@ -5,7 +5,9 @@ holds and sends the sensor readings (100 Hz at the default rate), with a 10 Hz s
 heartbeat. It applies each complete valve command it receives, answers the version
 handshake, and runs its own watchdog: when no valid command has come for
 safety.firmware_watchdog_ms it vents every valve (0 kPa) and says so in its status.
-Faults are injected on request from its debug port (faults.py).
+Faults are injected on request from its debug port (faults.py); one of them is a fault of
+the board's own (FIRMWARE_FAULT): it vents, ignores commands and reports the fault code
+in its status, as a board with a failed valve driver would.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from hand_service.wire.can_codec import CanCodec
 from hand_service.wire.messages import (
     FaultKind,
     FaultRequest,
+    FirmwareFault,
     FirmwareState,
     Message,
     SensorReport,
@@ -33,6 +36,8 @@ from hand_service.wire.messages import (
     ValveCommand,
     VersionInfo,
     VersionRequest,
+    fault_name,
+    firmware_fault,
 )
 from hand_service.wire.serial_codec import SerialCodec
 
@@ -67,6 +72,7 @@ class MockFirmware:
         self.stop_event = threading.Event()
         self.command_kpa = np.zeros(self.n)
         self.state = FirmwareState.BOOTING
+        self.fault_code: FirmwareFault | int = FirmwareFault.NONE  # the board's own fault
         self.sequence = 0
         self.command_sequence = 0
         self.last_command_s = 0.0
@@ -92,6 +98,7 @@ class MockFirmware:
             now = time.monotonic()
             for kind in self.faults.expire(now):
                 log.info("fault %s ended", kind.name.lower())
+            self._own_fault(now)
             if self.state == FirmwareState.RUNNING and now - self.last_command_s > self.watchdog_s:
                 self._vent(now)
             if self.state == FirmwareState.BOOTING and now >= self.boot_end_s:
@@ -115,7 +122,8 @@ class MockFirmware:
 
     def _status(self, now: float) -> None:
         rx_errors = self.codec.stats.crc_errors + self.codec.stats.decode_errors
-        self._send(Status(self.state, int((now - self.boot_s) * 1e3), self.faults.current, rx_errors), now)
+        self._send(Status(self.state, int((now - self.boot_s) * 1e3), self.faults.current, rx_errors,
+                          self.fault_code), now)
 
     # -- what the firmware does ------------------------------------------------------------
 
@@ -123,6 +131,8 @@ class MockFirmware:
         if self.state == FirmwareState.BOOTING:
             return
         if isinstance(message, ValveCommand):
+            if self.state == FirmwareState.FAULT:
+                return  # a board at fault keeps its valves vented whatever it is told
             self.command_kpa[:] = message.pressure_cmd_kpa
             self.command_sequence = message.sequence
             self.last_command_s = now
@@ -140,7 +150,8 @@ class MockFirmware:
                 self._reboot(now, message.value or DEFAULT_BOOT_MS)
             else:
                 self.faults.request(message, now)
-                self._status(now)
+                if not self._own_fault(now):
+                    self._status(now)
 
     def _version(self) -> VersionInfo:
         return VersionInfo(self.protocol_version, self.firmware_version, self.n)
@@ -165,9 +176,29 @@ class MockFirmware:
                     (now - self.last_command_s) * 1e3, now)
         self._status(now)
 
+    def _own_fault(self, now: float) -> bool:
+        """Enter or leave a fault of the board's own (FIRMWARE_FAULT on the debug port);
+        True if the state changed (and the status went out)."""
+        injected = self.faults.active.get(FaultKind.FIRMWARE_FAULT)
+        if injected is not None and self.state not in (FirmwareState.FAULT, FirmwareState.BOOTING):
+            self.fault_code = firmware_fault(injected.request.value or FirmwareFault.VALVE_DRIVER)
+            self.command_kpa[:] = 0.0
+            self.state = FirmwareState.FAULT
+            log.warning("fault %d (%s): vented every valve, ignoring commands", self.fault_code,
+                        fault_name(self.fault_code))
+        elif injected is None and self.state == FirmwareState.FAULT:
+            self.fault_code = FirmwareFault.NONE
+            self.state = FirmwareState.IDLE
+            log.info("fault cleared: valves vented until the next valid command")
+        else:
+            return False
+        self._status(now)
+        return True
+
     def _reboot(self, now: float, boot_ms: int) -> None:
         log.warning("rebooting: every valve vented, silent for %d ms", boot_ms)
         self.command_kpa[:] = 0.0
+        self.fault_code = FirmwareFault.NONE
         self.faults.clear()
         self.state = FirmwareState.BOOTING
         self.boot_end_s = now + boot_ms / 1e3

@@ -26,6 +26,7 @@ REGISTRY: dict[str, tuple[str, str]] = {
 }
 _profile.TRANSPORT_SECTIONS.update(_sections.SECTIONS)
 _profile.TRANSPORT_CHECKS.update(_sections.CHECKS)
+_profile.TRANSPORT_COMMAND_RANGES.update(_sections.COMMAND_RANGES)
 
 
 def transport_class(kind: str) -> type[Transport]:

@@ -22,15 +22,28 @@ class SensorSample:
     sensor_mv: np.ndarray
     pressure_meas_kpa: np.ndarray  # NaN where the board does not report it
     command_sequence: int = -1  # newest of our valve commands the board held at sampling (-1: none)
+    # the longest run of the firmware's samples that never reached the host, since the sample
+    # latest() returned before: samples that arrived and were replaced by a newer one before
+    # the tick took it were not lost
+    lost_in_a_row: int = 0
 
 
 @dataclass
 class FirmwareStatus:
+    """What the firmware says of itself: its handshake and its newest status."""
+
     protocol_version: int
     firmware_version: str
-    vented: bool = False  # the firmware has vented (its watchdog, or a command)
-    fault_code: int = 0  # 0: no fault
-    fault_text: str = ""
+    state: str = ""  # the firmware's state: booting, idle, running, watchdog_vented, fault
+    vented: bool = False  # its valves are vented now: it is not applying the host's setpoints
+    # times it vented on its own since the transport was made (its watchdog, a fault of its
+    # own, a reboot). A count, not a level: a vent and the resumption after it may both
+    # arrive between two ticks, and a status older than the host's first command says
+    # "idle". The supervisor faults when it grows while it commands.
+    vents: int = 0
+    fault_code: int = 0  # a fault of the board's own (wire.messages.FirmwareFault), 0: none
+    fault_text: str = ""  # its name
+    injected_fault: int = 0  # the debug port's injected fault (FaultKind), 0: none; not the board's
 
 
 @dataclass

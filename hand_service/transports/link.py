@@ -41,6 +41,7 @@ from hand_service.wire.messages import (
     ValveCommand,
     VersionInfo,
     VersionRequest,
+    fault_name,
 )
 
 log = logging.getLogger("hand_service.transports")
@@ -83,6 +84,7 @@ class LinkTransport(Transport):
         self.handshake_timeout_s = self.settings["handshake_timeout_ms"] / 1e3
         self._health = TransportHealth()
         self.codec = self._make_codec()
+        self._command_range_kpa = self.codec.command_range_kpa()
         self.link = self._make_link()
         self.monitor = SampleMonitor(profile.finger_names, self.settings,
                                      profile.safety["stale_sensor_ticks"] / profile.control["rate_hz"],
@@ -165,9 +167,17 @@ class LinkTransport(Transport):
         return sample
 
     def send(self, pressure_cmd_kpa: np.ndarray) -> None:
+        """Queue setpoints; ValueError (here, in the caller's thread) for one the wire cannot
+        carry: a command is never clipped, and never dropped by the writer thread."""
+        command = [float(x) for x in pressure_cmd_kpa]
+        low, high = self._command_range_kpa
+        for kpa in command:
+            if not low <= kpa <= high:  # NaN too
+                raise ValueError(f"pressure command {kpa:g} kPa: {self.link.description} carries "
+                                 f"{low:g}..{high:g} kPa")
         with self._lock:
             self._command_sequence += 1
-            self._command = ValveCommand(self._command_sequence, [float(x) for x in pressure_cmd_kpa])
+            self._command = ValveCommand(self._command_sequence, command)
         self._wake.set()
 
     @property
@@ -325,6 +335,8 @@ class LinkTransport(Transport):
                 sample = self.monitor.sample(message, now, self._command_sequence)
                 if sample is not None:
                     with self._lock:
+                        if self._latest is not None:  # not taken yet: replaced, not lost
+                            sample.lost_in_a_row = max(sample.lost_in_a_row, self._latest.lost_in_a_row)
                         self._latest = sample
         elif isinstance(message, Status):
             self.monitor.status(message)
@@ -335,11 +347,16 @@ class LinkTransport(Transport):
             self._handshake(message)
 
     def _apply_state(self, status: FirmwareStatus | None) -> None:
+        """The newest Status into what status() reports: the board's own fault, apart from
+        the fault injected on its debug port."""
         state = self._firmware_state
         if status is not None and state is not None:
+            status.state = state.state.name.lower()
             status.vented = state.state != FirmwareState.RUNNING
-            status.fault_code = int(state.fault_active)
-            status.fault_text = state.state.name.lower()
+            status.vents = self.monitor.vents
+            status.fault_code = int(state.fault_code)
+            status.fault_text = fault_name(int(state.fault_code))
+            status.injected_fault = int(state.fault_active)
 
     def _handshake(self, info: VersionInfo) -> None:
         wanted = self.profile.protocol_version

@@ -1,8 +1,8 @@
 """What a bus transport checks in every sample and heartbeat, with counters and log lines.
 
 Sequence gaps (lost samples), late samples (the firmware's stream stalled), sensors
-outside the board's ADC range or stuck on one reading, firmware reboots and watchdog
-vents. The transport only counts and logs; deciding to stop is the supervisor's job.
+outside the board's ADC range or stuck on one reading, firmware reboots and vents. The
+transport only counts and logs; deciding to stop is the supervisor's job.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hand_service.transports.base import SensorSample, TransportHealth
-from hand_service.wire.messages import FirmwareState, SensorReport, Status, sequence_delta
+from hand_service.wire.messages import FirmwareState, SensorReport, Status, fault_name, sequence_delta
 
 log = logging.getLogger("hand_service.transports")
 
@@ -50,7 +50,7 @@ class SampleMonitor:
         self.health = health
         self.log = RateLimitedLog()
         for key in ("late_samples", "duplicate_samples", "sensor_out_of_range", "stuck_sensor",
-                    "firmware_reboots", "firmware_vents"):
+                    "firmware_reboots", "firmware_vents", "firmware_faults"):
             health.extra.setdefault(key, 0)
         n = len(finger_names)
         self._out_of_range = np.zeros(n, dtype=bool)
@@ -61,6 +61,8 @@ class SampleMonitor:
         self._last_sample_s: float | None = None
         self._uptime_ms: int | None = None
         self._state: FirmwareState | None = None
+        self._fault_code = 0
+        self.vents = 0  # vents of the firmware's own: FirmwareStatus.vents
 
     def begin(self) -> None:
         """The host opens the link: nothing before counts."""
@@ -74,11 +76,13 @@ class SampleMonitor:
 
     def sample(self, report: SensorReport, now: float, last_command: int) -> SensorSample | None:
         h = self.health
+        lost = 0
         if self._last_sequence is not None:
             delta = sequence_delta(report.sequence, self._last_sequence)
             if delta == 0 or delta >= 128:
                 h.extra["duplicate_samples"] += 1
                 return None
+            lost = delta - 1
             if delta > 1:
                 h.sequence_gaps += delta - 1
                 self.log.warning("gap", f"sensor sequence gap: {delta - 1} sample(s) lost "
@@ -97,7 +101,7 @@ class SampleMonitor:
         acked = (last_command - sequence_delta(last_command, report.command_sequence)
                  if last_command > 0 else -1)
         return SensorSample(self._sequence, now, mv, np.array(report.pressure_meas_kpa, dtype=np.float64),
-                            acked)
+                            acked, lost)
 
     def _check_sensors(self, mv: np.ndarray) -> None:
         bad = (mv < self.sensor_min_mv) | (mv > self.sensor_max_mv)
@@ -116,7 +120,10 @@ class SampleMonitor:
         self._previous_mv = mv
 
     def status(self, status: Status) -> None:
-        if self._uptime_ms is not None and status.uptime_ms < self._uptime_ms:
+        rebooted = self._uptime_ms is not None and status.uptime_ms < self._uptime_ms
+        if rebooted or (status.state != FirmwareState.RUNNING and self._state == FirmwareState.RUNNING):
+            self.vents += 1  # it stopped applying the host's setpoints on its own
+        if rebooted:
             self.health.extra["firmware_reboots"] += 1
             self.restart()
             log.warning("firmware rebooted (uptime %d ms -> %d ms): it vented every valve and "
@@ -124,5 +131,10 @@ class SampleMonitor:
         if status.state == FirmwareState.WATCHDOG_VENTED and self._state != FirmwareState.WATCHDOG_VENTED:
             self.health.extra["firmware_vents"] += 1
             log.warning("firmware watchdog vented every valve: no valid command reached it in time")
+        if status.fault_code and status.fault_code != self._fault_code:
+            self.health.extra["firmware_faults"] += 1
+            log.warning("firmware reports fault %d (%s): it vented every valve", status.fault_code,
+                        fault_name(status.fault_code))
+        self._fault_code = status.fault_code
         self._uptime_ms = status.uptime_ms
         self._state = status.state

@@ -93,5 +93,15 @@ def check_can(values: dict[str, Any], source: Path, block: Any) -> None:
                    f"{', '.join(RAW_LOG_SUFFIXES)}, not {Path(log).suffix or 'nothing'!r}")
 
 
+def can_command_range(values: dict[str, Any]) -> tuple[float, float, str]:
+    """The pressure commands the DBC's ValveCommand carries (kPa); serial-v1 carries any f32."""
+    from hand_service.wire.can_codec import load_dbc, signal_range
+
+    dbc = load_dbc(values["dbc"])
+    low, high = signal_range(dbc.get_message_by_name("ValveCommand").get_signal_by_name("pressure_cmd_kpa"))
+    return low, high, f"ValveCommand.pressure_cmd_kpa in {values['dbc']}"
+
+
 SECTIONS: dict[str, Section] = {"can": CAN_SECTION, "serial": SERIAL_SECTION}
 CHECKS = {"can": check_can, "serial": check_common}
+COMMAND_RANGES = {"can": can_command_range}

@@ -4,6 +4,11 @@ Byte 0 of every frame is an AUTOSAR E2E profile-2 CRC-8 (cantools.autosar) over 
 of the frame and a data id (the low byte of the frame id), so a corrupted payload is
 caught even where the bus's own CRC cannot see it (a firmware bug, an SLCAN line).
 Sensor and valve messages travel as one frame per finger and are reassembled here.
+
+A reading the board does not have (NaN: a board without pressure sensing) travels as the
+raw value the DBC's value table names `not_reported` and decodes to NaN; a reading beyond
+its signal's range is sent at the range's end (the sensor is off the scale). A command is
+never clipped: one the signal cannot carry is refused with ValueError.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from typing import Any
 import can
 import cantools
 from cantools.autosar.end_to_end import apply_profile2_crc, check_profile2_crc
+from cantools.database.namedsignalvalue import NamedSignalValue
 
 from hand_service.errors import UserError
 from hand_service.wire.messages import (
@@ -30,14 +36,18 @@ from hand_service.wire.messages import (
     ValveCommand,
     VersionInfo,
     VersionRequest,
+    firmware_fault,
 )
+
+NOT_REPORTED = "not_reported"  # the value-table name of a measured signal's "no reading" raw value
+MEASURED = ("flex_mv", "pressure_meas_kpa")  # SensorFinger's readings
 
 # The messages and signals this project needs from a DBC; a lab's DBC may hold more.
 REQUIRED_SIGNALS: dict[str, tuple[str, ...]] = {
     "SensorFinger": ("e2e_crc", "finger_index", "sequence", "command_sequence", "flex_mv",
                      "pressure_meas_kpa"),
     "ValveCommand": ("e2e_crc", "finger_index", "sequence", "pressure_cmd_kpa"),
-    "Status": ("e2e_crc", "state", "fault_active", "rx_errors", "uptime_ms"),
+    "Status": ("e2e_crc", "state", "fault_active", "rx_errors", "uptime_ms", "fault_code"),
     "FirmwareVersion": ("e2e_crc", "protocol_version", "firmware_major", "firmware_minor",
                         "firmware_patch", "finger_count"),
     "VersionRequest": ("e2e_crc", "protocol_version"),
@@ -66,6 +76,24 @@ def load_dbc(path: str | Path) -> cantools.database.can.Database:
     return db
 
 
+def signal_range(sig: Any) -> tuple[float, float]:
+    """The physical range a signal carries: its declared [min|max] within what its raw bits hold."""
+    if sig.is_float:
+        return (-math.inf if sig.minimum is None else float(sig.minimum),
+                math.inf if sig.maximum is None else float(sig.maximum))
+    bits = sig.length
+    raw_low, raw_high = (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1) if sig.is_signed else (0, 2**bits - 1)
+    ends = sorted(raw * sig.scale + sig.offset for raw in (raw_low, raw_high))
+    low = ends[0] if sig.minimum is None else max(ends[0], float(sig.minimum))
+    high = ends[1] if sig.maximum is None else min(ends[1], float(sig.maximum))
+    return low, high
+
+
+def _measured(value: Any) -> float:
+    """A decoded reading: a named raw value (not_reported) is no reading at all."""
+    return math.nan if isinstance(value, NamedSignalValue) else float(value)
+
+
 @dataclass
 class _Partial:
     """A multi-frame message being reassembled: one slot per finger."""
@@ -89,12 +117,30 @@ class CanCodec:
     # -- encoding -------------------------------------------------------------------------
 
     def signal_range(self, message: str, signal: str) -> tuple[float, float]:
-        sig = self._msg[message].get_signal_by_name(signal)
-        return float(sig.minimum), float(sig.maximum)
+        return signal_range(self._msg[message].get_signal_by_name(signal))
 
-    def _clip(self, message: str, signal: str, value: float) -> float:
-        low, high = self.signal_range(message, signal)
-        return min(max(value if math.isfinite(value) else 0.0, low), high)
+    def command_range_kpa(self) -> tuple[float, float]:
+        """The pressure commands this DBC's ValveCommand carries (kPa)."""
+        return self.signal_range("ValveCommand", "pressure_cmd_kpa")
+
+    def _reading(self, signal: str, value: float) -> float | str:
+        """A sensor reading as the board sends it: NaN as the signal's not_reported raw value,
+        anything beyond the range at the range's end (the sensor is off the scale)."""
+        if math.isnan(value):
+            sig = self._msg["SensorFinger"].get_signal_by_name(signal)
+            if NOT_REPORTED not in (sig.choices or {}).values():
+                raise ValueError(f"SensorFinger.{signal} is NaN, and the DBC reserves no "
+                                 f"'{NOT_REPORTED}' value for it")
+            return NOT_REPORTED
+        low, high = self.signal_range("SensorFinger", signal)
+        return min(max(value, low), high)
+
+    def _command(self, kpa: float) -> float:
+        low, high = self.command_range_kpa()
+        if not low <= kpa <= high:  # NaN too
+            raise ValueError(f"pressure command {kpa:g} kPa: ValveCommand.pressure_cmd_kpa carries "
+                             f"{low:g}..{high:g} kPa only")
+        return kpa
 
     def _frame(self, name: str, data: dict[str, Any]) -> can.Message:
         msg = self._msg[name]
@@ -108,19 +154,20 @@ class CanCodec:
             return [self._frame("SensorFinger", {
                 "finger_index": i, "sequence": message.sequence % SEQUENCE_MODULO,
                 "command_sequence": message.command_sequence % SEQUENCE_MODULO,
-                "flex_mv": self._clip("SensorFinger", "flex_mv", mv),
-                "pressure_meas_kpa": self._clip("SensorFinger", "pressure_meas_kpa", kpa)})
+                "flex_mv": self._reading("flex_mv", mv),
+                "pressure_meas_kpa": self._reading("pressure_meas_kpa", kpa)})
                 for i, (mv, kpa) in enumerate(zip(message.sensor_mv, message.pressure_meas_kpa,
                                                   strict=True))]
         if isinstance(message, ValveCommand):
             return [self._frame("ValveCommand", {
                 "finger_index": i, "sequence": message.sequence % SEQUENCE_MODULO,
-                "pressure_cmd_kpa": self._clip("ValveCommand", "pressure_cmd_kpa", kpa)})
+                "pressure_cmd_kpa": self._command(kpa)})
                 for i, kpa in enumerate(message.pressure_cmd_kpa)]
         if isinstance(message, Status):
             return [self._frame("Status", {"state": int(message.state), "uptime_ms": message.uptime_ms
                                            % 2**32, "fault_active": int(message.fault_active),
-                                           "rx_errors": min(message.rx_errors, 255)})]
+                                           "rx_errors": min(message.rx_errors, 255),
+                                           "fault_code": int(message.fault_code)})]
         if isinstance(message, VersionInfo):
             major, minor, patch = message.firmware_version
             return [self._frame("FirmwareVersion", {
@@ -157,7 +204,8 @@ class CanCodec:
             self.stats.note(f"{name} frame 0x{msg.frame_id:03X} failed its E2E CRC")
             return []
         try:
-            values = msg.decode(data, decode_choices=False, scaling=True)
+            # only the readings' value tables mean something here (not_reported)
+            values = msg.decode(data, decode_choices=name == "SensorFinger", scaling=True)
             self.stats.frames += 1
             return self._message(name, values)
         except (ValueError, KeyError, cantools.database.DecodeError) as exc:
@@ -167,12 +215,13 @@ class CanCodec:
 
     def _message(self, name: str, v: dict[str, Any]) -> list[Message]:
         if name == "SensorFinger":
-            return self._assemble(name, v, (float(v["flex_mv"]), float(v["pressure_meas_kpa"])))
+            return self._assemble(name, v, tuple(_measured(v[s]) for s in MEASURED))
         if name == "ValveCommand":
             return self._assemble(name, v, (float(v["pressure_cmd_kpa"]),))
         if name == "Status":
             return [Status(FirmwareState(int(v["state"])), int(v["uptime_ms"]),
-                           FaultKind(int(v["fault_active"])), int(v["rx_errors"]))]
+                           FaultKind(int(v["fault_active"])), int(v["rx_errors"]),
+                           firmware_fault(int(v["fault_code"])))]
         if name == "FirmwareVersion":
             return [VersionInfo(int(v["protocol_version"]), (int(v["firmware_major"]),
                                 int(v["firmware_minor"]), int(v["firmware_patch"])),

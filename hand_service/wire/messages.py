@@ -18,6 +18,30 @@ class FirmwareState(IntEnum):
     IDLE = 1  # valves vented, waiting for the first valid command
     RUNNING = 2  # applying the host's setpoints
     WATCHDOG_VENTED = 3  # no valid command within the watchdog time: every valve vented
+    FAULT = 4  # a fault of the board's own (FirmwareFault): every valve vented, commands ignored
+
+
+class FirmwareFault(IntEnum):
+    """A fault the board finds in itself (Status.fault_code); it vents and ignores commands."""
+
+    NONE = 0
+    VALVE_DRIVER = 1  # a valve driver reports an open load, a short or over-temperature
+    PRESSURE_SENSOR = 2  # a chamber pressure sensor failed its plausibility check
+    OVER_PRESSURE = 3  # a chamber went past the board's own hardware limit
+    INTERNAL = 4  # the board's self-test failed (memory, clock, supply)
+
+
+def firmware_fault(code: int) -> FirmwareFault | int:
+    """A fault code off the wire: a newer board may know faults this host does not, and an
+    unknown fault is still a fault (kept as its number)."""
+    return FirmwareFault(code) if code in FirmwareFault._value2member_map_ else code
+
+
+def fault_name(code: int) -> str:
+    """The name of a FirmwareFault code ("" for none)."""
+    if not code:
+        return ""
+    return FirmwareFault(code).name.lower() if code in FirmwareFault._value2member_map_ else "unknown"
 
 
 class FaultKind(IntEnum):
@@ -31,6 +55,7 @@ class FaultKind(IntEnum):
     SENSOR_OUT_OF_RANGE = 5  # the finger's sensor reads `value` mV (default: the wire's maximum)
     SILENCE = 6  # send nothing at all
     REBOOT = 7  # reset now: vent, go silent for `value` ms (default 200), announce again
+    FIRMWARE_FAULT = 8  # the board finds a fault of its own: FirmwareFault `value` (default 1)
 
 
 @dataclass
@@ -57,8 +82,9 @@ class Status:
 
     state: FirmwareState
     uptime_ms: int
-    fault_active: FaultKind = FaultKind.CLEAR
+    fault_active: FaultKind = FaultKind.CLEAR  # the debug port's injection, not a fault of the board
     rx_errors: int = 0  # bad frames the firmware received (saturates at 255)
+    fault_code: FirmwareFault | int = FirmwareFault.NONE  # the board's own fault (firmware_fault())
 
 
 @dataclass

@@ -6,7 +6,6 @@ checked against this table by a test.
 
 from __future__ import annotations
 
-import math
 import struct
 from dataclasses import dataclass
 
@@ -22,6 +21,7 @@ from hand_service.wire.messages import (
     ValveCommand,
     VersionInfo,
     VersionRequest,
+    firmware_fault,
 )
 
 
@@ -35,18 +35,23 @@ class Layout:
 LAYOUTS: dict[type, Layout] = {
     SensorReport: Layout(0x10, struct.Struct("<BBB"), struct.Struct("<ff")),  # seq, cmd seq, n; mV, kPa
     ValveCommand: Layout(0x20, struct.Struct("<BB"), struct.Struct("<f")),  # seq, n; kPa
-    Status: Layout(0x30, struct.Struct("<BBBI")),  # state, fault_active, rx_errors, uptime_ms
+    Status: Layout(0x30, struct.Struct("<BBBIB")),  # state, fault_active, rx_errors, uptime_ms, fault_code
     VersionInfo: Layout(0x40, struct.Struct("<HBBBB")),  # protocol, major, minor, patch, fingers
     VersionRequest: Layout(0x41, struct.Struct("<H")),  # protocol the host expects
     FaultRequest: Layout(0x7E, struct.Struct("<BBHH")),  # kind, finger, duration_ms, value
 }
 BY_TYPE = {layout.type: cls for cls, layout in LAYOUTS.items()}
 _SENSOR = LAYOUTS[SensorReport]
+F32_MAX = struct.unpack("<f", b"\xff\xff\x7f\x7f")[0]
 MAX_FINGERS_ON_WIRE = (MAX_PAYLOAD - _SENSOR.header.size) // _SENSOR.per_finger.size  # type: ignore[union-attr]
 
 
-def _finite(value: float) -> float:
-    return value if math.isfinite(value) else 0.0
+def _command(kpa: float) -> float:
+    """A setpoint must be a number f32 holds: never clipped, never a NaN (a reading's NaN
+    means "not reported", and crosses as it is)."""
+    if not -F32_MAX <= kpa <= F32_MAX:
+        raise ValueError(f"pressure command {kpa:g} kPa: serial-v1 carries finite f32 values only")
+    return kpa
 
 
 class SerialCodec:
@@ -60,21 +65,27 @@ class SerialCodec:
         self._decoder = FrameDecoder(self.stats)
         self._tx_sequence = 0
 
+    @staticmethod
+    def command_range_kpa() -> tuple[float, float]:
+        """The pressure commands serial-v1 carries (kPa): any finite f32."""
+        return -F32_MAX, F32_MAX
+
     def encode(self, message: Message) -> list[bytes]:
         layout = LAYOUTS[type(message)]
         if isinstance(message, SensorReport):
             head = layout.header.pack(message.sequence % 256, message.command_sequence % 256,
                                       len(message.sensor_mv))
             rows = zip(message.sensor_mv, message.pressure_meas_kpa, strict=True)
-            payload = head + b"".join(layout.per_finger.pack(_finite(mv), _finite(kpa))  # type: ignore[union-attr]
+            payload = head + b"".join(layout.per_finger.pack(mv, kpa)  # type: ignore[union-attr]
                                       for mv, kpa in rows)
         elif isinstance(message, ValveCommand):
             head = layout.header.pack(message.sequence % 256, len(message.pressure_cmd_kpa))
-            payload = head + b"".join(layout.per_finger.pack(_finite(kpa))  # type: ignore[union-attr]
+            payload = head + b"".join(layout.per_finger.pack(_command(kpa))  # type: ignore[union-attr]
                                       for kpa in message.pressure_cmd_kpa)
         elif isinstance(message, Status):
             payload = layout.header.pack(int(message.state), int(message.fault_active),
-                                         min(message.rx_errors, 255), message.uptime_ms % 2**32)
+                                         min(message.rx_errors, 255), message.uptime_ms % 2**32,
+                                         int(message.fault_code))
         elif isinstance(message, VersionInfo):
             payload = layout.header.pack(message.protocol_version, *message.firmware_version,
                                          message.finger_count)
@@ -121,7 +132,7 @@ class SerialCodec:
 
 def _fixed(cls: type, head: tuple) -> Message:
     if cls is Status:
-        return Status(FirmwareState(head[0]), head[3], FaultKind(head[1]), head[2])
+        return Status(FirmwareState(head[0]), head[3], FaultKind(head[1]), head[2], firmware_fault(head[4]))
     if cls is VersionInfo:
         return VersionInfo(head[0], (head[1], head[2], head[3]), head[4])
     if cls is VersionRequest:

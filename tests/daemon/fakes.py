@@ -22,6 +22,8 @@ class FaultyTransport(SimTransport):
         self.sensor_override: np.ndarray | None = None  # replaces the sensor mV
         self.pressure_override: np.ndarray | None = None  # replaces the measured kPa
         self.fault_code = 0
+        self.firmware_vents = 0  # vents the firmware reports having done on its own
+        self._lost = 0  # samples swallowed while silent, in a row
         self.sent: list[np.ndarray] = []
         self.vents = 0
         self.opens = 0
@@ -39,8 +41,12 @@ class FaultyTransport(SimTransport):
         if self.late:
             return None
         sample = super().latest()
-        if sample is None or self.silent:
+        if sample is None:
             return None
+        if self.silent:
+            self._lost += 1
+            return None
+        sample.lost_in_a_row, self._lost = self._lost, 0
         if self.sensor_override is not None:
             sample.sensor_mv = self.sensor_override.copy()
         if self.pressure_override is not None:
@@ -62,4 +68,7 @@ class FaultyTransport(SimTransport):
         if status is not None and self.fault_code:
             return FirmwareStatus(status.protocol_version, status.firmware_version, vented=True,
                                   fault_code=self.fault_code, fault_text="valve driver over-temperature")
+        if status is not None and self.firmware_vents:
+            return FirmwareStatus(status.protocol_version, status.firmware_version,
+                                  state="watchdog_vented", vented=True, vents=self.firmware_vents)
         return status

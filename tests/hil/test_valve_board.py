@@ -86,6 +86,8 @@ FAULTS = [
     FaultCase(FaultKind.SILENCE, 255, 1200, 0, lambda h: h["timeouts"] and h["reconnects"],
               r"reconnected to firmware"),
     FaultCase(FaultKind.REBOOT, 255, 0, 300, lambda h: h["firmware_reboots"], r"firmware rebooted"),
+    FaultCase(FaultKind.FIRMWARE_FAULT, 255, 300, 1, lambda h: h["firmware_faults"],
+              r"firmware reports fault 1 \(valve_driver\): it vented every valve"),
 ]
 
 
@@ -240,7 +242,8 @@ class TestValveBoard:
                 host_lines(caplog)
             # the fault over (the firmware says so in its status), the link is whole again:
             # fresh samples flow
-            assert wait_for(lambda: (status := transport.status()) is not None and status.fault_code == 0,
+            assert wait_for(lambda: (status := transport.status()) is not None
+                            and status.injected_fault == status.fault_code == 0,
                             case.duration_ms / 1e3 + WAIT_S), transport.status()
             transport.latest()
             assert wait_for(transport.latest), f"no sample after the {case.kind.name} fault"

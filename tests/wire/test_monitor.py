@@ -10,6 +10,7 @@ import pytest
 from hand_service.profile import load_profile
 from hand_service.transports.base import TransportHealth
 from hand_service.transports.monitor import SampleMonitor
+from hand_service.transports.serial_transport import SerialTransport
 from hand_service.wire.messages import SensorReport
 
 STALE_S = 0.05
@@ -50,3 +51,27 @@ def test_a_new_open_forgets_the_last_sample(monitor: SampleMonitor) -> None:
     monitor.begin()
     monitor.sample(report(11), 5.0, 0)
     assert monitor.health.extra["late_samples"] == 0
+
+
+def test_a_gap_is_the_run_of_samples_lost_before_a_sample(monitor: SampleMonitor) -> None:
+    assert monitor.sample(report(10), 0.0, 0).lost_in_a_row == 0  # type: ignore[union-attr]
+    assert monitor.sample(report(17), 0.07, 0).lost_in_a_row == 6  # type: ignore[union-attr]
+    assert monitor.sample(report(18), 0.08, 0).lost_in_a_row == 0  # type: ignore[union-attr]
+    monitor.restart()  # nothing is lost across a reconnect or a reboot: the stream starts over
+    assert monitor.sample(report(40), 0.09, 0).lost_in_a_row == 0  # type: ignore[union-attr]
+
+
+def test_samples_replaced_before_the_tick_took_them_were_not_lost() -> None:
+    """A host that ticks late finds the newest sample of several: those it skipped did
+    arrive, and only the runs that never did count (the longest of them)."""
+    transport = SerialTransport(load_profile("serial-v1.yaml"), port="/nonexistent/tty")
+    transport._phase = "running"  # fed by hand: no port, no threads
+    for sequence in (1, 2, 3, 7, 8, 9, 11, 12):  # 3 lost after 3, 1 after 9
+        transport._handle(report(sequence), 0.0)
+    sample = transport.latest()
+    assert sample is not None and sample.sequence == 11  # the firmware's count from its first: 12 - 1
+    assert sample.lost_in_a_row == 3
+    for sequence in range(13, 40):  # 27 samples the tick never took, none lost
+        transport._handle(report(sequence), 0.0)
+    sample = transport.latest()
+    assert sample is not None and sample.lost_in_a_row == 0

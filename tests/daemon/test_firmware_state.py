@@ -1,0 +1,60 @@
+"""How the supervisor takes the firmware's word about itself: a fault of the board's own
+latches firmware_fault; a vent the board did on its own (watchdog, fault, reboot) latches
+firmware_vented while the supervisor commands (RUNNING, HOLD), and is nothing to it while
+it vents anyway (DISARMED, ARMED)."""
+
+from __future__ import annotations
+
+from hand_service.states import Event, State
+from tests.daemon.conftest import Rig
+
+
+def test_a_vent_while_running_is_a_fault(rig: Rig) -> None:
+    rig.running()
+    rig.transport.firmware_vents = 1
+    rig.tick()
+    rig.assert_faulted("firmware_vented")
+    assert "watchdog_vented" in rig.sup.faults.faults[-1].detail
+
+
+def test_a_vent_while_holding_is_a_fault(rig: Rig) -> None:
+    rig.running()
+    rig.sup.fire(Event.HOLD)
+    rig.tick()
+    rig.transport.firmware_vents = 1
+    rig.tick()
+    rig.assert_faulted("firmware_vented")
+
+
+def test_a_vent_while_the_supervisor_vents_is_no_fault(rig: Rig) -> None:
+    """DISARMED and ARMED send 0 kPa: a board that vented on its own is where they want it;
+    starting afterwards is no fault, the count is the same."""
+    rig.tick()
+    assert rig.sup.state is State.DISARMED
+    rig.transport.firmware_vents = 1
+    rig.tick(3)
+    rig.sup.fire(Event.ARM)
+    rig.transport.firmware_vents = 2
+    rig.tick(3)
+    rig.sup.fire(Event.START)
+    rig.tick(20)
+    assert rig.sup.state is State.RUNNING, rig.sup.faults.faults
+    assert rig.sup.faults.total == 0
+
+
+def test_a_vent_counted_before_a_reset_is_not_seen_again(rig: Rig) -> None:
+    rig.running()
+    rig.transport.firmware_vents = 1
+    rig.tick()
+    rig.assert_faulted("firmware_vented")
+    rig.sup.reset()
+    rig.running()  # INIT -> handshake -> DISARMED -> ARMED -> RUNNING, 50 ticks
+    assert rig.sup.faults.counts == {"firmware_vented": 1}
+
+
+def test_a_firmware_fault_outranks_its_vent(rig: Rig) -> None:
+    rig.running()
+    rig.transport.fault_code = 1
+    rig.transport.firmware_vents = 1
+    rig.tick()
+    rig.assert_faulted("firmware_fault")
