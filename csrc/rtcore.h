@@ -201,6 +201,9 @@ typedef struct {
     double feedforward_kpa[RTCORE_MAX_FINGERS];
     double pid_kpa[RTCORE_MAX_FINGERS];
     double chamber_pressure_kpa[RTCORE_MAX_FINGERS];
+    /* the Moore-Penrose force estimate (physics.md section 3): the signed normal force
+     * F_n = tau / r, positive pressing in the bending direction (what force control tracks,
+     * and what a recording's force_est_n column holds), its x and y components, and |F_n| */
     double force_normal_n[RTCORE_MAX_FINGERS];
     double force_est_x_n[RTCORE_MAX_FINGERS];
     double force_est_y_n[RTCORE_MAX_FINGERS];
@@ -354,9 +357,10 @@ int32_t rtcore_unlock_memory(void);
 int64_t rtcore_ring_count(const int64_t *count);
 /* One supervisor tick as one ring row, written straight into the ring: t_s, state, then
  * blocks of n_fingers in the order angle_ref_deg, pressure_kpa (sent_kpa), pressure_meas_kpa,
- * angle_deg, angle_filt_deg, velocity_deg_per_s, force_est_n, force_ref_n, mode, flags
- * (hand_service/recwriter.py QUANTITIES). Returns the new count, or -1 when n_cols is not
- * 2 + 10 * n_fingers. */
+ * angle_deg, angle_filt_deg, velocity_deg_per_s, force_est_n (out->force_normal_n, the signed
+ * normal force that force control tracks, not the magnitude out->force_est_n), force_ref_n,
+ * mode, flags (hand_service/recwriter.py QUANTITIES). Returns the new count, or -1 when n_cols
+ * is not 2 + 10 * n_fingers. */
 int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
                               int32_t n_fingers, const rtcore_inputs *in, const rtcore_outputs *out,
                               const double *sent_kpa, double t_s, int32_t state);

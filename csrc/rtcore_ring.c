@@ -41,7 +41,7 @@ int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, in
     blocks[3] = out->angle_deg;
     blocks[4] = out->angle_filt_deg;
     blocks[5] = out->velocity_deg_per_s;
-    blocks[6] = out->force_est_n;
+    blocks[6] = out->force_normal_n; /* the force_est_n column: signed, as force_ref_n */
     blocks[7] = in->force_ref_n;
     for (b = 0; b < 8; ++b) {
         memcpy(row + 2 + b * n_fingers, blocks[b], sizeof(double) * (size_t)n_fingers);

@@ -306,7 +306,7 @@ class Api:
                 "force_ref_n": float(inputs.force_ref_n[i]) if mode == MODE_FORCE else None,
                 "pressure_cmd_kpa": float(sup.sent_kpa[i]),
                 "pressure_meas_kpa": finite_or_none(float(inputs.pressure_meas_kpa[i])),
-                "force_est_n": float(outputs.force_est_n[i]),
+                "force_est_n": float(outputs.force_normal_n[i]),  # signed, like force_ref_n
                 "flags": flag_names(int(outputs.flags[i])),
             }
         traj = sup.trajectory

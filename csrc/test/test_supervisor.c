@@ -94,10 +94,15 @@ static void test_ring_tick(void)
     in.angle_ref_deg[1] = 42.0;
     in.mode[1] = RTCORE_MODE_POSITION;
     out.flags[0] = RTCORE_FLAG_SATURATED;
+    /* pressing backwards: the force_est_n column is the signed normal force, not |F| */
+    out.force_normal_n[1] = -1.5;
     out.force_est_n[1] = 1.5;
+    in.force_ref_n[1] = -1.0;
     CHECK(rtcore_ring_push_tick(rows, &count, 3, 22, 2, &in, &out, sent, 0.25, 4) == 1, "pushed");
     CHECK(rows[0] == 0.25 && rows[1] == 4.0, "head");
-    CHECK(rows[2 + 1] == 42.0 && rows[2 + 2] == 7.0 && rows[2 + 6 * 2 + 1] == 1.5, "blocks");
+    CHECK(rows[2 + 1] == 42.0 && rows[2 + 2] == 7.0, "blocks");
+    CHECK(rows[2 + 6 * 2 + 1] == -1.5 && rows[2 + 7 * 2 + 1] == -1.0, "signed force %g, ref %g",
+          rows[2 + 6 * 2 + 1], rows[2 + 7 * 2 + 1]);
     CHECK(rows[2 + 8 * 2 + 1] == 2.0 && rows[2 + 9 * 2] == 1.0, "mode and flags");
     CHECK(rtcore_ring_push_tick(rows, &count, 3, 21, 2, &in, &out, sent, 0.0, 0) == -1, "bad width");
     for (int k = 0; k < 5; ++k) {

@@ -35,7 +35,7 @@ def test_push_tick_matches_the_writer_layout(tmp_path: Path) -> None:
         "angle_ref_deg": hand.inputs.angle_ref_deg, "pressure_kpa": sent,
         "pressure_meas_kpa": hand.inputs.pressure_meas_kpa, "angle_deg": hand.outputs.angle_deg,
         "angle_filt_deg": hand.outputs.angle_filt_deg, "velocity_deg_per_s": hand.outputs.velocity_deg_per_s,
-        "force_est_n": hand.outputs.force_est_n, "force_ref_n": hand.inputs.force_ref_n,
+        "force_est_n": hand.outputs.force_normal_n, "force_ref_n": hand.inputs.force_ref_n,
         "mode": hand.inputs.mode, "flags": hand.outputs.flags,
     }
     assert set(expected) == set(QUANTITIES)
