@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from hand_service.effects import effect_value
 from hand_service.force_test import CONTACT_ANGLE_DEG, ForceRun, run_force_test
 from hand_service.measured_hand import MeasuredFinger, controller_profile, measure_finger
 from hand_service.profile import Profile, load_profile
@@ -155,7 +156,7 @@ def check_truth(truth: Profile) -> None:
         raise UserError(f"{truth.path}: replicate needs sensor noise >= 0.3 deg "
                         f"(simulation.sensor_noise_deg is {truth.simulation['sensor_noise_deg']:g})")
     for f in truth.fingers:
-        lag = f.model.effects.get("valve_lag", {}).get("tau_s", 0.0)
+        lag = effect_value(f.model.effects, "valve_lag")
         if lag < 0.03:
             raise UserError(f"{truth.path}: replicate needs a valve lag >= 30 ms in every finger "
                             f"(hand.{f.name}.effects.valve_lag.tau_s is {lag:g} s)")

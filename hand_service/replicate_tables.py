@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from hand_service.effects import effect_value
+
 if TYPE_CHECKING:
     from hand_service.replicate import Result
 
@@ -66,8 +68,8 @@ def measured_table(result: Result) -> str:
     rows = []
     for m, truth in zip(result.measured, result.truth.fingers, strict=True):
         t = truth.model
-        true_lag_ms = 1000 * t.effects.get("valve_lag", {}).get("tau_s", 0.0)
-        true_delay_ms = 1000 * t.effects.get("dead_time", {}).get("delay_s", 0.0)
+        true_lag_ms = 1000 * effect_value(t.effects, "valve_lag")
+        true_delay_ms = 1000 * effect_value(t.effects, "dead_time")
         rows.append([m.name, f"{m.model.pressure_gain_nm_per_kpa:.5g} ({t.pressure_gain_nm_per_kpa:.5g})",
                      f"{1000 * m.valve.tau_s:.2f} ({true_lag_ms:.0f})",
                      f"{1000 * m.valve.delay_s:.2f} ({true_delay_ms:.0f})",

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import rtcore
+from hand_service.effects import effect_value
 from hand_service.profile import Profile
 from hand_service.transports.base import FirmwareStatus, SensorSample
 from rtcore._rtcore import ffi, lib
@@ -93,8 +94,8 @@ class SafetyGate:
             config.pressure_max_kpa[i] = f.pressure_max_kpa
             # the chamber follows the command through the valve's lag and dead time (the
             # finger's effects), approximated by one first-order lag
-            lag_s = (f.model.effects.get("valve_lag", {}).get("tau_s", 0.0)
-                     + f.model.effects.get("dead_time", {}).get("delay_s", 0.0))
+            lag_s = (effect_value(f.model.effects, "valve_lag")
+                     + effect_value(f.model.effects, "dead_time"))
             config.follow_alpha[i] = 1.0 - math.exp(-1.0 / (rate_hz * max(lag_s, 1e-9)))
         self._result = ffi.new("rtcore_gate_result *")
         self._hand = hand
