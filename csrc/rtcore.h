@@ -207,7 +207,7 @@ typedef struct {
     double force_normal_n[RTCORE_MAX_FINGERS];
     double force_est_x_n[RTCORE_MAX_FINGERS];
     double force_est_y_n[RTCORE_MAX_FINGERS];
-    double force_est_n[RTCORE_MAX_FINGERS];
+    double force_magnitude_n[RTCORE_MAX_FINGERS];
     uint32_t flags[RTCORE_MAX_FINGERS];
 } rtcore_outputs;
 
@@ -358,7 +358,7 @@ int64_t rtcore_ring_count(const int64_t *count);
 /* One supervisor tick as one ring row, written straight into the ring: t_s, state, then
  * blocks of n_fingers in the order angle_ref_deg, pressure_kpa (sent_kpa), pressure_meas_kpa,
  * angle_deg, angle_filt_deg, velocity_deg_per_s, force_est_n (out->force_normal_n, the signed
- * normal force that force control tracks, not the magnitude out->force_est_n), force_ref_n,
+ * normal force that force control tracks, not the magnitude out->force_magnitude_n), force_ref_n,
  * mode, flags (hand_service/recwriter.py QUANTITIES). Returns the new count, or -1 when n_cols
  * is not 2 + 10 * n_fingers. */
 int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,

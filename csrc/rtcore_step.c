@@ -348,7 +348,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
     out->force_normal_n[i] = force_n;
     out->force_est_x_n[i] = -force_n * sin(angle_rad);
     out->force_est_y_n[i] = force_n * cos(angle_rad);
-    out->force_est_n[i] = fabs(force_n);
+    out->force_magnitude_n[i] = fabs(force_n);
     out->flags[i] = flags;
     return flags;
 }

@@ -38,7 +38,7 @@ class Outputs:
     force_normal_n: np.ndarray
     force_est_x_n: np.ndarray
     force_est_y_n: np.ndarray
-    force_est_n: np.ndarray
+    force_magnitude_n: np.ndarray
     flags: np.ndarray
 
 

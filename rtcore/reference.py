@@ -381,6 +381,6 @@ class ReferenceHand:
         out.force_normal_n[i] = force_n
         out.force_est_x_n[i] = -force_n * math.sin(angle_rad)
         out.force_est_y_n[i] = force_n * math.cos(angle_rad)
-        out.force_est_n[i] = abs(force_n)
+        out.force_magnitude_n[i] = abs(force_n)
         out.flags[i] = flags
         return flags

@@ -151,7 +151,7 @@ static void test_fuzz(void)
         for (i = 0; i < RTCORE_MAX_FINGERS; ++i) {
             const double p = out.pressure_cmd_kpa[i];
             if (!isfinite(p) || p > 200.0 || p < 0.0 || !isfinite(out.angle_filt_deg[i])
-                || !isfinite(out.velocity_deg_per_s[i]) || !isfinite(out.force_est_n[i])
+                || !isfinite(out.velocity_deg_per_s[i]) || !isfinite(out.force_magnitude_n[i])
                 || !isfinite(out.feedforward_kpa[i]) || !isfinite(out.pid_kpa[i])) {
                 ++bad;
             }

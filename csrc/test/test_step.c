@@ -186,7 +186,7 @@ static void test_force_estimate(void)
           expected_n);
     CHECK(fabs(out.force_est_x_n[0] + expected_n * sin(angle_deg * PI / 180.0)) < 1e-9, "F_x");
     CHECK(fabs(out.force_est_y_n[0] - expected_n * cos(angle_deg * PI / 180.0)) < 1e-9, "F_y");
-    CHECK(fabs(out.force_est_n[0] - fabs(expected_n)) < 1e-9, "|F|");
+    CHECK(fabs(out.force_magnitude_n[0] - fabs(expected_n)) < 1e-9, "|F|");
 }
 
 static void test_bumpless(void)

@@ -96,7 +96,7 @@ static void test_ring_tick(void)
     out.flags[0] = RTCORE_FLAG_SATURATED;
     /* pressing backwards: the force_est_n column is the signed normal force, not |F| */
     out.force_normal_n[1] = -1.5;
-    out.force_est_n[1] = 1.5;
+    out.force_magnitude_n[1] = 1.5;
     in.force_ref_n[1] = -1.0;
     CHECK(rtcore_ring_push_tick(rows, &count, 3, 22, 2, &in, &out, sent, 0.25, 4) == 1, "pushed");
     CHECK(rows[0] == 0.25 && rows[1] == 4.0, "head");

@@ -113,7 +113,7 @@ def test_force_estimate_is_the_moore_penrose_solution(index_finger: FingerConfig
     expected = np.linalg.pinv(jacobian.reshape(1, 2)) @ np.array([torque])  # (J^T)+ tau
     out = hand.outputs
     np.testing.assert_allclose([out.force_est_x_n[0], out.force_est_y_n[0]], expected, atol=1e-9)
-    assert out.force_est_n[0] == pytest.approx(np.linalg.norm(expected), abs=1e-9)
+    assert out.force_magnitude_n[0] == pytest.approx(np.linalg.norm(expected), abs=1e-9)
     assert out.force_normal_n[0] == pytest.approx(torque / f.lever_arm_m, abs=1e-9)
 
 
