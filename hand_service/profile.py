@@ -48,7 +48,8 @@ TOP_SECTION = Section("Profile", "The top level of a profile.", (
 CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
     Key("rate_hz", "control rate", "float", "Hz", 100.0, RATE_MIN_HZ, RATE_MAX_HZ),
     Key("filter_order", "Butterworth order on the angle", "int", "", 2, 2, 4),
-    Key("filter_cutoff_hz", "Butterworth cutoff; keep above the fingers' 9–14 Hz", "float", "Hz",
+    Key("filter_cutoff_hz", "Butterworth cutoff; keep above the fingers' 9–14 Hz, and below half "
+        "rate_hz", "float", "Hz",
         25.0, 0.0, None, True),
     Key("velocity_cutoff_hz", "low-pass on the velocity and acceleration estimates", "float", "Hz",
         25.0, 0.0, None, True),
