@@ -22,7 +22,7 @@ from hand_service.recorder import Recorder
 from hand_service.sdnotify import Notifier
 from hand_service.states import State
 from hand_service.supervisor import Supervisor
-from hand_service.timing import Realtime, setup_realtime
+from hand_service.timing import Realtime, setup_realtime, switch_interval
 from hand_service.transports import Transport
 from hand_service.version import software_version
 from rtcore import MODE_POSITION, clock
@@ -117,7 +117,8 @@ class Daemon:
         if install_signals:
             self.sup.install_signal_handlers()
         try:
-            self.sup.run(duration_s)
+            with switch_interval():  # the I/O and worker threads yield the GIL to the tick soon
+                self.sup.run(duration_s)
         finally:
             self.notifier.stopping()
             self.server.close()

@@ -46,6 +46,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--recorder", choices=["process", "thread", "off"], default="process",
                         help="record every tick through this writer (default process)")
     parser.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO")
+    parser.add_argument("--switch-interval-us", type=float, default=None, metavar="US",
+                        help="GIL switch interval while ticking (default: the daemon's, 100 us; "
+                             "CPython's own is 5000; see docs/service.md)")
     parser.add_argument("--io", action="store_true",
                         help="also time the bus transports against the mock firmware: command -> sensor "
                         "round trip and host SIGKILL -> vent, per transport (io_* keys; a minute or two)")
@@ -88,25 +91,51 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
     ticking time (s)."""
     from hand_service.daemon import with_rate
     from hand_service.errors import UserError
+    from hand_service.firmware.rig import Rig
     from hand_service.outputs import check_writable
 
     rate_hz = with_rate(profile, args.rate).control["rate_hz"]  # range, filter cutoff, a bus firmware's rate
+    if profile.transport["kind"] != "sim" and Rig.name_for(profile) is None:
+        raise UserError(f"{profile.path}: bench runs a bus profile against a mock firmware it starts itself, "
+                        f"and cannot mock one on the real bus {profile.transport['interface']}; use "
+                        "can-v1-slcan.yaml or can-v1-virtual.yaml, or a serial profile")
     seconds = args.seconds if args.seconds is not None else (4.0 if args.quick else 30.0)
     if not (0 < seconds < math.inf and 0 <= args.spin_us * 1000 < 1e9 / rate_hz):
         raise UserError("--seconds must be positive and --spin-us between 0 and the period")
+    if args.switch_interval_us is not None and not 1 <= args.switch_interval_us <= 1e6:
+        raise UserError(f"--switch-interval-us must be 1 to 1000000, not {args.switch_interval_us:g}")
     if args.json:
         check_writable(args.json)
     return rate_hz, seconds
 
 
 def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: float) -> dict[str, object]:
+    import tempfile
+
+    from hand_service.errors import UserError
+    from hand_service.firmware.rig import Rig, RigError
     from hand_service.tickbench import measure_ticks
 
     print(f"supervisor tick at {rate_hz:g} Hz, {seconds:g} s, interleaved with the bare C loop "
           f"(spin {args.spin_us:g} us, recorder {args.recorder}) ...", flush=True)
-    r = measure_ticks(profile, rate_hz, seconds, args.spin_us,
-                      None if args.recorder == "off" else args.recorder,
-                      None if args.no_realtime else 50, progress=True)
+    options = (args.spin_us, None if args.recorder == "off" else args.recorder,
+               None if args.no_realtime else 50)
+    extra = {} if args.switch_interval_us is None else {"switch_interval_s": args.switch_interval_us / 1e6}
+    if profile.transport["kind"] == "sim":
+        r = measure_ticks(profile, rate_hz, seconds, *options, progress=True, **extra)
+    else:  # the bus transport against a mock firmware on its own pty (or virtual channel)
+        with tempfile.TemporaryDirectory(prefix="hand-service-bench-") as workdir, \
+                Rig(str(Rig.name_for(profile)), Path(workdir), profile) as rig:
+            try:
+                rig.start_mock()  # rig.close() ends the mock process, however this ends
+            except RigError as exc:
+                raise UserError(f"the mock firmware for {profile.path} did not start: {exc}") from None
+            transport = rig.transport()
+            print(f"  over {transport.link.description} to the mock firmware of profile {profile.name}",
+                  flush=True)
+            r = measure_ticks(profile, rate_hz, seconds, *options, progress=True, transport=transport,
+                              **extra)
+        r["transport"] = profile.transport["kind"]
     print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
     print(f"  jitter supervisor      p50 {r['jitter_us_p50']:8.1f} us   p99 {r['jitter_us_p99']:8.1f} us   "
           f"max {r['jitter_us_max']:8.1f} us   misses {r['deadline_misses']}")
@@ -115,4 +144,6 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
           f"misses {r['deadline_misses_floor']}")
     print(f"  p99 jitter / floor     {r['jitter_ratio_p99']:.2f}   cpu {r['cpu_percent']:.1f} % "
           f"(floor {r['cpu_percent_floor']:.1f} %)   {r['realtime']}")
+    if r["faults"]:
+        print(f"  warning: {r['faults']} fault(s) during the run: the figures include ticks in FAULT")
     return r
