@@ -96,9 +96,10 @@ class ApiServer:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
             try:
                 sock.bind((LOOPBACK, self.tcp_port))
-            except OSError as exc:
+            except (OSError, OverflowError) as exc:  # in use, or no such port (OverflowError)
                 sock.close()
-                raise UserError(f"cannot listen on {LOOPBACK}:{self.tcp_port}: {exc.strerror}") from None
+                raise UserError(f"cannot listen on {LOOPBACK}:{self.tcp_port}: "
+                                f"{getattr(exc, 'strerror', None) or exc}") from None
             self.tcp_port = sock.getsockname()[1]
             sock.listen(MAX_CLIENTS)
             self.listeners.append(sock)
@@ -108,7 +109,10 @@ class ApiServer:
 
     def _unix(self, path: Path) -> socket.socket:
         if not path.parent.exists():
-            path.parent.mkdir(mode=0o700, parents=True)
+            try:
+                path.parent.mkdir(mode=0o700, parents=True)
+            except OSError as exc:
+                raise UserError(f"{path}: cannot create its directory: {exc.strerror or exc}") from None
         if path.is_socket():
             probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             try:

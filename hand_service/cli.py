@@ -52,6 +52,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _refused_by_rtcore(exc: BaseException) -> bool:
+    """An rtcore.ConfigError, without importing rtcore here (it cannot be raised unless
+    rtcore is loaded already)."""
+    config = sys.modules.get("rtcore.config")
+    return config is not None and isinstance(exc, config.ConfigError)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -61,6 +68,15 @@ def main(argv: list[str] | None = None) -> int:
         return int(args.handler(args) or 0)
     except UserError as exc:
         print(f"hand-service {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        if not _refused_by_rtcore(exc):
+            raise
+        # the last line of defence: the inputs should have been checked before the C core
+        # saw them, with the file and line; still one line, not a traceback
+        source = getattr(args, "profile", None) or getattr(args, "model", None)
+        print(f"hand-service {args.command}: error: the control core refused the configuration"
+              f"{f' of {source}' if source else ''}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"hand-service {args.command}: interrupted", file=sys.stderr)

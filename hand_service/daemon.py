@@ -16,12 +16,13 @@ import numpy as np
 from hand_service.apiserver import ApiServer
 from hand_service.control import Api
 from hand_service.errors import UserError
-from hand_service.profile import Profile
+from hand_service.profile import Profile, cutoff_problem
+from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
 from hand_service.recorder import Recorder
 from hand_service.sdnotify import Notifier
 from hand_service.states import State
 from hand_service.supervisor import Supervisor
-from hand_service.timing import Realtime, setup_realtime
+from hand_service.timing import Realtime, setup_realtime, switch_interval
 from hand_service.transports import Transport
 from hand_service.version import software_version
 from rtcore import MODE_POSITION, clock
@@ -45,11 +46,18 @@ class DaemonOptions:
 
 
 def with_rate(profile: Profile, rate_hz: float | None) -> Profile:
-    """The profile at another control rate (a copy); the simulated hand follows it. A board
+    """The profile at another control rate (a copy); the simulated hand follows it. The rate
+    must lie in the supported range and above twice the filter cutoff. A board
     on a bus samples on its own clock at the rate its profile states, and the control step,
     its filters and its safety counts must run at that rate: another is refused."""
     if rate_hz is None or rate_hz == profile.control["rate_hz"]:
         return profile
+    if not RATE_MIN_HZ <= rate_hz <= RATE_MAX_HZ:
+        raise UserError(f"--rate must be between {RATE_MIN_HZ:g} and {RATE_MAX_HZ:g} Hz, not {rate_hz:g}")
+    problem = cutoff_problem(profile.control, rate_hz)
+    if problem is not None:
+        where_set = profile.lines.get("control.filter_cutoff_hz", str(profile.path))
+        raise UserError(f"--rate {rate_hz:g} Hz: {problem} (cutoff set at {where_set})")
     if profile.transport["kind"] != "sim":
         raise UserError(
             f"--rate {rate_hz:g} Hz: the firmware behind profile '{profile.name}' samples at "
@@ -109,7 +117,8 @@ class Daemon:
         if install_signals:
             self.sup.install_signal_handlers()
         try:
-            self.sup.run(duration_s)
+            with switch_interval():  # the I/O and worker threads yield the GIL to the tick soon
+                self.sup.run(duration_s)
         finally:
             self.notifier.stopping()
             self.server.close()

@@ -27,10 +27,19 @@ def pyplot() -> Any:
 
 
 def save(fig: Any, path: Path) -> Path:
+    """Write the figure in the format its suffix names (PNG without one); returns the file."""
+    path = Path(path)
+    if path.is_dir():
+        pyplot().close(fig)
+        raise UserError(f"{path}: cannot write: Is a directory")
+    if not path.suffix:
+        path = path.with_name(path.name + ".png")  # what matplotlib writes: say so
     try:
         fig.savefig(path, dpi=110)
     except OSError as exc:
         raise UserError(f"{path}: cannot write: {exc.strerror or exc}") from None
+    except ValueError as exc:  # a suffix matplotlib has no writer for
+        raise UserError(f"{path}: cannot write: {exc}") from None
     finally:
         pyplot().close(fig)
     return path

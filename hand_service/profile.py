@@ -21,8 +21,9 @@ import rtcore
 from hand_service import effects as fx
 from hand_service.errors import UserError, where
 from hand_service.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
+from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
 from hand_service.schema import Key, Section, expect_mapping, fail, validate
-from hand_service.yamlio import load_yaml
+from hand_service.yamlio import LineDict, load_yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 PROFILE_DIR = ROOT / "firmware_profiles"
@@ -45,9 +46,10 @@ TOP_SECTION = Section("Profile", "The top level of a profile.", (
 ))
 
 CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
-    Key("rate_hz", "control rate", "float", "Hz", 100.0, 10.0, 1000.0),
+    Key("rate_hz", "control rate", "float", "Hz", 100.0, RATE_MIN_HZ, RATE_MAX_HZ),
     Key("filter_order", "Butterworth order on the angle", "int", "", 2, 2, 4),
-    Key("filter_cutoff_hz", "Butterworth cutoff; keep above the fingers' 9–14 Hz", "float", "Hz",
+    Key("filter_cutoff_hz", "Butterworth cutoff; keep above the fingers' 9–14 Hz, and below half "
+        "rate_hz", "float", "Hz",
         25.0, 0.0, None, True),
     Key("velocity_cutoff_hz", "low-pass on the velocity and acceleration estimates", "float", "Hz",
         25.0, 0.0, None, True),
@@ -194,6 +196,8 @@ class Profile:
     safety: dict[str, Any]
     simulation: dict[str, Any]
     fingers: list[FingerProfile] = field(default_factory=list)
+    # file:line of the control keys a rate given on the command line is checked against
+    lines: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
 
     @property
     def finger_names(self) -> list[str]:
@@ -233,6 +237,31 @@ def _finger(name: str, block: Any, source: Path, hand: Any) -> FingerProfile:
                    f"{context}: pressure_min_kpa must be below pressure_max_kpa")
     lines = {key: where(source, block.line_of(key)) for key in PRESSURE_LIMIT_KEYS}
     return FingerProfile(name=name, model=model, **extra, lines=lines)
+
+
+def cutoff_problem(control: dict[str, Any], rate_hz: float) -> str | None:
+    """Why the control step cannot filter at rate_hz, or None. Every finger's Butterworth
+    filter (control.filter_cutoff_hz) must lie below the Nyquist frequency: the C core
+    refuses it otherwise (rtcore_butter_design)."""
+    cutoff = control["filter_cutoff_hz"]
+    if cutoff < 0.5 * rate_hz:
+        return None
+    return (f"control.filter_cutoff_hz = {cutoff:g} Hz must be below half the control rate "
+            f"({0.5 * rate_hz:g} Hz at {rate_hz:g} Hz): lower the cutoff or raise the rate")
+
+
+def _control(data: Any, source: Path) -> tuple[dict[str, Any], dict[str, str]]:
+    """The control section, its filter checked against its rate, and the line of each key."""
+    control = _section(data, "control", CONTROL_SECTION, source)
+    block = data.get("control")
+    lines = {f"control.{key}": where(source, block.line_of(key) if isinstance(block, LineDict)
+                                     else getattr(data, "line", None))
+             for key in ("rate_hz", "filter_cutoff_hz")}
+    problem = cutoff_problem(control, control["rate_hz"])
+    if problem is not None:
+        key = "filter_cutoff_hz" if isinstance(block, dict) and "filter_cutoff_hz" in block else "rate_hz"
+        raise UserError(f"{lines[f'control.{key}']}: {problem}")
+    return control, lines
 
 
 def _check_command_range(fingers: list[FingerProfile], carried: tuple[float, float, str],
@@ -289,7 +318,7 @@ def load_profile(path: str | Path | None = None) -> Profile:
     def own(key: str) -> bool:
         return base is None or key in data
 
-    control = _section(data, "control", CONTROL_SECTION, source) if own("control") else base.control
+    control, lines = _control(data, source) if own("control") else (base.control, base.lines)
     if own("safety"):
         safety = _section(data, "safety", SAFETY_SECTION, source)
         if safety["angle_min_deg"] >= safety["angle_max_deg"]:
@@ -321,7 +350,7 @@ def load_profile(path: str | Path | None = None) -> Profile:
         _check_command_range(fingers, TRANSPORT_COMMAND_RANGES[kind](transport), source)
     return Profile(path=source, name=top["profile"], description=top["description"],
                    protocol_version=top["protocol_version"], transport=transport, control=control,
-                   safety=safety, simulation=simulation, fingers=fingers)
+                   safety=safety, simulation=simulation, fingers=fingers, lines=lines)
 
 
 def _included(source: Path, data: Any, include: str) -> Profile:
@@ -349,4 +378,4 @@ def all_sections() -> list[Section]:
 
 
 __all__ = ["DEFAULT_PROFILE", "MODEL_KEYS", "MODEL_SECTION", "PROFILE_DIR", "TRANSPORT_SECTIONS",
-           "FingerProfile", "Profile", "all_sections", "load_profile", "where"]
+           "FingerProfile", "Profile", "all_sections", "cutoff_problem", "load_profile", "where"]

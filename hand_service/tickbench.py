@@ -4,7 +4,9 @@ Blocks of one second alternate on ONE absolute schedule: the supervisor (trackin
 sweep on the simulated hand, recording every tick) and the bare C loop
 (rtcore_floor_loop: clock_nanosleep to the same deadlines, nothing else). Both see the
 same machine at nearly the same moments, so the supervisor is judged as a ratio to the
-floor (formats.md, `bench`).
+floor (formats.md, `bench`). Over a bus (a transport to a mock firmware) the blocks are
+a few ticks long, so that the firmware's watchdog and the stale-sample check never see
+the bare loop's silence (block_ticks).
 """
 
 from __future__ import annotations
@@ -17,14 +19,17 @@ from pathlib import Path
 import numpy as np
 
 from hand_service.daemon import with_rate
+from hand_service.errors import UserError
 from hand_service.profile import Profile
 from hand_service.recorder import Recorder
 from hand_service.states import Event, State
 from hand_service.supervisor import Supervisor
-from hand_service.timing import TickStats, setup_realtime
+from hand_service.timing import SWITCH_INTERVAL_S, TickStats, setup_realtime, switch_interval
 from hand_service.trajectory import CosineSweep, Trajectory
-from hand_service.transports import transport_class
+from hand_service.transports import Transport, transport_class
 from rtcore import clock
+
+HANDSHAKE_TIMEOUT_S = 10.0
 
 
 def sweep_trajectory(n_fingers: int, rate_hz: float) -> Trajectory:
@@ -36,11 +41,27 @@ def sweep_trajectory(n_fingers: int, rate_hz: float) -> Trajectory:
     return traj
 
 
+def block_ticks(profile: Profile, rate_hz: float) -> int:
+    """Ticks per block: one second on the simulated hand. Over a bus the firmware runs on
+    its own clock while the bare loop runs, so a block must end well inside its watchdog
+    (no command for firmware_watchdog_ms: it vents) and inside the samples the supervisor
+    may miss in a row (stale_sensor_ticks)."""
+    if profile.transport["kind"] == "sim":
+        return max(1, round(rate_hz))
+    watchdog_ticks = profile.safety["firmware_watchdog_ms"] / 1e3 * rate_hz
+    return max(1, min(int(watchdog_ticks / 2), profile.safety["stale_sensor_ticks"] - 2))
+
+
 def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: float = 0.0,
                   recorder: str | None = "process", realtime_priority: int | None = 50,
-                  progress: bool = False) -> dict[str, object]:
+                  progress: bool = False, transport: Transport | None = None,
+                  switch_interval_s: float = SWITCH_INTERVAL_S) -> dict[str, object]:
+    """`transport`: a bus transport to a (mock) firmware; default: the profile's own, which
+    for the sim transport is the in-process simulated hand. `switch_interval_s`: the GIL
+    switch interval while ticking (the daemon's by default)."""
     profile = with_rate(profile, rate_hz)
-    transport = transport_class(profile.transport["kind"])(profile)
+    if transport is None:
+        transport = transport_class(profile.transport["kind"])(profile)
     rec = Recorder(profile.finger_names, rate_hz, recorder or "process")
     sup = Supervisor(profile, transport, rec, spin_us=spin_us)
     tmp = tempfile.TemporaryDirectory(prefix="hand-service-bench-")
@@ -48,7 +69,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         rec.start(Path(tmp.name) / "bench.csv", {"bench": "tick"})
     sup.set_trajectory(sweep_trajectory(len(profile.fingers), rate_hz), loop=True)
     realtime = setup_realtime(realtime_priority, lock_memory=False)
-    block = max(1, round(rate_hz))  # one second per block
+    block = block_ticks(profile, rate_hz)
     n_ticks = max(block, round(seconds * rate_hz))
     spin_ns = int(spin_us * 1000)
     schedule = clock.Schedule(sup.period_ns)
@@ -57,34 +78,41 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
     floor_misses = 0
     cpu_sup_s = cpu_floor_s = 0.0
     sup.gc.start()
-    try:
-        while sup.state is not State.DISARMED:  # the handshake, not measured
-            sup.run_one(schedule)
-        sup.fire(Event.ARM)
-        sup.fire(Event.START)
-        for _ in range(block // 4):  # settle
-            sup.run_one(schedule)
-        sup.stats = TickStats(sup.period_ns)
-        done = 0
-        while done < n_ticks:
-            count = min(block, n_ticks - done)
-            c0 = time.thread_time()
-            for _ in range(count):
+    with switch_interval(switch_interval_s):
+        try:
+            handshake_end_s = time.monotonic() + HANDSHAKE_TIMEOUT_S
+            while sup.state is not State.DISARMED:  # the handshake, not measured
+                if sup.state is State.FAULT or time.monotonic() > handshake_end_s:
+                    last = sup.faults.faults[-1] if sup.faults.faults else None
+                    why = f"{last.cause.value}: {last.detail}" if last else "no answer"
+                    raise UserError(f"the firmware did not come up within {HANDSHAKE_TIMEOUT_S:g} s "
+                                    f"({sup.state.name}, {why})")
                 sup.run_one(schedule)
-            c1 = time.thread_time()
-            run = clock.floor_loop(schedule, count, spin_ns)
-            cpu_sup_s += c1 - c0
-            cpu_floor_s += time.thread_time() - c1
-            floor_late.append(run.wake_late_ns)
-            floor_misses += run.misses
-            done += count
-            if progress:
-                print(f"\r  {done / rate_hz:5.1f} / {n_ticks / rate_hz:.0f} s", end="", flush=True)
-    finally:
-        sup.gc.stop()
-        sup.request_stop("bench done")
-        sup.shutdown()
-        tmp.cleanup()
+            sup.fire(Event.ARM)
+            sup.fire(Event.START)
+            for _ in range(max(1, round(rate_hz / 4))):  # settle
+                sup.run_one(schedule)
+            sup.stats = TickStats(sup.period_ns)
+            done = 0
+            while done < n_ticks:
+                count = min(block, n_ticks - done)
+                c0 = time.thread_time()
+                for _ in range(count):
+                    sup.run_one(schedule)
+                c1 = time.thread_time()
+                run = clock.floor_loop(schedule, count, spin_ns)
+                cpu_sup_s += c1 - c0
+                cpu_floor_s += time.thread_time() - c1
+                floor_late.append(run.wake_late_ns)
+                floor_misses += run.misses
+                done += count
+                if progress and (done // rate_hz > (done - count) // rate_hz or done == n_ticks):
+                    print(f"\r  {done / rate_hz:5.1f} / {n_ticks / rate_hz:.0f} s", end="", flush=True)
+        finally:
+            sup.gc.stop()
+            sup.request_stop("bench done")
+            sup.shutdown()
+            tmp.cleanup()
     if progress:
         print()
     s = sup.stats.summary()
@@ -103,6 +131,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         "cpu_percent": 100.0 * cpu_sup_s / busy_s, "cpu_percent_floor": 100.0 * cpu_floor_s / busy_s,
         "recorder": recorder or "off", "faults": sum(sup.faults.counts.values()),
         "realtime": realtime.describe(),
+        "switch_interval_us": switch_interval_s * 1e6,
         "jitter_ratio_p99": (s["jitter_us_p99"] / float(np.percentile(floor, 99))
                              if np.percentile(floor, 99) > 0 else math.nan),
     }

@@ -1,12 +1,15 @@
 """Tick timing: wake-up jitter, tick duration and deadline misses per tick, kept in
 preallocated arrays; and the process set-up a real-time loop wants (SCHED_FIFO,
-mlockall, the garbage collector kept out of the tick)."""
+mlockall, the garbage collector kept out of the tick, a short GIL switch interval)."""
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import logging
 import os
+import sys
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -16,6 +19,10 @@ from rtcore import clock
 log = logging.getLogger(__name__)
 
 WINDOW = 1 << 16  # ticks kept for percentiles: 11 min at 100 Hz, 65 s at 1 kHz
+# How long another thread may hold the GIL while the tick waits for it (CPython's default
+# is 5 ms). Every cffi call in the tick releases the GIL and takes it back, so behind a
+# busy Python thread a tick waited up to this long many times over (docs/service.md).
+SWITCH_INTERVAL_S = 1e-4
 
 
 class TickStats:
@@ -103,6 +110,17 @@ def setup_realtime(priority: int | None, lock_memory: bool) -> Realtime:
                         "memlock limit (systemd: LimitMEMLOCK=infinity; see docs/service.md)",
                         os.strerror(code))
     return result
+
+
+@contextlib.contextmanager
+def switch_interval(seconds: float = SWITCH_INTERVAL_S) -> Iterator[None]:
+    """sys.setswitchinterval(seconds) while the loop runs; the old value after."""
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(seconds)
+    try:
+        yield
+    finally:
+        sys.setswitchinterval(old)
 
 
 class GcControl:

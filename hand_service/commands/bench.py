@@ -3,8 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import json
+import math
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
+
+if TYPE_CHECKING:
+    from hand_service.profile import Profile
 
 HELP = "measure the control step latency (C and Python reference)"
 DESCRIPTION = """\
@@ -25,11 +31,13 @@ deadline_misses_floor, ticks, ...
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--json", type=Path, metavar="OUT", help="write the figures here")
+    parser.add_argument("--json", type=Path, metavar="OUT",
+                        help="write the figures here ('-': stdout, the tables then go to stderr)")
     parser.add_argument("--quick", action="store_true", help="fewer calls: a rough figure in seconds")
     parser.add_argument("--profile", default=None, help="firmware profile (default: sim.yaml)")
-    parser.add_argument("--rate", type=float, default=100.0, metavar="HZ",
-                        help="supervisor tick rate (10 to 1000 Hz; default 100)")
+    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
+                        help=f"supervisor tick rate ({RATE_MIN_HZ:g} to {RATE_MAX_HZ:g} Hz, above twice "
+                             "the filter cutoff; default: the profile's control.rate_hz, 100 in sim.yaml)")
     parser.add_argument("--seconds", type=float, default=None, metavar="S",
                         help="supervisor ticking time, the same again for the floor "
                              "(default 30; 4 with --quick)")
@@ -38,53 +46,96 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--recorder", choices=["process", "thread", "off"], default="process",
                         help="record every tick through this writer (default process)")
     parser.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO")
+    parser.add_argument("--switch-interval-us", type=float, default=None, metavar="US",
+                        help="GIL switch interval while ticking (default: the daemon's, 100 us; "
+                             "CPython's own is 5000; see docs/service.md)")
     parser.add_argument("--io", action="store_true",
                         help="also time the bus transports against the mock firmware: command -> sensor "
                         "round trip and host SIGKILL -> vent, per transport (io_* keys; a minute or two)")
 
 
 def main(args: argparse.Namespace) -> int:
+    from hand_service.jsonio import tables_out, write_json
     from hand_service.profile import load_profile
     from hand_service.stepbench import measure
 
-    config = load_profile(args.profile).hand_config()
+    profile = load_profile(args.profile)
+    rate_hz, seconds = _check(args, profile)
+    config = profile.hand_config()
     c_calls, py_calls = (20_000, 1_000) if args.quick else (200_000, 5_000)
-    print(f"control step, {config.n_fingers} fingers: {c_calls} C calls, {py_calls} Python calls ...",
-          flush=True)
-    results = measure(config, c_calls, py_calls).summary()
-    print(f"  C step (through cffi)  p50 {results['c_step_ns_p50']:8.0f} ns   "
-          f"p99 {results['c_step_ns_p99']:8.0f} ns")
-    print(f"  Python reference step  p50 {results['python_step_ns_p50']:8.0f} ns   "
-          f"p99 {results['python_step_ns_p99']:8.0f} ns")
-    print(f"  Python / C             {results['python_over_c']:.0f}x   "
-          f"(timer overhead {results['timer_overhead_ns']:.0f} ns, included)")
-    results.update(_ticks(args))
-    if args.io:
-        from hand_service.iobench import run_io_bench
+    with tables_out(args.json):
+        print(f"control step, {config.n_fingers} fingers: {c_calls} C calls, {py_calls} Python calls ...",
+              flush=True)
+        results = measure(config, c_calls, py_calls).summary()
+        print(f"  C step (through cffi)  p50 {results['c_step_ns_p50']:8.0f} ns   "
+              f"p99 {results['c_step_ns_p99']:8.0f} ns")
+        print(f"  Python reference step  p50 {results['python_step_ns_p50']:8.0f} ns   "
+              f"p99 {results['python_step_ns_p99']:8.0f} ns")
+        print(f"  Python / C             {results['python_over_c']:.0f}x   "
+              f"(timer overhead {results['timer_overhead_ns']:.0f} ns, included)")
+        results.update(_ticks(args, profile, rate_hz, seconds))
+        if args.io:
+            from hand_service.iobench import run_io_bench
 
-        print("valve I/O against the mock firmware (virtual bus, SLCAN pty, serial pty):", flush=True)
-        results.update(run_io_bench(quick=args.quick))
+            print("valve I/O against the mock firmware (virtual bus, SLCAN pty, serial pty):", flush=True)
+            results.update(run_io_bench(quick=args.quick))
     if args.json:
-        args.json.write_text(json.dumps(results, indent=2) + "\n")
-        print(f"wrote {args.json}")
+        write_json(args.json, results)  # NaN (a ratio to a zero floor) is written as null
+        if str(args.json) != "-":
+            print(f"wrote {args.json}")
     return 0
 
 
-def _ticks(args: argparse.Namespace) -> dict[str, object]:
+def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
+    """Every argument checked before anything is measured; returns the rate (Hz) and the
+    ticking time (s)."""
+    from hand_service.daemon import with_rate
     from hand_service.errors import UserError
-    from hand_service.profile import load_profile
+    from hand_service.firmware.rig import Rig
+    from hand_service.outputs import check_writable
+
+    rate_hz = with_rate(profile, args.rate).control["rate_hz"]  # range, filter cutoff, a bus firmware's rate
+    if profile.transport["kind"] != "sim" and Rig.name_for(profile) is None:
+        raise UserError(f"{profile.path}: bench runs a bus profile against a mock firmware it starts itself, "
+                        f"and cannot mock one on the real bus {profile.transport['interface']}; use "
+                        "can-v1-slcan.yaml or can-v1-virtual.yaml, or a serial profile")
+    seconds = args.seconds if args.seconds is not None else (4.0 if args.quick else 30.0)
+    if not (0 < seconds < math.inf and 0 <= args.spin_us * 1000 < 1e9 / rate_hz):
+        raise UserError("--seconds must be positive and --spin-us between 0 and the period")
+    if args.switch_interval_us is not None and not 1 <= args.switch_interval_us <= 1e6:
+        raise UserError(f"--switch-interval-us must be 1 to 1000000, not {args.switch_interval_us:g}")
+    if args.json:
+        check_writable(args.json)
+    return rate_hz, seconds
+
+
+def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: float) -> dict[str, object]:
+    import tempfile
+
+    from hand_service.errors import UserError
+    from hand_service.firmware.rig import Rig, RigError
     from hand_service.tickbench import measure_ticks
 
-    seconds = args.seconds if args.seconds is not None else (4.0 if args.quick else 30.0)
-    if not 10.0 <= args.rate <= 1000.0:
-        raise UserError(f"--rate must be between 10 and 1000 Hz, not {args.rate:g}")
-    if seconds <= 0 or args.spin_us < 0 or args.spin_us * 1000 >= 1e9 / args.rate:
-        raise UserError("--seconds must be positive and --spin-us between 0 and the period")
-    print(f"supervisor tick at {args.rate:g} Hz, {seconds:g} s, interleaved with the bare C loop "
+    print(f"supervisor tick at {rate_hz:g} Hz, {seconds:g} s, interleaved with the bare C loop "
           f"(spin {args.spin_us:g} us, recorder {args.recorder}) ...", flush=True)
-    r = measure_ticks(load_profile(args.profile), args.rate, seconds, args.spin_us,
-                      None if args.recorder == "off" else args.recorder,
-                      None if args.no_realtime else 50, progress=True)
+    options = (args.spin_us, None if args.recorder == "off" else args.recorder,
+               None if args.no_realtime else 50)
+    extra = {} if args.switch_interval_us is None else {"switch_interval_s": args.switch_interval_us / 1e6}
+    if profile.transport["kind"] == "sim":
+        r = measure_ticks(profile, rate_hz, seconds, *options, progress=True, **extra)
+    else:  # the bus transport against a mock firmware on its own pty (or virtual channel)
+        with tempfile.TemporaryDirectory(prefix="hand-service-bench-") as workdir, \
+                Rig(str(Rig.name_for(profile)), Path(workdir), profile) as rig:
+            try:
+                rig.start_mock()  # rig.close() ends the mock process, however this ends
+            except RigError as exc:
+                raise UserError(f"the mock firmware for {profile.path} did not start: {exc}") from None
+            transport = rig.transport()
+            print(f"  over {transport.link.description} to the mock firmware of profile {profile.name}",
+                  flush=True)
+            r = measure_ticks(profile, rate_hz, seconds, *options, progress=True, transport=transport,
+                              **extra)
+        r["transport"] = profile.transport["kind"]
     print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
     print(f"  jitter supervisor      p50 {r['jitter_us_p50']:8.1f} us   p99 {r['jitter_us_p99']:8.1f} us   "
           f"max {r['jitter_us_max']:8.1f} us   misses {r['deadline_misses']}")
@@ -93,4 +144,6 @@ def _ticks(args: argparse.Namespace) -> dict[str, object]:
           f"misses {r['deadline_misses_floor']}")
     print(f"  p99 jitter / floor     {r['jitter_ratio_p99']:.2f}   cpu {r['cpu_percent']:.1f} % "
           f"(floor {r['cpu_percent_floor']:.1f} %)   {r['realtime']}")
+    if r["faults"]:
+        print(f"  warning: {r['faults']} fault(s) during the run: the figures include ticks in FAULT")
     return r

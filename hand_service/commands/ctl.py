@@ -42,7 +42,8 @@ SIMPLE = {
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--socket", type=Path, metavar="PATH", help="the daemon's control socket")
-    parser.add_argument("--tcp-port", type=int, metavar="PORT", help="use 127.0.0.1:PORT instead")
+    parser.add_argument("--tcp-port", type=int, metavar="PORT",
+                        help="use 127.0.0.1:PORT (1 to 65535) instead")
     parser.add_argument("--json", action="store_true", help="print the reply's result as JSON")
     sub = parser.add_subparsers(dest="request", required=True, metavar="REQUEST")
     for name, doc in SIMPLE.items():
@@ -108,8 +109,10 @@ def _show_status(result: dict[str, Any]) -> str:
 
 def main(args: argparse.Namespace) -> int:
     from hand_service.client import ApiError, HandClient
+    from hand_service.commands import checks
     from hand_service.errors import UserError
 
+    checks.tcp_port(args.tcp_port)
     cmd, params = _request(args)
     try:
         with HandClient(args.socket, args.tcp_port) as client:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from typing import Any
 
 HELP = "find where a model and a recording disagree, and name the missing physics"
 DESCRIPTION = """\
@@ -34,7 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", required=True, help="model YAML, or a profile with --finger")
     parser.add_argument("--finger", default=None,
                         help="finger to pick from a profile or a multi-finger recording")
-    parser.add_argument("--json", default=None, metavar="OUT.json", help="write the result as JSON")
+    parser.add_argument("--json", default=None, metavar="OUT.json",
+                        help="write the result as JSON ('-': stdout, the summary then goes to stderr)")
     parser.add_argument("--report", default=None, metavar="OUT.html",
                         help="write a self-contained HTML report with plots and the evidence table")
     parser.add_argument("--write-model", default=None, metavar="OUT.yaml",
@@ -44,14 +46,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    import json
+    import numpy as np
 
     from hand_service.diagnose.engine import diagnose
     from hand_service.diagnose.timebase import regular_grid
     from hand_service.errors import UserError
-    from hand_service.model import load_model, save_model
+    from hand_service.jsonio import tables_out, write_json
+    from hand_service.model import load_model
+    from hand_service.outputs import check_writable
     from hand_service.recording import read_recording
 
+    for path in (args.json, args.report, args.write_model):
+        if path is not None:
+            check_writable(path)  # before minutes of fitting, not after
     recording = read_recording(args.recording, args.finger)
     model = load_model(args.model, args.finger or recording.finger)
     model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m",
@@ -63,6 +70,9 @@ def main(args: argparse.Namespace) -> int:
               "through them and they are left out of every fit", file=sys.stderr)
     if recording.duration_s * rate_hz < 100:
         raise UserError(f"{args.recording}: only {len(recording)} samples; diagnose needs at least 100")
+    if np.ptp(recording.angle_deg) == 0.0:  # the refit's residual would be exactly zero
+        raise UserError(f"{args.recording}: angle_deg is {recording.angle_deg[0]:g} deg throughout: nothing "
+                        "moved, so there is nothing to compare with the model (is the sensor connected?)")
     started = time.perf_counter()
 
     def progress(message: str) -> None:
@@ -73,14 +83,19 @@ def main(args: argparse.Namespace) -> int:
     result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress, grid.missing)
     if not args.quiet:
         print(file=sys.stderr)
-    print_summary(result)
-    if args.json:
-        try:
-            with open(args.json, "w") as handle:
-                json.dump(result.to_json(), handle, indent=2)
-        except OSError as exc:
-            raise UserError(f"{args.json}: cannot write: {exc.strerror or exc}") from None
-        print(f"wrote {args.json}")
+    with tables_out(args.json):  # `--json -`: the JSON alone on stdout
+        print_summary(result)
+        _write_files(args, result)
+    if args.json is not None:
+        write_json(args.json, result.to_json())  # an unidentifiable parameter's std (inf) as null
+        if args.json != "-":
+            print(f"wrote {args.json}")
+    return 0
+
+
+def _write_files(args: argparse.Namespace, result: Any) -> None:
+    from hand_service.model import save_model
+
     if args.report:
         from hand_service.diagnose.report import write_report
 
@@ -96,7 +111,6 @@ def main(args: argparse.Namespace) -> int:
                    header=f"refitted by hand-service diagnose {software_version()} from {args.recording}\n"
                           f"verdict: {result.verdict}")
         print(f"wrote {args.write_model}")
-    return 0
 
 
 def print_summary(result) -> None:

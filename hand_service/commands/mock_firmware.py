@@ -48,11 +48,14 @@ def _version(text: str) -> tuple[int, int, int]:
 def main(args: argparse.Namespace) -> int:
     import signal
 
+    from hand_service.commands import checks
     from hand_service.errors import UserError
     from hand_service.firmware.mock import MockFirmware
     from hand_service.firmware.ports import open_port
     from hand_service.profile import load_profile
 
+    checks.seed(args.seed)
+    checks.positive(args.seconds, "--seconds")
     profile = load_profile(args.profile)
     firmware_version = _version(args.firmware_version)
     if args.protocol_version is not None and not 1 <= args.protocol_version <= 65535:

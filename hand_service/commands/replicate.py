@@ -40,8 +40,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     import sys
 
+    from hand_service.commands import checks
     from hand_service.jsonio import tables_out, write_json
+    from hand_service.outputs import check_writable, make_directory
     from hand_service.replicate import Options, replicate
+
+    checks.seed(args.seed)
+    if args.json is not None:
+        check_writable(args.json)
+    for directory in (args.plots, args.trials):
+        if directory is not None:
+            make_directory(directory)  # now, not after minutes of simulation
 
     chosen = {"profile": args.profile, "seed": args.seed, "trials_dir": args.trials}
     options = Options.quick_run(**chosen) if args.quick else Options(**chosen)

@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
+
 HELP = "run the supervisor daemon (default: the simulated hand of sim.yaml); --demo shows it off"
 DESCRIPTION = """\
 Run the supervisor: a control tick at the profile's rate (100 Hz by default, up to
@@ -34,14 +36,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-socket", action="store_true", help="no control API")
     parser.add_argument("--tcp-port", type=int, metavar="PORT",
                         help="also serve the API on 127.0.0.1:PORT (loopback only; 0 picks one)")
-    parser.add_argument("--rate", type=float, metavar="HZ", help="control rate (10 to 1000; "
-                        "default: the profile's control.rate_hz)")
+    parser.add_argument("--rate", type=float, metavar="HZ",
+                        help=f"control rate ({RATE_MIN_HZ:g} to {RATE_MAX_HZ:g} Hz, above twice the "
+                             "filter cutoff; default: the profile's control.rate_hz)")
     parser.add_argument("--spin-us", type=float, default=0.0, metavar="US",
                         help="wake this early and spin to the deadline (CPU for jitter; default 0)")
     parser.add_argument("--recorder", choices=["process", "thread"], default="process",
                         help="where the CSV writer runs (default: process, off the daemon's GIL)")
     parser.add_argument("--realtime-priority", type=int, default=50, metavar="N",
-                        help="SCHED_FIFO priority, used when permitted (default 50)")
+                        help="SCHED_FIFO priority 1 to 99, used when permitted (default 50)")
     parser.add_argument("--no-realtime", action="store_true", help="stay with the normal scheduler")
     parser.add_argument("--no-mlock", action="store_true", help="do not lock memory (mlockall)")
     parser.add_argument("--port", metavar="DEVICE",
@@ -53,15 +56,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from hand_service.commands import checks
     from hand_service.daemon import Daemon, DaemonOptions, print_summary, with_rate
     from hand_service.errors import UserError
     from hand_service.profile import load_profile
     from hand_service.transports import transport_class
 
-    profile = with_rate(load_profile(args.profile), args.rate)
-    if not 10.0 <= profile.control["rate_hz"] <= 1000.0:
-        raise UserError(f"--rate must be between 10 and 1000 Hz, not {args.rate:g}")
-    if args.spin_us < 0 or args.spin_us * 1000 >= 1e9 / profile.control["rate_hz"]:
+    checks.positive(args.duration, "--duration")
+    checks.tcp_port(args.tcp_port, allow_any=True)
+    checks.seed(args.seed)
+    if not args.no_realtime and not 1 <= args.realtime_priority <= 99:
+        raise UserError(f"--realtime-priority must be 1 to 99 (SCHED_FIFO), not {args.realtime_priority}")
+    profile = with_rate(load_profile(args.profile), args.rate)  # checks the range and the filter
+    if not 0 <= args.spin_us * 1000 < 1e9 / profile.control["rate_hz"]:
         raise UserError("--spin-us must be at least 0 and shorter than the period")
     if args.record is not None and args.record.exists():
         raise UserError(f"{args.record}: exists already; a recording never overwrites one")

@@ -46,7 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (excitation, noise, perturbation)")
     parser.add_argument("--nominal-model", default=None, metavar="OUT.yaml",
                         help="write the nominal model (perturbed, hidden effects left out)")
-    parser.add_argument("--truth", default=None, metavar="OUT.json", help="write the hidden truth as JSON")
+    parser.add_argument("--truth", default=None, metavar="OUT.json",
+                        help="write the hidden truth as JSON ('-': stdout)")
 
 
 def parse_effects(items: list[str]) -> dict[str, float | None]:
@@ -75,13 +76,16 @@ def parse_effects(items: list[str]) -> dict[str, float | None]:
 
 
 def main(args: argparse.Namespace) -> int:
-    import json
+    import math
 
     import numpy as np
 
+    from hand_service.commands import checks
     from hand_service.concealed.generator import generate
     from hand_service.errors import UserError
+    from hand_service.jsonio import tables_out, write_json
     from hand_service.model import load_model, save_model
+    from hand_service.outputs import check_writable
     from hand_service.profile import load_profile
     from hand_service.recording import write_recording
     from hand_service.version import software_version
@@ -95,25 +99,32 @@ def main(args: argparse.Namespace) -> int:
         source = str(profile.path)
     model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m",
                   purpose="simulation")
-    if not (args.duration >= 1.0 and 10.0 <= args.rate <= 10000.0 and args.noise > 0.0
-            and 0.0 <= args.perturb < 1.0 and args.adc_step_deg >= 0.0 and args.conceal != 0.0):
-        raise UserError("need --duration >= 1 s, --rate 10-10000 Hz, --noise > 0, --perturb in [0, 1), "
-                        "--adc-step-deg >= 0 and a non-zero --conceal")
+    numbers = (args.duration, args.rate, args.noise, args.perturb, args.adc_step_deg, args.conceal)
+    if not (all(math.isfinite(x) for x in numbers) and args.duration >= 1.0
+            and 10.0 <= args.rate <= 10000.0 and args.noise > 0.0 and 0.0 <= args.perturb < 1.0
+            and args.adc_step_deg >= 0.0 and args.conceal != 0.0):
+        raise UserError("need finite numbers: --duration >= 1 s, --rate 10-10000 Hz, --noise > 0, "
+                        "--perturb in [0, 1), --adc-step-deg >= 0 and a non-zero --conceal")
+    checks.seed(args.seed)
+    for path in (args.output, args.nominal_model, args.truth):
+        if path is not None:
+            check_writable(path)  # before the simulation and its concealment search
     hidden = parse_effects(args.effect)
     c = generate(model, hidden, args.excitation, args.duration, args.rate, args.noise, args.adc_step_deg,
                  args.perturb, args.seed, args.conceal)
     metadata = {**c.metadata(), "model": source, "software_version": software_version()}
-    write_recording(args.output, {"t": c.t_s, "pressure_kpa": c.pressure_kpa, "angle_deg": c.angle_deg,
-                                  "angle_true_deg": c.angle_true_deg}, metadata)
-    print(f"wrote {args.output}: {c.t_s.size} samples at {args.rate:g} Hz, excitation {args.excitation}, "
-          f"noise {args.noise:g} deg")
-    for name, params in c.hidden.items():
-        print(f"hidden {name}: {params}; refitted plain model's residual = {c.concealment:.2f} x noise")
-    if args.nominal_model:
-        save_model(c.nominal, args.nominal_model,
-                   header=f"nominal model from hand-service simulate (seed {args.seed}): k, B, N perturbed "
-                          f"by up to {100 * args.perturb:g} %, hidden effects left out")
-        print(f"wrote {args.nominal_model}")
+    with tables_out(args.truth):  # `--truth -`: the JSON alone on stdout
+        write_recording(args.output, {"t": c.t_s, "pressure_kpa": c.pressure_kpa, "angle_deg": c.angle_deg,
+                                      "angle_true_deg": c.angle_true_deg}, metadata)
+        print(f"wrote {args.output}: {c.t_s.size} samples at {args.rate:g} Hz, excitation {args.excitation}, "
+              f"noise {args.noise:g} deg")
+        for name, params in c.hidden.items():
+            print(f"hidden {name}: {params}; refitted plain model's residual = {c.concealment:.2f} x noise")
+        if args.nominal_model:
+            save_model(c.nominal, args.nominal_model,
+                       header=f"nominal model from hand-service simulate (seed {args.seed}): k, B, N "
+                              f"perturbed by up to {100 * args.perturb:g} %, hidden effects left out")
+            print(f"wrote {args.nominal_model}")
     if args.truth:
         truth = {"hidden_effects": c.hidden, "concealment_residual_over_noise": c.concealment,
                  "truth": {k: v for k, v in c.truth.to_dict().items() if k != "effects"},
@@ -121,10 +132,7 @@ def main(args: argparse.Namespace) -> int:
                  "nominal": {k: v for k, v in c.nominal.to_dict().items() if k != "effects"},
                  "noise_deg": args.noise, "seed": args.seed, "excitation": args.excitation,
                  "angle_rms_deg": float(np.sqrt(np.mean(c.angle_true_deg**2)))}
-        try:
-            with open(args.truth, "w") as handle:
-                json.dump(truth, handle, indent=2)
-        except OSError as exc:
-            raise UserError(f"{args.truth}: cannot write: {exc.strerror or exc}") from None
-        print(f"wrote {args.truth}")
+        write_json(args.truth, truth)
+        if args.truth != "-":
+            print(f"wrote {args.truth}")
     return 0

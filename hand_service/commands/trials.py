@@ -23,12 +23,16 @@ Files are named <finger>_<kind>_<nn>.csv. Example, Table 1's trials:
 """
 
 
+MAX_COUNT = 10_000  # recordings per finger; far beyond any statistic, short of filling a disk
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("kind", choices=["release", "sweep", "valve", "pairs"])
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="directory for the CSV files")
     parser.add_argument("--profile", default=None, help="the simulated hand (default: sim.yaml)")
     parser.add_argument("--finger", action="append", help="only this finger (repeatable; default: all)")
-    parser.add_argument("--count", type=int, default=1, help="recordings per finger (default 1)")
+    parser.add_argument("--count", type=int, default=1,
+                        help=f"recordings per finger (1 to {MAX_COUNT}; default 1)")
     parser.add_argument("--seed", type=int, default=1, help="seed (default 1)")
     parser.add_argument("--rate", type=float, default=None, help="sample rate in Hz (default: the profile's)")
 
@@ -37,20 +41,20 @@ def main(args: argparse.Namespace) -> int:
     import numpy as np
 
     from hand_service import trials
+    from hand_service.commands import checks
     from hand_service.errors import UserError
+    from hand_service.outputs import make_directory
     from hand_service.profile import load_profile
 
+    checks.seed(args.seed)
+    if not 1 <= args.count <= MAX_COUNT:
+        raise UserError(f"--count must be 1 to {MAX_COUNT}, not {args.count}")
     profile = load_profile(args.profile)
-    if args.count < 1:
-        raise UserError("--count must be at least 1")
     rate = args.rate or profile.control["rate_hz"]
     if not 10.0 <= rate <= 10000.0:
         raise UserError(f"--rate {rate:g} Hz is outside 10 to 10000 Hz")
     fingers = [profile.finger(name) for name in args.finger] if args.finger else profile.fingers
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"{args.out}: cannot create: {exc.strerror or exc}") from None
+    make_directory(args.out)
     sim = profile.simulation
     for f_index, finger in enumerate(fingers):
         seeds = np.random.SeedSequence([args.seed, f_index]).generate_state(args.count)

@@ -22,6 +22,7 @@ import numpy as np
 from hand_service import effects as fx
 from hand_service.concealed.generator import generate
 from hand_service.diagnose.engine import diagnose
+from hand_service.jsonio import plain, write_json
 from hand_service.profile import load_profile
 
 FINGERS = ("index", "middle", "ring", "little", "thumb")
@@ -170,10 +171,9 @@ def main(argv: list[str] | None = None) -> int:
     summary = summarise(cases)
     table = markdown(summary, cases)
     print(table)
-    print(json.dumps({k: v for k, v in summary.items() if k != "per_effect"}, indent=1))
+    print(json.dumps(plain({k: v for k, v in summary.items() if k != "per_effect"}), indent=1))
     if args.json:
-        with open(args.json, "w") as handle:
-            json.dump({"summary": summary, "cases": [asdict(c) for c in cases]}, handle, indent=1)
+        write_json(args.json, {"summary": summary, "cases": [asdict(c) for c in cases]})
     if args.markdown:
         with open(args.markdown, "w") as handle:
             handle.write(table + "\n")

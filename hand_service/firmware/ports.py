@@ -12,6 +12,7 @@ import errno
 import os
 import select
 import stat
+import termios
 import tty
 from abc import ABC, abstractmethod
 from pathlib import Path
@@ -66,18 +67,27 @@ class PtyPort(FirmwarePort):
         self._link: Path | None = None
         if self.path.exists() and stat.S_ISCHR(self.path.stat().st_mode) and not self.path.is_symlink():
             self.fd = os.open(self.path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
-            tty.setraw(self.fd)
+            try:
+                tty.setraw(self.fd)
+            except termios.error:
+                os.close(self.fd)
+                raise OSError(errno.ENOTTY, "a device, but not a terminal") from None
             self.device = str(self.path)
         else:
             if self.path.exists() and not self.path.is_symlink():
-                raise FileExistsError(f"{self.path} exists and is not a terminal")
+                raise FileExistsError(errno.EEXIST, "exists and is not a terminal")
             self.fd, self._slave = os.openpty()
-            tty.setraw(self._slave)  # no echo, no line editing, before the host opens it
-            os.set_blocking(self.fd, False)
-            self.device = os.ttyname(self._slave)
-            if self.path.is_symlink():
-                self.path.unlink()  # left by an earlier run
-            self.path.symlink_to(self.device)
+            try:
+                tty.setraw(self._slave)  # no echo, no line editing, before the host opens it
+                os.set_blocking(self.fd, False)
+                self.device = os.ttyname(self._slave)
+                if self.path.is_symlink():
+                    self.path.unlink()  # left by an earlier run
+                self.path.symlink_to(self.device)
+            except OSError:
+                os.close(self.fd)
+                os.close(self._slave)
+                raise
             self._link = self.path
         self.description = f"{self.path} ({self.device})"
 
@@ -189,6 +199,16 @@ class SlcanAdapterPort(FirmwarePort):
         self.pty.close()
 
 
+def _pty(path: str) -> PtyPort:
+    from hand_service.errors import UserError
+
+    try:
+        return PtyPort(path)
+    except OSError as exc:
+        raise UserError(f"cannot play the device at {path}: {exc.strerror or exc} (--port: an existing "
+                        "terminal, or a new path for a pseudo-terminal's symlink)") from None
+
+
 def open_port(profile: Any, port: str | None) -> FirmwarePort:
     """The firmware's port for a profile: a pty (serial, slcan) or a python-can bus."""
     from hand_service.errors import UserError
@@ -197,7 +217,7 @@ def open_port(profile: Any, port: str | None) -> FirmwarePort:
     settings = profile.transport
     kind = settings["kind"]
     if kind == "serial":
-        return PtyPort(port or settings["port"])
+        return _pty(port or settings["port"])
     if kind != "can":
         raise UserError(f"{profile.path}: transport {kind} has no firmware to mock; use a can or "
                         "serial profile (can-v1-slcan.yaml, serial-v1.yaml)")
@@ -206,7 +226,7 @@ def open_port(profile: Any, port: str | None) -> FirmwarePort:
                         "mock cannot join it from another; use can-v1-slcan.yaml, or run the mock in "
                         "a thread (hand_service.firmware.run_in_thread)")
     if settings["interface"] == "slcan":
-        return SlcanAdapterPort(PtyPort(port or settings["channel"]))
+        return SlcanAdapterPort(_pty(port or settings["channel"]))
     channel = port or settings["channel"]
     try:
         return CanBusPort(can.Bus(**{**bus_arguments(settings), "channel": channel}))

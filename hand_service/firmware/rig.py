@@ -37,7 +37,8 @@ class RigError(RuntimeError):
 class Rig:
     def __init__(self, name: str, workdir: Path, profile: Profile | None = None) -> None:
         self.name = name
-        self.profile_path = PROFILE_DIR / RIG_PROFILES[name]
+        # the mock process loads the profile from its file: the given one's, or the shipped one
+        self.profile_path = profile.path if profile is not None else PROFILE_DIR / RIG_PROFILES[name]
         self.profile = profile or load_profile(self.profile_path)
         if name == "virtual":
             self.channel = f"hil-{uuid.uuid4().hex[:12]}"
@@ -50,6 +51,16 @@ class Rig:
         self._lines_lock = threading.Lock()
         self._transports: list[LinkTransport] = []
         self._hosts: list[subprocess.Popen[str]] = []
+
+    @staticmethod
+    def name_for(profile: Profile) -> str | None:
+        """The rig that can mock this profile's firmware, or None (a real bus: socketcan...)."""
+        settings = profile.transport
+        if settings["kind"] == "serial":
+            return "serial"
+        if settings["kind"] == "can" and settings["interface"] in ("slcan", "virtual"):
+            return str(settings["interface"])
+        return None
 
     @property
     def in_process(self) -> bool:

@@ -60,6 +60,28 @@ def test_profile_mistakes_are_one_clear_line(tmp_path: Path, old: str, new: str,
     assert "\n" not in str(info.value)
 
 
+def test_filter_cutoff_must_lie_below_half_the_rate(tmp_path: Path) -> None:
+    """The C core refuses a Butterworth cutoff at or above Nyquist; the profile says where."""
+    cutoff_line = SIM.splitlines().index("  filter_cutoff_hz: 25") + 1
+    path = tmp_path / "sim.yaml"
+    path.write_text(SIM.replace("rate_hz: 100", "rate_hz: 40", 1))
+    with pytest.raises(UserError, match=rf"sim.yaml:{cutoff_line}: control.filter_cutoff_hz = 25 Hz must be "
+                                        r"below half the control rate \(20 Hz at 40 Hz\)"):
+        load_profile(path)
+    path.write_text(SIM.replace("rate_hz: 100", "rate_hz: 50", 1))  # exactly Nyquist: refused too
+    with pytest.raises(UserError, match="filter_cutoff_hz = 25 Hz"):
+        load_profile(path)
+    # a bus profile with its own control block over an included hand is checked the same way
+    bus = tmp_path / "bus.yaml"
+    bus.write_text((PROFILE_DIR / "serial-v1.yaml").read_text()
+                   + "\ncontrol:\n  rate_hz: 30\n")
+    path.write_text(SIM)
+    with pytest.raises(UserError, match=r"bus.yaml:\d+: control.filter_cutoff_hz = 25 Hz .* at 30 Hz"):
+        load_profile(bus)
+    bus.write_text(bus.read_text() + "  filter_cutoff_hz: 12\n")
+    assert load_profile(bus).hand_config().sample_rate_hz == 30
+
+
 def test_bad_yaml_syntax_names_the_line(tmp_path: Path) -> None:
     path = tmp_path / "broken.yaml"
     path.write_text("profile: x\nhand:\n  index: {mass_kg: 0.05\n")
