@@ -69,7 +69,8 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
     if recorder:
         rec.start(Path(tmp.name) / "bench.csv", {"bench": "tick"})
     sup.set_trajectory(sweep_trajectory(len(profile.fingers), rate_hz), loop=True)
-    realtime = setup_realtime(realtime_priority, lock_memory=False)
+    # as the daemon runs (run locks memory unless --no-mlock): both loops, no page faults
+    realtime = setup_realtime(realtime_priority, lock_memory=realtime_priority is not None)
     block = block_ticks(profile, rate_hz)
     n_ticks = max(block, round(seconds * rate_hz))
     spin_ns = int(spin_us * 1000)
@@ -116,6 +117,8 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
             sup.request_stop("bench done")
             sup.shutdown()
             tmp.cleanup()
+            if realtime.memory_locked is True:
+                clock.unlock_memory()
     if progress:
         print()
     s = sup.stats.summary()
