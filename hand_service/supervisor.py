@@ -303,9 +303,9 @@ class Supervisor:
 
     def run(self, duration_s: float | None = None, max_ticks: int | None = None) -> None:
         """Tick on the absolute schedule until a stop request, duration_s or max_ticks."""
+        self.gc.start()  # a full collection and a freeze: before the schedule starts, not in its first period
         self.schedule = schedule = clock.Schedule(self.period_ns)
         end_index = None if duration_s is None else round(duration_s * self.rate_hz)
-        self.gc.start()
         try:
             while self.stop_reason is None:
                 if end_index is not None and schedule.index >= end_index:
