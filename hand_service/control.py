@@ -179,7 +179,8 @@ class Api:
         traj = self.sup.trajectory
         if traj is None or self.sup.trajectory_done or self.sup.state not in (State.RUNNING, State.HOLD):
             return
-        driven = [self.sup.names[i] for i in fingers if traj.driven()[i]]
+        mask = self.sup.trajectory_driven
+        driven = [self.sup.names[i] for i in fingers if mask is not None and mask[i]]
         if driven:
             raise RequestError(f"{what}: {', '.join(driven)} follow the running trajectory; "
                                "clear_trajectory first")

@@ -269,6 +269,9 @@ def _check_command_range(fingers: list[FingerProfile], carried: tuple[float, flo
     """Every finger's pressure limits within what the transport's wire carries: a command is
     never clipped on its way to the valves."""
     low, high, what = carried
+    if not low <= 0.0 <= high:
+        raise UserError(f"{source}: {what} carries {low:g}..{high:g} kPa, which leaves out 0 kPa: "
+                        f"the host could never vent")
     for finger in fingers:
         for key in PRESSURE_LIMIT_KEYS:
             value = getattr(finger, key)

@@ -9,6 +9,7 @@ after the tick, in the same thread: nothing else ever holds the GIL.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import signal
 from collections.abc import Callable
@@ -64,7 +65,8 @@ class Supervisor:
         self.trajectory_tick = 0
         self.trajectory_done = False
         self.trajectory_loop = False
-        self._driven: np.ndarray | None = None
+        self._driven: np.ndarray | None = None  # None: every finger follows the trajectory
+        self.trajectory_driven: np.ndarray | None = None  # the fingers it drives (checked off the loop)
         self.firmware: FirmwareStatus | None = None
         self.link_open = False
         self.schedule: clock.Schedule | None = None
@@ -209,12 +211,14 @@ class Supervisor:
             driven = self.check_trajectory(traj)
         self.trajectory, self.trajectory_tick = traj, 0
         self.trajectory_done, self.trajectory_loop = False, loop
+        self.trajectory_driven = driven
         self._driven = None if driven is None or driven.all() else driven
 
     def _finish_trajectory(self, traj: Trajectory) -> None:
         """The end holds the last references: they become the fingers' targets, HOLD."""
         last = traj.n_ticks - 1
-        for i in np.flatnonzero(traj.driven()):
+        assert self.trajectory_driven is not None
+        for i in np.flatnonzero(self.trajectory_driven):
             mode = int(traj.mode[last, i])
             self.targets.mode[i] = mode
             if mode == MODE_POSITION:
@@ -265,7 +269,12 @@ class Supervisor:
             else:
                 self.transport.send(sent)
         except Exception as exc:
-            self.fault(Fault(Cause.TRANSPORT_LOST, f"send(): {type(exc).__name__}: {exc}"))
+            # a command the wire cannot carry (ValueError: the gate should have caught it), or
+            # a link that failed: either way nothing went out this tick, so ask for a vent
+            cause = Cause.PRESSURE_OVER_LIMIT if isinstance(exc, ValueError) else Cause.TRANSPORT_LOST
+            self.fault(Fault(cause, f"send(): {type(exc).__name__}: {exc}"))
+            with contextlib.suppress(Exception):
+                self.transport.vent()
             sent = self._zeros
         self.sent_kpa[:] = sent
         leak = self.gate.follow()

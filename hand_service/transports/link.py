@@ -307,13 +307,17 @@ class LinkTransport(Transport):
         while not self._stop.is_set():
             self._wake.wait(0.1)
             self._wake.clear()
-            with self._lock:
-                outbox, self._outbox = self._outbox, []
-                if self._phase == "running" and self._command is not None:
-                    outbox.append(self._command)
-                self._command = None
-            for message in outbox:
-                self._write(message)
+            self._flush()
+        self._flush()  # what was queued as close() began (the shutdown's vent) still goes out
+
+    def _flush(self) -> None:
+        with self._lock:
+            outbox, self._outbox = self._outbox, []
+            if self._phase == "running" and self._command is not None:
+                outbox.append(self._command)
+            self._command = None
+        for message in outbox:
+            self._write(message)
 
     def _write(self, message: Message) -> None:
         units = self.codec.encode(message)

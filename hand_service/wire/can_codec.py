@@ -21,7 +21,6 @@ from typing import Any
 import can
 import cantools
 from cantools.autosar.end_to_end import apply_profile2_crc, check_profile2_crc
-from cantools.database.namedsignalvalue import NamedSignalValue
 
 from hand_service.errors import UserError
 from hand_service.wire.messages import (
@@ -89,9 +88,11 @@ def signal_range(sig: Any) -> tuple[float, float]:
     return low, high
 
 
-def _measured(value: Any) -> float:
-    """A decoded reading: a named raw value (not_reported) is no reading at all."""
-    return math.nan if isinstance(value, NamedSignalValue) else float(value)
+def _not_reported(sig: Any) -> frozenset[float]:
+    """The physical values a reading takes when the board has none: the raw values its
+    value table names not_reported, scaled as decode() scales them."""
+    return frozenset(raw * sig.scale + sig.offset for raw, name in (sig.choices or {}).items()
+                     if str(name) == NOT_REPORTED)
 
 
 @dataclass
@@ -113,6 +114,8 @@ class CanCodec:
         self._msg = {name: self.db.get_message_by_name(name) for name in REQUIRED_SIGNALS}
         self._name_by_id = {m.frame_id: name for name, m in self._msg.items()}
         self._partial: dict[str, _Partial | None] = {"SensorFinger": None, "ValveCommand": None}
+        sensor = self._msg["SensorFinger"]
+        self._no_reading = {s: _not_reported(sensor.get_signal_by_name(s)) for s in MEASURED}
 
     # -- encoding -------------------------------------------------------------------------
 
@@ -204,8 +207,8 @@ class CanCodec:
             self.stats.note(f"{name} frame 0x{msg.frame_id:03X} failed its E2E CRC")
             return []
         try:
-            # only the readings' value tables mean something here (not_reported)
-            values = msg.decode(data, decode_choices=name == "SensorFinger", scaling=True)
+            # numbers only: a lab's DBC may give any signal a value table
+            values = msg.decode(data, decode_choices=False, scaling=True)
             self.stats.frames += 1
             return self._message(name, values)
         except (ValueError, KeyError, cantools.database.DecodeError) as exc:
@@ -213,9 +216,13 @@ class CanCodec:
             self.stats.note(f"{name}: {exc}")
             return []
 
+    def _measured(self, signal: str, value: float) -> float:
+        """A decoded reading: the not_reported value is no reading at all (NaN)."""
+        return math.nan if value in self._no_reading[signal] else float(value)
+
     def _message(self, name: str, v: dict[str, Any]) -> list[Message]:
         if name == "SensorFinger":
-            return self._assemble(name, v, tuple(_measured(v[s]) for s in MEASURED))
+            return self._assemble(name, v, tuple(self._measured(s, v[s]) for s in MEASURED))
         if name == "ValveCommand":
             return self._assemble(name, v, (float(v["pressure_cmd_kpa"]),))
         if name == "Status":

@@ -18,6 +18,7 @@ class FaultyTransport(SimTransport):
         self.silent = False  # samples are lost: latest() returns nothing, the sequence runs on
         self.late = False  # samples are late: latest() returns nothing, the next one is the next
         self.lost = False  # every call raises: the link is gone
+        self.refuse = False  # send() refuses (ValueError) a command other than 0 kPa, as a wire would
         self.fail_handshake = 0  # this many open() calls fail
         self.sensor_override: np.ndarray | None = None  # replaces the sensor mV
         self.pressure_override: np.ndarray | None = None  # replaces the measured kPa
@@ -56,6 +57,8 @@ class FaultyTransport(SimTransport):
     def send(self, pressure_cmd_kpa: np.ndarray) -> None:
         if self.lost:
             raise OSError("device unplugged")
+        if self.refuse and np.any(pressure_cmd_kpa != 0.0):
+            raise ValueError("pressure command: the wire cannot carry it")
         self.sent.append(np.array(pressure_cmd_kpa, dtype=float))
         super().send(pressure_cmd_kpa)
 

@@ -251,3 +251,17 @@ def test_a_positive_pressure_minimum_ramps_out_of_a_vent(tmp_path: Path) -> None
     assert rig.profile.finger("index").pressure_min_kpa == 30
     rig.running(angle_deg=60.0)
     assert rig.sup.faults.total == 0
+
+
+def test_a_command_the_transport_refuses_faults_and_vents(rig: Rig) -> None:
+    """send() refusing a command (ValueError: the wire cannot carry it) sent nothing that
+    tick: the supervisor faults on the command, not on the link, and asks for a vent."""
+    rig.running()
+    vents = rig.transport.vents
+    rig.transport.refuse = True
+    rig.tick()
+    assert rig.transport.vents == vents + 1  # in the very tick whose command was refused
+    assert rig.transport.sent[-1].max() == 0.0
+    assert rig.sup.sent_kpa.max() == 0.0
+    rig.assert_faulted("pressure_over_limit")
+    assert "send()" in rig.sup.faults.faults[-1].detail

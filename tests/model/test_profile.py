@@ -117,3 +117,13 @@ def test_profile_needs_a_finger_name_for_a_model() -> None:
         load_model(DEFAULT_PROFILE)
     with pytest.raises(UserError, match="no finger 'pinky'"):
         load_model(DEFAULT_PROFILE, finger="pinky")
+
+
+def test_a_wire_that_cannot_carry_0_kpa_is_refused(tmp_path: Path) -> None:
+    """Every vent is a 0 kPa command: a DBC whose pressure command starts above 0 could never vent."""
+    from hand_service.profile import _check_command_range
+
+    fingers = load_profile(None).fingers
+    _check_command_range(fingers, (-100.0, 600.0, "ValveCommand.pressure_cmd_kpa"), tmp_path / "p.yaml")
+    with pytest.raises(UserError, match="leaves out 0 kPa"):
+        _check_command_range(fingers, (10.0, 600.0, "ValveCommand.pressure_cmd_kpa"), tmp_path / "p.yaml")

@@ -126,3 +126,19 @@ def test_a_command_the_wire_cannot_carry_is_refused_not_clipped(codec: CanCodec 
 def test_can_commands_span_what_the_dbc_declares() -> None:
     assert _codecs()[0].command_range_kpa() == pytest.approx((-655.36, 655.34))
     assert SerialCodec.command_range_kpa() == (-F32_MAX, F32_MAX)
+
+
+def test_a_lab_dbc_with_value_tables_on_any_signal_still_decodes(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Value tables are a lab's to add (names for finger indices, say): decoding stays
+    numeric, and only the reading's not_reported value means no reading."""
+    dbc = ROOT / "firmware_profiles" / "can-v1.dbc"
+    text = dbc.read_text() + 'VAL_ 272 finger_index 0 "thumb" 1 "index" ;\nVAL_ 272 sequence 3 "three" ;\n'
+    lab = tmp_path / "lab.dbc"
+    lab.write_text(text)
+    codec = CanCodec(lab, 5)
+    report = SensorReport(3, 1, [500.0, 501.0, 502.0, 503.0, 504.0], [math.nan, 1.0, 2.0, 3.0, 4.0])
+    got = _round_trip(codec, report)
+    assert isinstance(got, SensorReport) and got.sequence == 3
+    assert got.sensor_mv == pytest.approx(report.sensor_mv)
+    assert math.isnan(got.pressure_meas_kpa[0])
+    assert got.pressure_meas_kpa[1:] == pytest.approx([1.0, 2.0, 3.0, 4.0])
