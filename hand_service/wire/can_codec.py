@@ -116,6 +116,7 @@ class CanCodec:
         self._partial: dict[str, _Partial | None] = {"SensorFinger": None, "ValveCommand": None}
         sensor = self._msg["SensorFinger"]
         self._no_reading = {s: _not_reported(sensor.get_signal_by_name(s)) for s in MEASURED}
+        self._command_range = self.command_range_kpa()
 
     # -- encoding -------------------------------------------------------------------------
 
@@ -139,7 +140,7 @@ class CanCodec:
         return min(max(value, low), high)
 
     def _command(self, kpa: float) -> float:
-        low, high = self.command_range_kpa()
+        low, high = self._command_range
         if not low <= kpa <= high:  # NaN too
             raise ValueError(f"pressure command {kpa:g} kPa: ValveCommand.pressure_cmd_kpa carries "
                              f"{low:g}..{high:g} kPa only")
