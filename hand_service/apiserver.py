@@ -11,6 +11,7 @@ import math
 import os
 import selectors
 import socket
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,10 @@ log = logging.getLogger(__name__)
 MAX_LINE_BYTES = 65536
 MAX_CLIENTS = 16
 MAX_REQUESTS_PER_POLL = 8
+# Answered at once even while the same client waits for a deferred reply (a trajectory
+# that loads): they make the hand safer, and must not wait seconds behind a parse.
+URGENT_CMDS = frozenset({"estop", "hold", "disarm"})
+_URGENT_WORDS = tuple(cmd.encode() for cmd in URGENT_CMDS)
 LOOPBACK = "127.0.0.1"
 
 
@@ -64,7 +69,8 @@ def encode_reply(reply: dict[str, Any]) -> bytes:
 @dataclass
 class Deferred:
     """A reply that comes later, for a request served off the loop: reply() is None until
-    it is ready. The client's next requests wait for it (replies stay in order)."""
+    it is ready. The client's next requests wait for it (replies stay in order), except
+    the URGENT_CMDS, answered at once."""
 
     reply: Callable[[], dict[str, Any] | None]
 
@@ -75,6 +81,24 @@ class _Client:
         self.inbuf = b""
         self.outbuf = b""
         self.waiting: Deferred | None = None
+        self.held: deque[bytes] = deque()  # whole lines read while waiting, in order, not urgent
+        self.held_bytes = 0
+        self.closed = False
+
+    def next_line(self) -> bytes | None:
+        """The next whole line: the held ones first, then the unread buffer."""
+        if self.held:
+            line = self.held.popleft()
+            self.held_bytes -= len(line)
+            return line
+        if b"\n" not in self.inbuf:
+            return None
+        line, self.inbuf = self.inbuf.split(b"\n", 1)
+        return line
+
+    def hold(self, line: bytes) -> None:
+        self.held.append(line)
+        self.held_bytes += len(line)
 
 
 class ApiServer:
@@ -148,10 +172,9 @@ class ApiServer:
         for client in list(self.pending):
             if client.waiting is not None:
                 reply = client.waiting.reply()
-                if reply is None:
-                    continue
-                client.waiting = None
-                self._reply(client, reply)
+                if reply is not None:
+                    client.waiting = None
+                    self._reply(client, reply)
             served += self._lines(client)
         for key, events in self.selector.select(0):
             sock = key.fileobj
@@ -179,7 +202,7 @@ class ApiServer:
         self.selector.register(sock, selectors.EVENT_READ, client)
 
     def _read(self, client: _Client) -> int:
-        if client.waiting is not None and len(client.inbuf) > MAX_LINE_BYTES:
+        if client.waiting is not None and len(client.inbuf) + client.held_bytes > MAX_LINE_BYTES:
             return 0  # it waits for a reply and has sent enough: read on once it is answered
         try:
             data = client.sock.recv(65536)
@@ -194,18 +217,39 @@ class ApiServer:
         return self._lines(client)
 
     def _lines(self, client: _Client) -> int:
-        """Answer up to MAX_REQUESTS_PER_POLL whole lines; the rest waits for the next poll."""
+        """Answer up to MAX_REQUESTS_PER_POLL whole lines, in order; the rest waits for the
+        next poll. While the client waits for a deferred reply, its URGENT_CMDS are answered
+        at once and its other lines are held, in order, behind that reply."""
         served = 0
-        while client.waiting is None and b"\n" in client.inbuf and served < MAX_REQUESTS_PER_POLL:
-            line, client.inbuf = client.inbuf.split(b"\n", 1)
-            if line.strip():
+        while not client.closed and served < MAX_REQUESTS_PER_POLL:
+            if client.waiting is None:
+                line = client.next_line()
+                if line is None:
+                    break
+                if not line.strip():
+                    continue
                 answer = self._answer(line)
                 served += 1
                 if isinstance(answer, Deferred):
                     client.waiting = answer
                 else:
                     self._reply(client, answer)
-        if client.waiting is not None or b"\n" in client.inbuf:
+                continue
+            if b"\n" not in client.inbuf:
+                break
+            line, client.inbuf = client.inbuf.split(b"\n", 1)
+            request = self._urgent(line)
+            if request is None:
+                if line.strip():
+                    client.hold(line)
+                continue
+            answer = self.handle(request)
+            served += 1
+            assert not isinstance(answer, Deferred), "the URGENT_CMDS are never deferred"
+            self._reply(client, answer)
+        if client.closed:
+            return served
+        if client.waiting is not None or client.held or b"\n" in client.inbuf:
             self.pending.add(client)
         else:
             self.pending.discard(client)
@@ -213,6 +257,20 @@ class ApiServer:
                 self._reply(client, {"ok": False, "error": f"request longer than {MAX_LINE_BYTES} bytes"})
                 client.inbuf = b""
         return served
+
+    @staticmethod
+    def _urgent(line: bytes) -> dict[str, Any] | None:
+        """The request, if the line is one of the URGENT_CMDS (a cheap look for the word
+        first: every other line is parsed only when its turn comes)."""
+        if not any(word in line for word in _URGENT_WORDS):
+            return None
+        try:
+            request = json.loads(line, parse_constant=_not_json, parse_float=_finite)
+        except (RecursionError, ValueError):
+            return None  # its error reply comes in its turn
+        if isinstance(request, dict) and request.get("cmd") in URGENT_CMDS:
+            return request
+        return None
 
     def _answer(self, line: bytes) -> dict[str, Any] | Deferred:
         try:
@@ -241,6 +299,7 @@ class ApiServer:
             self.selector.modify(client.sock, events, client)
 
     def _drop(self, client: _Client) -> None:
+        client.closed = True
         self.pending.discard(client)
         with contextlib.suppress(KeyError, ValueError):
             self.selector.unregister(client.sock)

@@ -232,9 +232,12 @@ class Recorder:
         drained, lost = ring.drained, ring.lost
         exited_ok = finished and (closing.process is None or closing.process.returncode == 0)
         complete = exited_ok and drained == closing.rows and lost == 0
-        if closing.file is not None and finished:  # a thread still draining keeps its file
-            closing.file.close()
-        ring.close()
+        closers = [c.close for c in (closing.file, ring) if c is not None]
+        if closing.thread is not None and not finished:
+            closing.thread.leave(*closers)  # it still reads the ring: it closes both as it ends
+        else:
+            for close in closers:
+                close()
         self.last = {"path": str(closing.path), "rows": closing.rows, "rows_written": drained - lost,
                      "rows_lost": lost, "complete": complete}
         if complete:

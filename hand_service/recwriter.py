@@ -18,6 +18,7 @@ import select
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO
 
@@ -112,17 +113,37 @@ class WriterThread:
         self.drainer = drainer
         self._wake = threading.Event()
         self._stop = False
+        self._lock = threading.Lock()
+        self._ended = False
+        self._closers: list[Callable[[], None]] = []  # left to it by leave()
         self._thread = threading.Thread(target=self._run, name="recwriter", daemon=True)
         self._thread.start()
 
     def _run(self) -> None:
-        while True:
-            self._wake.wait(FLUSH_INTERVAL_S)
-            self._wake.clear()
-            self.drainer.flush()
-            if self._stop:
-                self.drainer.flush(sync=True)
+        try:
+            while True:
+                self._wake.wait(FLUSH_INTERVAL_S)
+                self._wake.clear()
+                self.drainer.flush()
+                if self._stop:
+                    self.drainer.flush(sync=True)
+                    return
+        finally:
+            with self._lock:
+                self._ended = True
+                closers, self._closers = self._closers, []
+            for close in closers:
+                close()
+
+    def leave(self, *closers: Callable[[], None]) -> None:
+        """What to close once it no longer reads (its file, the ring): closed by the
+        thread as it ends, or here at once if it has ended already."""
+        with self._lock:
+            if not self._ended:
+                self._closers.extend(closers)
                 return
+        for close in closers:
+            close()
 
     def flush(self) -> None:
         self._wake.set()

@@ -28,6 +28,13 @@ from rtcore import MODE_FORCE, MODE_POSITION, MODE_VENT
 
 QUANTITIES = {"angle_ref_deg": MODE_POSITION, "force_ref_n": MODE_FORCE}
 MAX_TICKS = 360_000  # one hour at 100 Hz
+# Rows are checked while parsing, so a file never grows memory past this (the daemon locks
+# its memory): rows closer than a tick add nothing the tick grid keeps.
+MAX_ROWS = MAX_TICKS
+
+
+def _ticks(duration_s: float, rate_hz: float) -> int:
+    return math.floor(duration_s * rate_hz + 1e-9) + 1
 
 
 def _columns(header: list[str], profile: Profile, path: Path, line: int) -> dict[str, dict[int, int]]:
@@ -85,6 +92,7 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
                     t_col = header.index("t")
                     continue
                 _row(row, line, header, columns, t_col, profile, path, t_s, cells_flat, modes_flat)
+                _within_limits(t_s, rate_hz, path, line)
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
     except (UnicodeDecodeError, csv.Error) as exc:
@@ -98,11 +106,18 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
     modes = np.frombuffer(modes_flat, dtype=np.int32).reshape(n_rows, n_fingers).copy()
     driven = np.array([any(f in c for c in columns.values()) for f in range(n_fingers)])
     modes[:, driven] = np.where(modes[:, driven] == -1, MODE_VENT, modes[:, driven])
-    n_ticks = math.floor((t[-1] - t[0]) * rate_hz + 1e-9) + 1
+    return _resample(t - t[0], modes, values, driven, rate_hz, _ticks(t[-1] - t[0], rate_hz), str(path))
+
+
+def _within_limits(t_s: array, rate_hz: float, path: Path, line: int) -> None:
+    """Stop at the first row past MAX_TICKS of duration or past MAX_ROWS rows."""
+    n_ticks = _ticks(t_s[-1] - t_s[0], rate_hz)
     if n_ticks > MAX_TICKS:
-        raise UserError(f"{path}: {t[-1] - t[0]:g} s at {rate_hz:g} Hz is {n_ticks} ticks; "
-                        f"the limit is {MAX_TICKS}")
-    return _resample(t - t[0], modes, values, driven, rate_hz, n_ticks, str(path))
+        raise UserError(f"{where(path, line, 't')}: {t_s[-1] - t_s[0]:g} s at {rate_hz:g} Hz is "
+                        f"{n_ticks} ticks; the limit is {MAX_TICKS} ticks")
+    if len(t_s) > MAX_ROWS:
+        raise UserError(f"{where(path, line)}: more than {MAX_ROWS} rows; the limit is {MAX_ROWS} "
+                        "rows (no more than one per tick is used: resample the file)")
 
 
 def _row(cells: list[str], line: int, header: list[str], columns: dict[str, dict[int, int]], t_col: int,

@@ -17,33 +17,36 @@ from hand_service import cli
 from hand_service.profile import DEFAULT_PROFILE
 
 
-def one_line_error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
-    """Run the command; it must fail with status 2 and one line on stderr. Returns the line."""
+def one_line_error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> tuple[str, str]:
+    """Run the command; it must fail with status 2 and one line on stderr. Returns what it
+    wrote on stdout, and the line (readouterr empties both, so stdout is handed back too)."""
     assert cli.main(argv) == 2
-    err = capsys.readouterr().err.strip()
+    captured = capsys.readouterr()
+    err = captured.err.strip()
     assert "Traceback" not in err
     assert err.count("\n") == 0, err
     assert err.startswith(f"hand-service {argv[0]}: error: "), err
-    return err
+    return captured.out, err
 
 
 def test_run_rate_below_twice_the_filter_cutoff_names_the_key(capsys: pytest.CaptureFixture[str]) -> None:
     # 20 Hz lies in the 10-1000 Hz range, but sim.yaml filters at 25 Hz (the C core refused it)
-    err = one_line_error(capsys, ["run", "--rate", "20", "--no-socket", "--duration", "0.1"])
+    _, err = one_line_error(capsys, ["run", "--rate", "20", "--no-socket", "--duration", "0.1"])
     assert "--rate 20 Hz: control.filter_cutoff_hz = 25 Hz must be below half the control rate" in err
     assert f"{DEFAULT_PROFILE}:" in err  # where the cutoff is set, with its line
 
 
 def test_bench_rate_is_checked_before_measuring(capsys: pytest.CaptureFixture[str]) -> None:
-    err = one_line_error(capsys, ["bench", "--quick", "--rate", "20"])
+    out, err = one_line_error(capsys, ["bench", "--quick", "--rate", "20"])
     assert "control.filter_cutoff_hz = 25 Hz" in err
-    assert "control step" not in capsys.readouterr().out  # nothing was measured
+    assert "control step" not in out  # nothing was measured
 
 
 @pytest.mark.parametrize("command", ["run", "bench"])
 @pytest.mark.parametrize("rate", ["5", "1001", "nan"])
 def test_rate_outside_the_range(capsys: pytest.CaptureFixture[str], command: str, rate: str) -> None:
-    err = one_line_error(capsys, [command, "--rate", rate, "--no-socket" if command == "run" else "--quick"])
+    extra = "--no-socket" if command == "run" else "--quick"
+    _, err = one_line_error(capsys, [command, "--rate", rate, extra])
     assert "--rate must be between 10 and 1000 Hz" in err
 
 
@@ -56,7 +59,7 @@ def test_an_rtcore_config_error_is_one_line_too(capsys: pytest.CaptureFixture[st
         raise rtcore.ConfigError("finger 0: sensor calibration must be finite with a non-zero gain")
 
     monkeypatch.setattr(simulate, "main", refused)
-    err = one_line_error(capsys, ["simulate", "-o", "x.csv", "--profile", "my.yaml"])
+    _, err = one_line_error(capsys, ["simulate", "-o", "x.csv", "--profile", "my.yaml"])
     assert "the control core refused the configuration of my.yaml: finger 0: sensor" in err
 
 
@@ -137,9 +140,8 @@ def test_bad_input_is_one_line(capsys: pytest.CaptureFixture[str], tmp_path: Pat
     recording.write_text("t,pressure_kpa,angle_deg\n" + "".join(f"{i / 100},0,0\n" for i in range(200)))
     places = {"tmp": str(tmp_path), "bad": str(not_a_dir(tmp_path)), "file": str(tmp_path / "file"),
               "recording": str(recording)}
-    err = one_line_error(capsys, [arg.format(**places) for arg in argv])
+    out, err = one_line_error(capsys, [arg.format(**places) for arg in argv])
     assert message in err, err
-    out = capsys.readouterr().out
     assert "wrote" not in out and "control step" not in out  # refused before any work
 
 

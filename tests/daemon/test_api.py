@@ -41,6 +41,14 @@ class Running:
             assert time.monotonic() < deadline, f"never reached {state}"
             time.sleep(0.02)
 
+    def hold(self, client: HandClient) -> None:
+        """DISARMED -> ARMED -> RUNNING -> HOLD, every finger pressurised to 30 deg."""
+        self.wait_state(client, "DISARMED")
+        client.arm()
+        client.target("all", angle_deg=30.0)
+        client.start()
+        client.hold()
+
     def stop(self) -> None:
         self.daemon.sup.request_stop("test")
         self.thread.join(10)
@@ -273,11 +281,8 @@ def _replies(sock: socket.socket, n: int) -> list[dict]:
     return [json.loads(line) for line in data.splitlines()]
 
 
-def test_a_trajectory_loads_off_the_loop(daemon: Running, tmp_path: Path,
-                                         monkeypatch: pytest.MonkeyPatch) -> None:
-    """While a trajectory is parsed the loop ticks on and serves everyone; the loader's
-    replies come in order once it is parsed, and it is applied only if the state still
-    allows it."""
+def held_parse(monkeypatch: pytest.MonkeyPatch) -> threading.Event:
+    """The worker's parse waits for the returned Event (set it to let the load finish)."""
     from hand_service import control
     release = threading.Event()
     parse = control.read_trajectory
@@ -287,15 +292,20 @@ def test_a_trajectory_loads_off_the_loop(daemon: Running, tmp_path: Path,
         return parse(*args)
 
     monkeypatch.setattr(control, "read_trajectory", slow_parse)
+    return release
+
+
+def test_a_trajectory_loads_off_the_loop(daemon: Running, tmp_path: Path,
+                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """While a trajectory is parsed the loop ticks on and serves everyone; the loader's
+    replies come in order once it is parsed, and it is applied only if the state still
+    allows it."""
+    release = held_parse(monkeypatch)
     traj = tmp_path / "wave.csv"
     traj.write_text("t,angle_ref_deg_index\n0,0\n0.5,30\n1.0,30\n")
     load = json.dumps({"cmd": "load_trajectory", "path": str(traj), "id": 1}).encode()
     with daemon.client() as hand, socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as loader:
-        daemon.wait_state(hand, "DISARMED")
-        hand.arm()
-        hand.target("all", angle_deg=30.0)
-        hand.start()
-        hand.hold()
+        daemon.hold(hand)
         loader.settimeout(10)
         loader.connect(str(daemon.socket))
         loader.sendall(load + b'\n{"cmd": "status", "id": 2}\n')
@@ -315,3 +325,45 @@ def test_a_trajectory_loads_off_the_loop(daemon: Running, tmp_path: Path,
         (refused,) = _replies(loader, 1)
         assert refused == {"id": 1, "ok": False,
                            "error": "load_trajectory: not while RUNNING (hold or disarm first)"}
+
+
+def test_safety_requests_are_answered_while_a_load_is_pending(daemon: Running, tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    """estop sent behind a load_trajectory on the same connection is answered at once (its
+    reply before the load's), while the load's parse is still held; the other requests keep
+    their order behind the load's reply."""
+    release = held_parse(monkeypatch)
+    traj = tmp_path / "wave.csv"
+    traj.write_text("t,angle_ref_deg_index\n0,0\n0.5,30\n1.0,30\n")  # 101 ticks
+    requests = [{"cmd": "load_trajectory", "path": str(traj), "id": 1}, {"cmd": "status", "id": 2},
+                {"cmd": "estop", "id": 3}, {"cmd": "params", "id": 4}]
+    with daemon.client() as hand, socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as loader:
+        daemon.hold(hand)
+        loader.settimeout(10)
+        loader.connect(str(daemon.socket))
+        loader.sendall(b"".join(json.dumps(r).encode() + b"\n" for r in requests))
+        (stopped,) = _replies(loader, 1)
+        assert stopped == {"id": 3, "ok": True, "result": {"state": "ESTOP"}}
+        status = hand.status()
+        assert status["state"] == "ESTOP" and status["trajectory_loading"] == str(traj)
+        release.set()
+        loaded, status_reply, params_reply = _replies(loader, 3)
+        assert [loaded["id"], status_reply["id"], params_reply["id"]] == [1, 2, 4]
+        assert loaded["ok"] and loaded["result"]["ticks"] == 101  # not RUNNING: still applied
+        assert status_reply["result"]["state"] == "ESTOP"
+
+
+def test_a_fifo_is_refused_and_a_later_load_works(daemon: Running, tmp_path: Path) -> None:
+    """A FIFO would block the worker's open() for good (and every later load would be
+    refused as 'still loading'): it is refused before any worker starts."""
+    fifo = tmp_path / "fifo.csv"
+    os.mkfifo(fifo)
+    traj = tmp_path / "wave.csv"
+    traj.write_text("t,angle_ref_deg_index\n0,0\n0.5,30\n1.0,30\n")
+    with daemon.client() as hand:
+        with pytest.raises(ApiError, match=f"{fifo} is not a regular file"):
+            hand.load_trajectory(fifo)
+        with pytest.raises(ApiError, match="is not a regular file"):
+            hand.load_trajectory(tmp_path)
+        assert hand.status()["trajectory_loading"] is None
+        assert hand.load_trajectory(traj)["ticks"] == 101

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import signal
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -14,6 +15,7 @@ import pytest
 import rtcore
 from hand_service.profile import load_profile
 from hand_service.recorder import Recorder
+from hand_service.recwriter import Drainer
 from tests.daemon.process import wait_for
 
 
@@ -73,3 +75,38 @@ def test_stop_does_not_wait_for_the_writer(recorder: Recorder, tmp_path: Path) -
     assert not recorder.closing
     assert recorder.last == {"path": str(tmp_path / "slow.csv"), "rows": 10, "rows_written": 10,
                              "rows_lost": 0, "complete": True}
+
+
+def test_a_thread_writer_left_draining_at_shutdown_keeps_its_ring(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    """close() gives up waiting on a writer thread still draining: the ring it reads is not
+    closed under it; the thread writes every row, then closes its file and the ring."""
+    profile = load_profile()
+    hand = rtcore.Hand(profile.hand_config())
+    rec = Recorder(profile.finger_names, 100.0, kind="thread")
+    rec.bind(hand.c_inputs, hand.c_outputs, np.zeros(len(profile.fingers)))
+    path = tmp_path / "thread.csv"
+    rec.start(path, {"test": "thread writer left draining"})
+    for k in range(30):
+        rec.push_tick(k / 100, 3)
+    writer = rec._thread
+    assert writer is not None
+    drainer = writer.drainer
+    release = threading.Event()
+    flush = Drainer.flush
+
+    def held_flush(self: Drainer, sync: bool = False) -> None:
+        if sync:  # the last drain waits for the test
+            assert release.wait(10)
+        flush(self, sync)
+
+    monkeypatch.setattr(Drainer, "flush", held_flush)
+    rec.close(wait_s=0.01)
+    assert rec.last is not None and rec.last["complete"] is False  # it went on alone
+    assert drainer.ring.rows is not None and not drainer.out.closed
+    release.set()
+    assert writer.join(5.0)
+    assert drainer.rows_written == 30
+    assert drainer.out.closed and drainer.ring.rows is None  # the thread closed both
+    lines = [ln for ln in path.read_text().splitlines() if not ln.startswith("#")]
+    assert len(lines) == 1 + 30  # the header, then every row

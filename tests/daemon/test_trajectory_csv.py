@@ -53,3 +53,19 @@ def test_position_then_force_then_vent(tmp_path: Path) -> None:
 def test_bad_files_name_the_line_and_column(tmp_path: Path, text: str, message: str) -> None:
     with pytest.raises(UserError, match=message.replace("[", r"\[").replace("]", r"\]")):
         read_trajectory(write(tmp_path, text), PROFILE, 100.0)
+
+
+@pytest.mark.parametrize(("step_s", "message"), [
+    (0.5, r":10: column 't': 4 s at 100 Hz is 401 ticks; the limit is 400 ticks"),
+    (1e-6, r":402: more than 400 rows; the limit is 400 rows"),
+])
+def test_too_long_a_file_stops_at_the_first_row_past_the_limit(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, step_s: float, message: str) -> None:
+    """Refused while parsing, at the row past the limit: a bad row after it is never read."""
+    from hand_service import trajectory_csv
+    monkeypatch.setattr(trajectory_csv, "MAX_TICKS", 400)
+    monkeypatch.setattr(trajectory_csv, "MAX_ROWS", 400)
+    rows = "".join(f"{i * step_s!r},10\n" for i in range(1000))
+    path = write(tmp_path, "t,angle_ref_deg_index\n" + rows + "1e9,not a number\n")
+    with pytest.raises(UserError, match=message):
+        read_trajectory(path, PROFILE, 100.0)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+import numpy as np
 import pytest
 
 from hand_service.firmware.rig import Rig
@@ -81,18 +82,29 @@ def host(rig: Rig) -> Iterator[Host]:
 
 def test_a_host_stall_past_the_watchdog_is_firmware_vented(rig: Rig, host: Host) -> None:
     host.running()
+    assert host.sup.sent_kpa.max() > 0.0  # pressurised: the next command would be too, unless vented
     vents = len(rig.vent_times_s())
     # the tick stalls: no command goes out, the board's watchdog vents, the host hears it
     assert wait_for(lambda: len(rig.vent_times_s()) > vents), "the firmware did not vent"
     assert wait_for(lambda: host.transport.status().vented)  # type: ignore[union-attr]
     # the tick resumes, and faults before its first command steps the chamber from 0 kPa
     sent_before = host.transport.command_sequence
+    given: list[np.ndarray] = []  # every command handed to the transport (vent() sends zeros)
+    send = host.transport.send
+
+    def spy(pressure_cmd_kpa: np.ndarray) -> None:
+        given.append(np.array(pressure_cmd_kpa, dtype=float))
+        send(pressure_cmd_kpa)
+
+    host.transport.send = spy  # type: ignore[method-assign]
     host.sup.run_one(host.schedule)
     assert host.sup.state is State.FAULT
     assert [f.cause for f in host.sup.faults.faults] == [Cause.FIRMWARE_VENTED]
     assert "watchdog_vented" in host.sup.faults.faults[0].detail
-    # vented since: its vent() (0 kPa) is the only command that went out
+    # one command went out, and it is a vent: 0 kPa on every finger (the sequence alone
+    # would count a pressurised command the same)
     assert host.transport.command_sequence == sent_before + 1
+    assert len(given) == 1 and np.all(given[0] == 0.0), given
     assert host.sup.sent_kpa.max() == 0.0
 
 
