@@ -27,7 +27,6 @@ from hand_service.supervisor import Supervisor
 from hand_service.timing import SWITCH_INTERVAL_S, TickStats, setup_realtime, switch_interval
 from hand_service.trajectory import CosineSweep, Trajectory
 from hand_service.transports import Transport, transport_class
-from hand_service.transports.sim import SimTransport
 from rtcore import clock
 
 HANDSHAKE_TIMEOUT_S = 10.0
@@ -103,8 +102,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
                     sup.run_one(schedule)
                 c1 = time.thread_time()
                 run = clock.floor_loop(schedule, count, spin_ns)
-                if isinstance(transport, SimTransport):
-                    transport.resume_at(schedule.index)
+                transport.resume_at(schedule.index)
                 cpu_sup_s += c1 - c0
                 cpu_floor_s += time.thread_time() - c1
                 floor_late.append(run.wake_late_ns)
