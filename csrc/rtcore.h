@@ -353,7 +353,8 @@ int32_t rtcore_unlock_memory(void);
  * caller-provided (shared) memory. A push writes its row into slot count % capacity, then
  * publishes count + 1 with release semantics, so while the count reads n the slot of row
  * n - capacity may be half overwritten: a reader trusts the last capacity - 1 rows only.
- * ring_count reads the count with acquire semantics. */
+ * ring_count reads the count with acquire semantics, after a fence that completes the
+ * caller's earlier loads (the seqlock check after a copy; csrc/rtcore_ring.c). */
 int64_t rtcore_ring_count(const int64_t *count);
 /* One supervisor tick as one ring row, written straight into the ring: t_s, state, then
  * blocks of n_fingers in the order angle_ref_deg, pressure_kpa (sent_kpa), pressure_meas_kpa,

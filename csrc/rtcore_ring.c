@@ -1,10 +1,15 @@
 /* A single-producer, single-consumer ring of fixed-width rows of doubles in shared
  * memory: the supervisor's tick pushes one row, a writer (another process or thread)
  * drains them. The count is published with release semantics after the row is copied
- * and read with acquire semantics, so a reader never sees a count ahead of its row, on
- * any CPU. The row is written in place before the count moves: while the count reads n,
- * the slot of row n - capacity may be half overwritten, so a reader trusts only the last
- * capacity - 1 rows below the count (rtcore/ring.py, Ring.read). */
+ * and read with acquire semantics, so a reader never sees a count ahead of its row. The
+ * row is written in place before the count moves: while the count reads n, the slot of
+ * row n - capacity may be half overwritten, so a reader trusts only the last
+ * capacity - 1 rows below the count (rtcore/ring.py, Ring.read), and checks the count
+ * again after its copy, as a seqlock reader does. Two fences make that check hold on a
+ * weakly ordered CPU (ARM, POWER) as well as on x86, where both cost nothing: the
+ * producer's count store is ordered before its next row's stores, and the reader's row
+ * loads before its second count load (H.-J. Boehm, "Can seqlocks get along with
+ * programming language memory models?", MSPC 2012). */
 #include <string.h>
 
 #include "rtcore.h"
@@ -14,6 +19,8 @@ int64_t rtcore_ring_count(const int64_t *count)
     if (count == 0) {
         return -1;
     }
+    /* the caller's loads so far (a copy of rows) complete before the count is read */
+    __atomic_thread_fence(__ATOMIC_ACQUIRE);
     return __atomic_load_n(count, __ATOMIC_ACQUIRE);
 }
 
@@ -32,6 +39,9 @@ int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, in
         return -1;
     }
     n = __atomic_load_n(count, __ATOMIC_RELAXED);
+    /* the count published by the last push is ordered before this row's stores: a reader
+     * that still sees an older count has not seen this slot change under it */
+    __atomic_thread_fence(__ATOMIC_RELEASE);
     row = rows + (size_t)(n % capacity) * (size_t)n_cols;
     row[0] = t_s;
     row[1] = (double)state;
