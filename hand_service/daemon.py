@@ -175,7 +175,8 @@ def print_summary(summary: dict[str, Any], out: TextIO) -> None:
                   f"{summary['tick_ns_p99'] / 1e3:7.1f} us   max {summary['tick_ns_max'] / 1e3:7.1f} us\n")
         out.write(f"  jitter   p50 {summary['jitter_us_p50']:7.1f} us   p99 "
                   f"{summary['jitter_us_p99']:7.1f} us   max {summary['jitter_us_max']:7.1f} us\n")
-        out.write(f"  deadline misses {summary['deadline_misses']}, skipped deadlines "
+        out.write(f"  deadline misses {summary['deadline_misses']} ({summary['deadline_misses_woke_late']} "
+                  f"woke after their period), skipped deadlines "
                   f"{summary['skipped_deadlines']}, gc collections in the slack "
                   f"{summary['gc_collections']} (max {summary['gc_collect_ns_max'] / 1e3:.0f} us)\n")
     faults = summary["faults"]

@@ -131,6 +131,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         "jitter_floor_us_p99": float(np.percentile(floor, 99)),
         "jitter_floor_us_max": float(floor.max()),
         "deadline_misses": s["deadline_misses"], "deadline_misses_floor": floor_misses,
+        "deadline_misses_woke_late": s["deadline_misses_woke_late"],
         "skipped_deadlines": s["skipped_deadlines"], "spin_us": spin_us,
         "cpu_percent": 100.0 * cpu_sup_s / busy_s, "cpu_percent_floor": 100.0 * cpu_floor_s / busy_s,
         "recorder": recorder or "off", "faults": sum(sup.faults.counts.values()),

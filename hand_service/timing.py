@@ -35,6 +35,7 @@ class TickStats:
         self.window = window
         self.ticks = 0
         self.misses = 0
+        self.misses_woke_late = 0  # of the misses: woke after its period had ended already
         self.skipped = 0
         self.jitter_max_ns = 0
         self.tick_max_ns = 0
@@ -54,6 +55,8 @@ class TickStats:
         missed = end_ns > deadline_ns + self.period_ns
         if missed:
             self.misses += 1
+            if late > self.period_ns:  # no tick, however short, could have made it
+                self.misses_woke_late += 1
         return missed
 
     def recent(self, last: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -65,13 +68,14 @@ class TickStats:
     def summary(self, last: int | None = None) -> dict[str, float | int]:
         late, ran = self.recent(last)
         if late.size == 0:
-            return {"ticks": 0, "deadline_misses": 0}
+            return {"ticks": 0, "deadline_misses": 0, "deadline_misses_woke_late": 0}
         j50, j99 = np.percentile(late, [50, 99]) / 1e3
         t50, t99 = np.percentile(ran, [50, 99])
         return {"ticks": self.ticks, "tick_ns_p50": float(t50), "tick_ns_p99": float(t99),
                 "tick_ns_max": int(self.tick_max_ns), "jitter_us_p50": float(j50),
                 "jitter_us_p99": float(j99), "jitter_us_max": self.jitter_max_ns / 1e3,
-                "deadline_misses": self.misses, "skipped_deadlines": self.skipped,
+                "deadline_misses": self.misses, "deadline_misses_woke_late": self.misses_woke_late,
+                "skipped_deadlines": self.skipped,
                 "window_ticks": int(late.size)}
 
 

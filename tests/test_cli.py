@@ -58,7 +58,7 @@ def test_bench_reports_tick_and_floor_keys(tmp_path: Path) -> None:
     for key in ("c_step_ns_p50", "c_step_ns_p99", "python_step_ns_p50", "fingers", "tick_ns_p50",
                 "tick_ns_p99", "jitter_us_p50", "jitter_us_p99", "jitter_us_max", "rate_hz",
                 "jitter_floor_us_p50", "jitter_floor_us_p99", "jitter_floor_us_max",
-                "deadline_misses", "deadline_misses_floor", "ticks"):
+                "deadline_misses", "deadline_misses_floor", "deadline_misses_woke_late", "ticks"):
         assert key in figures, key
     assert figures["ticks"] == 100 and figures["ticks_floor"] == 100 and figures["rate_hz"] == 100
     assert 0 < figures["tick_ns_p50"] <= figures["tick_ns_p99"]

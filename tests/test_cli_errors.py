@@ -174,7 +174,8 @@ def test_bench_json_writes_nan_as_null(tmp_path: Path, monkeypatch: pytest.Monke
         return {"rate_hz": 100.0, "ticks": 100, "tick_ns_p50": 1e5, "tick_ns_p99": 2e5,
                 "jitter_us_p50": 0.0, "jitter_us_p99": 0.0, "jitter_us_max": 0.0,
                 "jitter_floor_us_p50": 0.0, "jitter_floor_us_p99": 0.0, "jitter_floor_us_max": 0.0,
-                "deadline_misses": 0, "deadline_misses_floor": 0, "cpu_percent": 1.0,
+                "deadline_misses": 0, "deadline_misses_floor": 0, "deadline_misses_woke_late": 0,
+                "cpu_percent": 1.0,
                 "cpu_percent_floor": 0.1, "realtime": "off", "faults": 0, "jitter_ratio_p99": float("nan")}
 
     monkeypatch.setattr(tickbench, "measure_ticks", ticks)

@@ -22,6 +22,9 @@ Then the whole supervisor tick (read, step, safety, send, record) on the simulat
 hand at --rate for --seconds, in one-second blocks interleaved with a bare C loop on the
 same absolute clock_nanosleep schedule: the machine's own jitter floor, measured in the
 same run. --spin-us wakes that much early and spins to the deadline (both loops).
+A deadline miss is a tick that ends after its period; deadline_misses_woke_late counts
+those that woke after their period had ended already, a stall no tick could make up
+(every miss of the bare loop is of that kind).
 
 JSON keys (formats.md): c_step_ns_p50, c_step_ns_p99, python_step_ns_p50, fingers,
 tick_ns_p50, tick_ns_p99, jitter_us_p50, jitter_us_p99, jitter_us_max, rate_hz,
@@ -138,7 +141,8 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
         r["transport"] = profile.transport["kind"]
     print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
     print(f"  jitter supervisor      p50 {r['jitter_us_p50']:8.1f} us   p99 {r['jitter_us_p99']:8.1f} us   "
-          f"max {r['jitter_us_max']:8.1f} us   misses {r['deadline_misses']}")
+          f"max {r['jitter_us_max']:8.1f} us   misses {r['deadline_misses']} "
+          f"({r['deadline_misses_woke_late']} woke after their period)")
     print(f"  jitter bare C loop     p50 {r['jitter_floor_us_p50']:8.1f} us   p99 "
           f"{r['jitter_floor_us_p99']:8.1f} us   max {r['jitter_floor_us_max']:8.1f} us   "
           f"misses {r['deadline_misses_floor']}")
