@@ -7,8 +7,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
-import stat
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -238,13 +236,6 @@ class Api:
                                "working directory)")
         if self._loading is not None:
             raise RequestError(f"load_trajectory: {self._loading.path} is still loading")
-        try:
-            st_mode = os.stat(path).st_mode
-        except OSError as exc:
-            raise RequestError(f"load_trajectory: {path}: cannot read: {exc.strerror or exc}") from None
-        if not stat.S_ISREG(st_mode):  # a FIFO would block the worker's open() for good
-            raise RequestError(f"load_trajectory: {path} is not a regular file (a FIFO, device or "
-                               "directory is never read)")
         job = Background(_parse_trajectory, path, self.sup.profile, self.sup.rate_hz, name="trajectory")
         self._loading = _Loading(job, path, lambda: self._loaded(*job.result(), path, loop))
         return self._loading

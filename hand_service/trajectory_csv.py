@@ -16,8 +16,11 @@ from __future__ import annotations
 
 import csv
 import math
+import os
+import stat
 from array import array
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
 
@@ -69,6 +72,21 @@ def _check(value: float, quantity: str, profile: Profile, path: Path, line: int,
                         f"target range [{low:g}, {high:g}] {unit}")
 
 
+def _open_regular(path: Path) -> TextIO:
+    """Open for reading only a regular file. The type is checked on the open descriptor
+    (no window between a check and the open), which is opened without blocking: a FIFO's
+    open() would otherwise wait for a writer for good, holding the daemon's loader."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise UserError(f"{path} is not a regular file (a FIFO, device or directory is never read)")
+        os.set_blocking(fd, True)
+        return open(fd, newline="", closefd=True)
+    except BaseException:
+        os.close(fd)
+        raise
+
+
 def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = None) -> Trajectory:
     """Read, validate and resample a trajectory file onto the control rate.
 
@@ -82,7 +100,7 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
     t_s, cells_flat, modes_flat = array("d"), array("d"), array("i")
     header: list[str] | None = None
     try:
-        with open(path, newline="") as f:
+        with _open_regular(path) as f:
             for line, row in enumerate(csv.reader(f), start=1):
                 if not row or row[0].lstrip().startswith("#"):
                     continue

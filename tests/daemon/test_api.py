@@ -355,7 +355,7 @@ def test_safety_requests_are_answered_while_a_load_is_pending(daemon: Running, t
 
 def test_a_fifo_is_refused_and_a_later_load_works(daemon: Running, tmp_path: Path) -> None:
     """A FIFO would block the worker's open() for good (and every later load would be
-    refused as 'still loading'): it is refused before any worker starts."""
+    refused as "still loading"): the worker opens it without blocking and refuses it."""
     fifo = tmp_path / "fifo.csv"
     os.mkfifo(fifo)
     traj = tmp_path / "wave.csv"
