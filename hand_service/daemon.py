@@ -38,6 +38,7 @@ class DaemonOptions:
     tcp_port: int | None = None
     record: Path | None = None
     recorder: str = "process"
+    record_sync_s: float | None = None  # the writer also fdatasyncs this often
     spin_us: float = 0.0
     realtime_priority: int | None = None
     lock_memory: bool = False
@@ -75,7 +76,8 @@ class Daemon:
                  out: TextIO | None = None) -> None:
         self.profile, self.options = profile, options
         self.out = out or sys.stdout
-        recorder = Recorder(profile.finger_names, profile.control["rate_hz"], options.recorder)
+        recorder = Recorder(profile.finger_names, profile.control["rate_hz"], options.recorder,
+                            options.record_sync_s)
         self.sup = Supervisor(profile, transport, recorder, spin_us=options.spin_us)
         self.api = Api(self.sup, self.metadata)
         self.server = ApiServer(self.api.handle, options.socket_path, options.tcp_port)

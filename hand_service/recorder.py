@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import fcntl
 import logging
+import math
 import os
 import subprocess
 import sys
@@ -71,10 +72,16 @@ class Recorder:
     the supervisor's slack) collects its result into `last`. close() is the shutdown:
     stop, then wait at most STOP_TIMEOUT_S."""
 
-    def __init__(self, fingers: list[str], rate_hz: float, kind: str = "process") -> None:
+    def __init__(self, fingers: list[str], rate_hz: float, kind: str = "process",
+                 sync_every_s: float | None = None) -> None:
+        """sync_every_s: the writer also fdatasyncs that often (default: on faults, signals
+        and at the end only; recwriter)."""
         if kind not in KINDS:
             raise UserError(f"recorder must be one of {', '.join(KINDS)}, not {kind!r}")
-        self.fingers, self.kind = fingers, kind
+        if sync_every_s is not None and not 0 < sync_every_s < math.inf:
+            raise UserError(f"the recording's sync interval must be a positive number of seconds, "
+                            f"not {sync_every_s:g}")
+        self.fingers, self.kind, self.sync_every_s = fingers, kind, sync_every_s
         self.n_cols = ring_columns(len(fingers))
         self.capacity = max(1024, int(RING_SECONDS * rate_hz))
         self.path: Path | None = None
@@ -126,9 +133,10 @@ class Recorder:
         ring = Ring(ring_path, self.n_cols, self.capacity)
         try:
             if self.kind == "process":
+                sync = [] if self.sync_every_s is None else ["--sync-every-s", repr(self.sync_every_s)]
                 self._process = subprocess.Popen(
                     [sys.executable, "-m", "hand_service.recwriter", ring_path, str(path),
-                     "--fingers", ",".join(self.fingers)],
+                     "--fingers", ",".join(self.fingers), *sync],
                     stdin=subprocess.PIPE, stdout=subprocess.DEVNULL)
                 assert self._process.stdin is not None
                 fl = fcntl.fcntl(self._process.stdin.fileno(), fcntl.F_GETFL)
@@ -136,7 +144,8 @@ class Recorder:
             else:
                 os.unlink(ring_path)
                 self._thread_file = open(path, "a")  # noqa: SIM115 - closed when reaped
-                self._thread = WriterThread(Drainer(ring, self._thread_file, self.fingers))
+                self._thread = WriterThread(Drainer(ring, self._thread_file, self.fingers,
+                                                    self.sync_every_s))
         except OSError as exc:
             ring.close()
             raise UserError(f"cannot start the recording writer: {exc}") from None

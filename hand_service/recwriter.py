@@ -7,8 +7,10 @@ the daemon, to measure what that costs (`bench --recorder thread`).
 Protocol with the daemon on the writer's stdin: `flush` drains and flushes now, `stop`
 drains, closes and exits; end of file (the daemon died, even by SIGKILL) does the same
 as stop, so a crash loses nothing the tick had pushed. Between commands it drains and
-flushes every FLUSH_INTERVAL_S, and fdatasyncs at least every second (the data and the file size;
-the rest of the metadata need not reach the disk for the rows to survive a power cut).
+flushes to the OS every FLUSH_INTERVAL_S: what a crash of both processes can lose. It
+fdatasyncs (the rows and the file size) on `flush` (faults, signals) and at the end, and
+every --sync-every-s only if asked: on a virtual machine the disk flush can stop every
+vCPU for 10-20 ms, a deadline miss of the tick (docs/service.md, "Recording").
 """
 
 from __future__ import annotations
@@ -30,7 +32,6 @@ from rtcore.config import MODE_FORCE, MODE_NAMES, MODE_POSITION
 from rtcore.ring import Ring
 
 FLUSH_INTERVAL_S = 0.2
-FSYNC_INTERVAL_S = 1.0
 STATE_NAMES = tuple(s.name for s in State)
 
 # The ring row: t, state, then one block of n_fingers per quantity, in this order.
@@ -51,8 +52,12 @@ def csv_header(fingers: list[str]) -> list[str]:
 class Drainer:
     """Ring rows -> CSV lines, appended to an open file."""
 
-    def __init__(self, ring: Ring, out: IO[str], fingers: list[str]) -> None:
+    def __init__(self, ring: Ring, out: IO[str], fingers: list[str],
+                 sync_every_s: float | None = None) -> None:
+        """sync_every_s: also fdatasync when that long has passed since the last (default:
+        only when flush(sync=True) asks)."""
         self.ring, self.out, self.fingers = ring, out, fingers
+        self.sync_every_s = sync_every_s
         n = len(fingers)
         # CSV order (finger-major) from the ring's quantity-major blocks
         self.order = np.array([len(HEAD) + q * n + f for f in range(n) for q in range(len(QUANTITIES))])
@@ -102,7 +107,7 @@ class Drainer:
         self.drain()
         self.out.flush()
         now = time.monotonic()
-        if sync or now - self._last_sync >= FSYNC_INTERVAL_S:
+        if sync or (self.sync_every_s is not None and now - self._last_sync >= self.sync_every_s):
             os.fdatasync(self.out.fileno())
             self._last_sync = now
 
@@ -163,9 +168,10 @@ class WriterThread:
         return not self._thread.is_alive()
 
 
-def serve(ring: Ring, csv_path: Path, fingers: list[str], commands_fd: int, replies: IO[str]) -> int:
+def serve(ring: Ring, csv_path: Path, fingers: list[str], commands_fd: int, replies: IO[str],
+          sync_every_s: float | None = None) -> int:
     with open(csv_path, "a") as out:
-        drainer = Drainer(ring, out, fingers)
+        drainer = Drainer(ring, out, fingers, sync_every_s)
         replies.write("ready\n")
         replies.flush()
         while True:
@@ -183,10 +189,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("ring", type=Path)
     parser.add_argument("csv", type=Path)
     parser.add_argument("--fingers", required=True, help="comma-separated finger names")
+    parser.add_argument("--sync-every-s", type=float, default=None, metavar="S",
+                        help="also fdatasync every S seconds (default: on flush and at the end only)")
     args = parser.parse_args(argv)
     ring = Ring(args.ring)
     args.ring.unlink(missing_ok=True)  # both ends have it mapped: nothing is left behind
-    return serve(ring, args.csv, args.fingers.split(","), sys.stdin.fileno(), sys.stdout)
+    return serve(ring, args.csv, args.fingers.split(","), sys.stdin.fileno(), sys.stdout, args.sync_every_s)
 
 
 if __name__ == "__main__":

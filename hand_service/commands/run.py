@@ -43,6 +43,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="wake this early and spin to the deadline (CPU for jitter; default 0)")
     parser.add_argument("--recorder", choices=["process", "thread"], default="process",
                         help="where the CSV writer runs (default: process, off the daemon's GIL)")
+    parser.add_argument("--record-sync-s", type=float, metavar="S",
+                        help="also fdatasync the recording every S seconds, so that a power cut loses "
+                             "at most S s (default: only on faults, signals and at the end; the "
+                             "kernel writes back within about 30 s; on a VM a sync can stall the "
+                             "tick: docs/service.md)")
     parser.add_argument("--realtime-priority", type=int, default=50, metavar="N",
                         help="SCHED_FIFO priority 1 to 99, used when permitted (default 50)")
     parser.add_argument("--no-realtime", action="store_true", help="stay with the normal scheduler")
@@ -63,6 +68,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.transports import transport_class
 
     checks.positive(args.duration, "--duration")
+    checks.positive(args.record_sync_s, "--record-sync-s")
     checks.tcp_port(args.tcp_port, allow_any=True)
     checks.seed(args.seed)
     if not args.no_realtime and not 1 <= args.realtime_priority <= 99:
@@ -91,7 +97,8 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.apiserver import default_socket_path
     options = DaemonOptions(
         socket_path=None if args.no_socket else (args.socket or default_socket_path()),
-        tcp_port=args.tcp_port, record=args.record, recorder=args.recorder, spin_us=args.spin_us,
+        tcp_port=args.tcp_port, record=args.record, recorder=args.recorder,
+        record_sync_s=args.record_sync_s, spin_us=args.spin_us,
         realtime_priority=None if args.no_realtime else args.realtime_priority,
         lock_memory=not (args.no_realtime or args.no_mlock),
         status_line=args.status == "line" or (args.status == "auto" and sys.stdout.isatty()),

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import rtcore
+from hand_service.errors import UserError
 from hand_service.profile import load_profile
 from hand_service.recorder import Recorder
 from hand_service.recwriter import Drainer
@@ -110,3 +111,45 @@ def test_a_thread_writer_left_draining_at_shutdown_keeps_its_ring(tmp_path: Path
     assert drainer.out.closed and drainer.ring.rows is None  # the thread closed both
     lines = [ln for ln in path.read_text().splitlines() if not ln.startswith("#")]
     assert len(lines) == 1 + 30  # the header, then every row
+
+
+def test_the_writer_syncs_on_request_and_periodically_only_when_asked(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Flushed to the OS every drain; fdatasync on flush(sync=True) (faults, signals, the
+    end) and, with sync_every_s, when that long has passed."""
+    from rtcore.ring import Ring
+
+    synced: list[int] = []
+    monkeypatch.setattr(os, "fdatasync", synced.append)
+    ring = Ring(tmp_path / "ring", 2 + 10 * 5, 16)
+    with open(tmp_path / "out.csv", "w") as out:
+        plain = Drainer(ring, out, load_profile().finger_names)
+        plain._last_sync -= 100.0  # long ago
+        plain.flush()
+        assert synced == []
+        plain.flush(sync=True)
+        assert synced == [out.fileno()]
+        periodic = Drainer(ring, out, load_profile().finger_names, sync_every_s=0.5)
+        periodic.flush()
+        assert len(synced) == 1  # not yet due
+        periodic._last_sync -= 0.6
+        periodic.flush()
+        assert len(synced) == 2
+    ring.close()
+
+
+def test_the_sync_interval_reaches_the_writer_process(tmp_path: Path) -> None:
+    profile = load_profile()
+    hand = rtcore.Hand(profile.hand_config())
+    rec = Recorder(profile.finger_names, 100.0, sync_every_s=0.25)
+    rec.bind(hand.c_inputs, hand.c_outputs, np.zeros(len(profile.fingers)))
+    rec.start(tmp_path / "rec.csv", {})
+    try:
+        pid = rec.writer_pid
+        assert pid is not None
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+        assert argv[argv.index(b"--sync-every-s") + 1] == b"0.25"
+    finally:
+        rec.close(wait_s=5.0)
+    with pytest.raises(UserError, match="positive number of seconds"):
+        Recorder(profile.finger_names, 100.0, sync_every_s=0.0)
