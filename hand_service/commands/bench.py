@@ -52,6 +52,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--switch-interval-us", type=float, default=None, metavar="US",
                         help="GIL switch interval while ticking (default: the daemon's, 100 us; "
                              "CPython's own is 5000; see docs/service.md)")
+    parser.add_argument("--machine", action="store_true",
+                        help="only check the machine: the bare C loop on every CPU at once (at --rate, "
+                        "default 1000 Hz, for --seconds), and each wake-up 1 ms late or more, "
+                        "matched across CPUs: a stall on every CPU at once is the whole machine "
+                        "stopping (machine_* keys; docs/service.md)")
     parser.add_argument("--io", action="store_true",
                         help="also time the bus transports against the mock firmware: command -> sensor "
                         "round trip and host SIGKILL -> vent, per transport (io_* keys; a minute or two)")
@@ -64,6 +69,8 @@ def main(args: argparse.Namespace) -> int:
 
     profile = load_profile(args.profile)
     rate_hz, seconds = _check(args, profile)
+    if args.machine:
+        return _machine(args, 1000.0 if args.rate is None else rate_hz, seconds)
     config = profile.hand_config()
     c_calls, py_calls = (20_000, 1_000) if args.quick else (200_000, 5_000)
     with tables_out(args.json):
@@ -107,6 +114,8 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
         raise UserError("--seconds must be positive and --spin-us between 0 and the period")
     if args.switch_interval_us is not None and not 1 <= args.switch_interval_us <= 1e6:
         raise UserError(f"--switch-interval-us must be 1 to 1000000, not {args.switch_interval_us:g}")
+    if args.machine and (args.io or args.profile):
+        raise UserError("--machine checks the machine alone: it takes neither --io nor --profile")
     if args.json:
         check_writable(args.json)
     return rate_hz, seconds
@@ -151,3 +160,29 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
     if r["faults"]:
         print(f"  warning: {r['faults']} fault(s) during the run: the figures include ticks in FAULT")
     return r
+
+
+def _machine(args: argparse.Namespace, rate_hz: float, seconds: float) -> int:
+    from hand_service.jsonio import tables_out, write_json
+    from hand_service.stallprobe import match_stalls, probe, summary
+
+    with tables_out(args.json):
+        print(f"the bare C loop on every CPU at once, {rate_hz:g} Hz, {seconds:g} s ...", flush=True)
+        cpus, late, index, realtime = probe(seconds, rate_hz, None if args.no_realtime else 50)
+        print(f"  CPUs {', '.join(map(str, cpus))} ({', '.join(sorted(set(realtime)))})")
+        stalls = match_stalls(late, index, round(1e9 / rate_hz))
+        r = summary(cpus, late, stalls, rate_hz, seconds, realtime)
+        for cpu, p50, p99, top in zip(cpus, r["machine_jitter_us_p50"], r["machine_jitter_us_p99"],
+                                      r["machine_jitter_us_max"], strict=True):
+            print(f"  cpu {cpu}   jitter p50 {p50:8.1f} us   p99 {p99:8.1f} us   max {top:8.1f} us")
+        print(f"  stalls of {r['machine_stall_ms']:g} ms or more: {len(stalls)}; on every CPU at once "
+              f"(the machine stopped): {r['machine_stalls_every_cpu']}; on some CPUs only: "
+              f"{r['machine_stalls_some_cpus']}")
+        for stall in sorted(stalls, key=lambda s: -max(x or 0.0 for x in s.late_ms))[:10]:
+            lates = "  ".join("-" if x is None else f"{x:.1f}" for x in stall.late_ms)
+            print(f"    t {stall.t_s:8.3f} s   late (ms, per CPU): {lates}")
+    if args.json:
+        write_json(args.json, r)
+        if str(args.json) != "-":
+            print(f"wrote {args.json}")
+    return 0
