@@ -13,10 +13,14 @@ import multiprocessing
 import os
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
+from typing import Any
 
 import numpy as np
 
-START_DELAY_S = 1.0  # for every worker to start, pin itself and lock its memory
+from hand_service.errors import UserError
+
+READY_TIMEOUT_S = 30.0  # for every worker to start, pin itself and lock its memory
+START_DELAY_NS = 100_000_000  # from "all ready" to the common start: every worker takes it
 STALL_NS = 1_000_000  # a wake-up this late (1 ms) or later is a stall
 
 
@@ -33,12 +37,16 @@ class Stall:
         return all(x is not None for x in self.late_ms)
 
 
-def _probe(cpu: int, start_ns: int, period_ns: int, n_ticks: int, priority: int | None,
-           conn: Connection) -> None:
-    """A worker: pinned to `cpu`, SCHED_FIFO and mlockall when permitted, the bare loop."""
+def _probe(cpu: int, period_ns: int, n_ticks: int, priority: int | None, conn: Connection) -> None:
+    """A worker: pinned to `cpu`, SCHED_FIFO and mlockall when permitted; says it is ready,
+    takes the common start, runs the bare loop and sends what it saw."""
     from rtcore import clock
 
-    os.sched_setaffinity(0, {cpu})
+    try:
+        os.sched_setaffinity(0, {cpu})
+    except OSError as exc:
+        conn.send(f"cannot run there: {exc.strerror or exc}")
+        return
     realtime = "normal scheduler"
     if priority is not None:
         try:
@@ -47,8 +55,15 @@ def _probe(cpu: int, start_ns: int, period_ns: int, n_ticks: int, priority: int 
         except (PermissionError, OSError):
             pass
     clock.lock_memory()
-    schedule = clock.Schedule(period_ns, start_ns)
-    run = clock.floor_loop(schedule, n_ticks)
+    conn.send("ready")
+    try:
+        start_ns = conn.recv()
+    except EOFError:  # the parent gave up (another worker failed)
+        return
+    if clock.now_ns() >= start_ns:  # a late start would read as a stall on every CPU
+        conn.send(f"started {(clock.now_ns() - start_ns) / 1e6:.1f} ms after the common start")
+        return
+    run = clock.floor_loop(clock.Schedule(period_ns, start_ns), n_ticks)
     conn.send((run.wake_late_ns, run.index, realtime))
     conn.close()
 
@@ -56,36 +71,52 @@ def _probe(cpu: int, start_ns: int, period_ns: int, n_ticks: int, priority: int 
 def probe(seconds: float, rate_hz: float, priority: int | None = 50,
           cpus: list[int] | None = None) -> tuple[list[int], list[np.ndarray], list[np.ndarray], list[str]]:
     """Run the bare loop on each CPU at once: (cpus, wake_late_ns, deadline index, realtime)
-    per CPU. Workers are spawned (not forked) and always ended."""
+    per CPU. Workers are spawned (not forked), start together once all are ready, and are
+    always ended; a worker that fails ends the probe with one UserError."""
     from rtcore import clock
 
     cpus = sorted(os.sched_getaffinity(0)) if cpus is None else cpus
     period_ns = round(1e9 / rate_hz)
     n_ticks = max(1, round(seconds * rate_hz))
-    start_ns = clock.now_ns() + int(START_DELAY_S * 1e9)
     ctx = multiprocessing.get_context("spawn")
     workers, ends = [], []
     try:
         for cpu in cpus:
-            receive, send = ctx.Pipe(duplex=False)
-            worker = ctx.Process(target=_probe, args=(cpu, start_ns, period_ns, n_ticks, priority, send),
+            mine, theirs = ctx.Pipe()
+            worker = ctx.Process(target=_probe, args=(cpu, period_ns, n_ticks, priority, theirs),
                                  name=f"stall-probe-cpu{cpu}", daemon=True)
             worker.start()
-            send.close()
+            theirs.close()
             workers.append(worker)
-            ends.append(receive)
-        results = [end.recv() for end in ends]
+            ends.append(mine)
+        for cpu, end in zip(cpus, ends, strict=True):
+            _receive(end, cpu, READY_TIMEOUT_S)
+        start_ns = clock.now_ns() + START_DELAY_NS
+        for end in ends:
+            end.send(start_ns)
+        results = [_receive(end, cpu, seconds + READY_TIMEOUT_S) for cpu, end in zip(cpus, ends, strict=True)]
     finally:
+        for end in ends:
+            end.close()  # a worker blocked sending to a parent that gave up: EPIPE, it ends
         for worker in workers:
-            if worker.is_alive():
-                worker.join(timeout=seconds + START_DELAY_S + 5)
+            worker.join(timeout=1.0)
             if worker.is_alive():
                 worker.kill()
                 worker.join()
-        for end in ends:
-            end.close()
     late, index, realtime = (list(x) for x in zip(*results, strict=True))
     return cpus, late, index, realtime
+
+
+def _receive(end: Connection, cpu: int, timeout_s: float) -> Any:
+    if not end.poll(timeout_s):
+        raise UserError(f"the stall probe on CPU {cpu} did not answer within {timeout_s:g} s")
+    try:
+        message = end.recv()
+    except EOFError:
+        raise UserError(f"the stall probe on CPU {cpu} ended without a result") from None
+    if isinstance(message, str) and message != "ready":
+        raise UserError(f"the stall probe on CPU {cpu} {message}")
+    return message
 
 
 def match_stalls(late_ns: list[np.ndarray], index: list[np.ndarray], period_ns: int,

@@ -58,3 +58,16 @@ def test_bench_machine_refuses_a_profile() -> None:
     result = run_cli("bench", "--machine", "--profile", "sim.yaml")
     assert result.returncode == 2 and "--machine checks the machine alone" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_a_worker_that_fails_ends_the_probe_with_one_error_and_no_process_left() -> None:
+    import multiprocessing
+
+    import pytest
+
+    from hand_service.errors import UserError
+    from hand_service.stallprobe import probe
+
+    with pytest.raises(UserError, match="the stall probe on CPU 99999 cannot run there"):
+        probe(0.2, 1000.0, None, cpus=[min(os.sched_getaffinity(0)), 99999])  # no CPU 99999
+    assert multiprocessing.active_children() == []
