@@ -73,18 +73,22 @@ def _check(value: float, quantity: str, profile: Profile, path: Path, line: int,
 
 
 def _open_regular(path: Path) -> TextIO:
-    """Open for reading only a regular file. The type is checked on the open descriptor
-    (no window between a check and the open), which is opened without blocking: a FIFO's
-    open() would otherwise wait for a writer for good, holding the daemon's loader."""
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    """Open for reading only a regular file. A device is never opened (opening some has
+    effects: a watchdog arms, a tty resets a board or becomes the daemon's controlling
+    terminal), and the type is checked again on the open descriptor, which is opened
+    without blocking: a FIFO swapped in between would otherwise hold the loader for good."""
+    if not stat.S_ISREG(os.stat(path).st_mode):
+        raise UserError(f"{path} is not a regular file (a FIFO, device or directory is never read)")
+    f = open(path, newline="",  # noqa: SIM115 - returned open, closed here on error
+             opener=lambda p, flags: os.open(p, flags | os.O_NONBLOCK | os.O_NOCTTY))
     try:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise UserError(f"{path} is not a regular file (a FIFO, device or directory is never read)")
-        os.set_blocking(fd, True)
-        return open(fd, newline="", closefd=True)
+        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+            raise UserError(f"{path} is not a regular file (it changed while being opened)")
+        os.set_blocking(f.fileno(), True)
     except BaseException:
-        os.close(fd)
+        f.close()
         raise
+    return f
 
 
 def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = None) -> Trajectory:
