@@ -118,6 +118,7 @@ class WriterThread:
     def __init__(self, drainer: Drainer) -> None:
         self.drainer = drainer
         self._wake = threading.Event()
+        self._sync = False  # flush() asked for an fdatasync (a fault, a signal)
         self._stop = False
         self._lock = threading.Lock()
         self._ended = False
@@ -130,7 +131,8 @@ class WriterThread:
             while True:
                 self._wake.wait(FLUSH_INTERVAL_S)
                 self._wake.clear()
-                self.drainer.flush()
+                sync, self._sync = self._sync, False
+                self.drainer.flush(sync=sync)
                 if self._stop:
                     self.drainer.flush(sync=True)
                     return
@@ -152,6 +154,8 @@ class WriterThread:
             close()
 
     def flush(self) -> None:
+        """Drain, flush and fdatasync now (as the process writer's `flush` command)."""
+        self._sync = True
         self._wake.set()
 
     def request_stop(self) -> None:

@@ -55,7 +55,7 @@ class TickStats:
         missed = end_ns > deadline_ns + self.period_ns
         if missed:
             self.misses += 1
-            if late > self.period_ns:  # no tick, however short, could have made it
+            if late >= self.period_ns:  # no tick, however short, could have made it
                 self.misses_woke_late += 1
         return missed
 

@@ -147,9 +147,30 @@ def test_the_sync_interval_reaches_the_writer_process(tmp_path: Path) -> None:
     try:
         pid = rec.writer_pid
         assert pid is not None
-        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+        cmdline = Path(f"/proc/{pid}/cmdline")
+        wait_for(lambda: b"recwriter" in cmdline.read_bytes(), 5.0, "the writer to exec")
+        argv = cmdline.read_bytes().split(b"\0")
         assert argv[argv.index(b"--sync-every-s") + 1] == b"0.25"
     finally:
         rec.close(wait_s=5.0)
     with pytest.raises(UserError, match="positive number of seconds"):
         Recorder(profile.finger_names, 100.0, sync_every_s=0.0)
+
+
+def test_the_thread_writer_syncs_when_flushed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """flush() (a fault, a signal) is an fdatasync for the thread writer too."""
+    from hand_service.recwriter import WriterThread
+    from rtcore.ring import Ring
+
+    synced: list[int] = []
+    monkeypatch.setattr(os, "fdatasync", synced.append)
+    ring = Ring(tmp_path / "ring", 2 + 10 * 5, 16)
+    with open(tmp_path / "out.csv", "w") as out:
+        writer = WriterThread(Drainer(ring, out, load_profile().finger_names))
+        try:
+            writer.flush()
+            wait_for(lambda: synced, 5.0, "an fdatasync after flush()")
+        finally:
+            writer.request_stop()
+            assert writer.join(5.0)
+    ring.close()
