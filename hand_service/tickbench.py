@@ -55,14 +55,16 @@ def block_ticks(profile: Profile, rate_hz: float) -> int:
 def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: float = 0.0,
                   recorder: str | None = "process", realtime_priority: int | None = 50,
                   progress: bool = False, transport: Transport | None = None,
-                  switch_interval_s: float = SWITCH_INTERVAL_S) -> dict[str, object]:
+                  switch_interval_s: float = SWITCH_INTERVAL_S,
+                  record_sync_s: float | None = None) -> dict[str, object]:
     """`transport`: a bus transport to a (mock) firmware; default: the profile's own, which
     for the sim transport is the in-process simulated hand. `switch_interval_s`: the GIL
-    switch interval while ticking (the daemon's by default)."""
+    switch interval while ticking (the daemon's by default). `record_sync_s`: the writer also
+    fdatasyncs that often (run --record-sync-s)."""
     profile = with_rate(profile, rate_hz)
     if transport is None:
         transport = transport_class(profile.transport["kind"])(profile)
-    rec = Recorder(profile.finger_names, rate_hz, recorder or "process")
+    rec = Recorder(profile.finger_names, rate_hz, recorder or "process", record_sync_s)
     sup = Supervisor(profile, transport, rec, spin_us=spin_us)
     tmp = tempfile.TemporaryDirectory(prefix="hand-service-bench-")
     if recorder:
@@ -134,7 +136,8 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         "deadline_misses_woke_late": s["deadline_misses_woke_late"],
         "skipped_deadlines": s["skipped_deadlines"], "spin_us": spin_us,
         "cpu_percent": 100.0 * cpu_sup_s / busy_s, "cpu_percent_floor": 100.0 * cpu_floor_s / busy_s,
-        "recorder": recorder or "off", "faults": sum(sup.faults.counts.values()),
+        "recorder": recorder or "off", "record_sync_s": record_sync_s,
+        "faults": sum(sup.faults.counts.values()),
         "realtime": realtime.describe(),
         "switch_interval_us": switch_interval_s * 1e6,
         "jitter_ratio_p99": (s["jitter_us_p99"] / float(np.percentile(floor, 99))

@@ -52,7 +52,8 @@ def test_run_demo_tracks(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> 
 
 def test_bench_reports_tick_and_floor_keys(tmp_path: Path) -> None:
     out = tmp_path / "bench.json"
-    result = run_cli("bench", "--quick", "--seconds", "1", "--no-realtime", "--json", str(out))
+    result = run_cli("bench", "--quick", "--seconds", "1", "--no-realtime", "--record-sync-s", "0.5",
+                     "--json", str(out))
     assert result.returncode == 0, result.stderr
     figures = json.loads(out.read_text())
     for key in ("c_step_ns_p50", "c_step_ns_p99", "python_step_ns_p50", "fingers", "tick_ns_p50",
@@ -61,6 +62,7 @@ def test_bench_reports_tick_and_floor_keys(tmp_path: Path) -> None:
                 "deadline_misses", "deadline_misses_floor", "deadline_misses_woke_late", "ticks"):
         assert key in figures, key
     assert figures["ticks"] == 100 and figures["ticks_floor"] == 100 and figures["rate_hz"] == 100
+    assert figures["record_sync_s"] == 0.5
     assert 0 < figures["tick_ns_p50"] <= figures["tick_ns_p99"]
     assert 0 <= figures["jitter_floor_us_p50"] <= figures["jitter_floor_us_p99"]
 

@@ -91,6 +91,8 @@ CASES = {
     "run record sync zero": (["run", "--no-socket", "--record-sync-s", "0", "--duration", "1"],
                              "--record-sync-s must be a positive"),
     "bench machine with io": (["bench", "--machine", "--io"], "--machine checks the machine alone"),
+    "bench machine with spin": (["bench", "--machine", "--spin-us", "10"], "it takes --seconds"),
+    "bench record sync off": (["bench", "--recorder", "off", "--record-sync-s", "1"], "needs a recording"),
     "run duration negative": (["run", "--no-socket", "--duration", "-1"], "--duration must be a positive"),
     "run spin nan": (["run", "--no-socket", "--duration", "1", "--spin-us", "nan"], "--spin-us must be"),
     "run seed negative": (["run", "--no-socket", "--duration", "1", "--seed", "-1"], "--seed must be"),

@@ -48,6 +48,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="wake US early and spin to each deadline (default 0: sleep only)")
     parser.add_argument("--recorder", choices=["process", "thread", "off"], default="process",
                         help="record every tick through this writer (default process)")
+    parser.add_argument("--record-sync-s", type=float, default=None, metavar="S",
+                        help="the writer also fdatasyncs every S s, as `run --record-sync-s` (default: "
+                             "as run's default, on faults, signals and at the end only)")
     parser.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO")
     parser.add_argument("--switch-interval-us", type=float, default=None, metavar="US",
                         help="GIL switch interval while ticking (default: the daemon's, 100 us; "
@@ -99,6 +102,7 @@ def main(args: argparse.Namespace) -> int:
 def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
     """Every argument checked before anything is measured; returns the rate (Hz) and the
     ticking time (s)."""
+    from hand_service.commands import checks
     from hand_service.daemon import with_rate
     from hand_service.errors import UserError
     from hand_service.firmware.rig import Rig
@@ -114,8 +118,13 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
         raise UserError("--seconds must be positive and --spin-us between 0 and the period")
     if args.switch_interval_us is not None and not 1 <= args.switch_interval_us <= 1e6:
         raise UserError(f"--switch-interval-us must be 1 to 1000000, not {args.switch_interval_us:g}")
-    if args.machine and (args.io or args.profile):
-        raise UserError("--machine checks the machine alone: it takes neither --io nor --profile")
+    checks.positive(args.record_sync_s, "--record-sync-s")
+    if args.record_sync_s is not None and args.recorder == "off":
+        raise UserError("--record-sync-s needs a recording (not --recorder off)")
+    if args.machine and (args.io or args.profile or args.spin_us or args.recorder != "process"
+                         or args.switch_interval_us is not None or args.record_sync_s is not None):
+        raise UserError("--machine checks the machine alone: it takes --seconds, --rate, --no-realtime "
+                        "and --json only")
     if args.json:
         check_writable(args.json)
     return rate_hz, seconds
@@ -132,7 +141,9 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
           f"(spin {args.spin_us:g} us, recorder {args.recorder}) ...", flush=True)
     options = (args.spin_us, None if args.recorder == "off" else args.recorder,
                None if args.no_realtime else 50)
-    extra = {} if args.switch_interval_us is None else {"switch_interval_s": args.switch_interval_us / 1e6}
+    extra: dict[str, float] = {"record_sync_s": args.record_sync_s} if args.record_sync_s else {}
+    if args.switch_interval_us is not None:
+        extra["switch_interval_s"] = args.switch_interval_us / 1e6
     if profile.transport["kind"] == "sim":
         r = measure_ticks(profile, rate_hz, seconds, *options, progress=True, **extra)
     else:  # the bus transport against a mock firmware on its own pty (or virtual channel)
@@ -170,6 +181,8 @@ def _machine(args: argparse.Namespace, rate_hz: float, seconds: float) -> int:
         print(f"the bare C loop on every CPU at once, {rate_hz:g} Hz, {seconds:g} s ...", flush=True)
         cpus, late, index, realtime = probe(seconds, rate_hz, None if args.no_realtime else 50)
         print(f"  CPUs {', '.join(map(str, cpus))} ({', '.join(sorted(set(realtime)))})")
+        if len(cpus) == 1:
+            print("  one CPU only: a stall on it cannot be told from the whole machine stopping")
         stalls = match_stalls(late, index, round(1e9 / rate_hz))
         r = summary(cpus, late, stalls, rate_hz, seconds, realtime)
         for cpu, p50, p99, top in zip(cpus, r["machine_jitter_us_p50"], r["machine_jitter_us_p99"],
