@@ -190,7 +190,8 @@ class Recorder:
         if not self.active or self._ring is None:
             return {"active": False, "path": str(self.path) if self.path else None,
                     "closing": self.closing, "last": self.last}
-        pushed, drained, lost = self._ring.count, self._ring.drained, self._ring.lost
+        lost = self._ring.lost  # before drained, which the writer publishes first (recwriter)
+        pushed, drained = self._ring.count, self._ring.drained
         alive = self._process.poll() is None if self._process else True
         return {"active": True, "path": str(self.path), "writer": self.kind,
                 "writer_pid": self.writer_pid, "writer_alive": alive, "rows": pushed,

@@ -94,12 +94,15 @@ class Drainer:
         block, first, lost = self.ring.read(self.next_row)
         if lost:
             self.rows_lost += lost
-            self.ring.lost = self.rows_lost  # published in the ring's header for the daemon
             self.out.write(f"# lost: {lost} rows before row {first} (the writer fell behind)\n")
         if len(block):
             self.out.write("\n".join(self._line(row) for row in block) + "\n")
         self.next_row = first + len(block)
+        # published in the ring's header for the daemon: drained, then lost, which the
+        # daemon reads in the other order (Recorder.status), so that rows_written =
+        # drained - lost is never negative
         self.ring.drained = self.next_row
+        self.ring.lost = self.rows_lost
         self.rows_written += len(block)
         return len(block)
 
