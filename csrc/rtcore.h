@@ -378,6 +378,9 @@ int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, in
 #define RTCORE_GATE_PRESSURE_OVER_LIMIT 3
 #define RTCORE_GATE_LEAK_OR_BURST 4
 #define RTCORE_GATE_SENSOR_REJECTED 5
+#define RTCORE_GATE_OVERRUN_STREAK 6
+#define RTCORE_GATE_STALE_SENSOR 7
+#define RTCORE_GATE_TRANSPORT_LOST 8
 
 typedef struct {
     int32_t n_fingers;
@@ -392,6 +395,12 @@ typedef struct {
     double follow_alpha[RTCORE_MAX_FINGERS];
     /* ticks in a row the step may hold a rejected sensor reading before it is a fault */
     int32_t sensor_rejected_ticks;
+    /* deadline misses in a row that are a fault */
+    int32_t overrun_streak;
+    /* the firmware's samples in a row that never reached the host: a stale sensor */
+    int32_t stale_sensor_ticks;
+    /* no sample at all for this long, on the host's clock: the transport is lost */
+    int64_t transport_timeout_ns;
 } rtcore_gate_config;
 
 typedef struct {
@@ -399,6 +408,9 @@ typedef struct {
     double expected_kpa[RTCORE_MAX_FINGERS];
     int32_t leak_ticks[RTCORE_MAX_FINGERS];
     int32_t rejected_ticks[RTCORE_MAX_FINGERS];
+    int32_t overruns; /* deadline misses in a row */
+    int32_t has_frame; /* last_frame_ns holds a time */
+    int64_t last_frame_ns; /* when the newest sample arrived (the tick's wake-up) */
 } rtcore_gate;
 
 typedef struct {
@@ -422,6 +434,121 @@ int32_t rtcore_gate_outputs(rtcore_gate *gate, const rtcore_outputs *out,
  * expectation for leak_ticks ticks. Then the expectation moves toward sent_kpa. */
 int32_t rtcore_gate_follow(rtcore_gate *gate, const double *sent_kpa, const rtcore_inputs *in,
                            rtcore_gate_result *result);
+/* A streak of deadline misses: missed_last (the tick before missed its deadline) adds one,
+ * a met deadline starts again; overrun_streak in a row is a fault (value: the streak). */
+int32_t rtcore_gate_overrun(rtcore_gate *gate, int32_t missed_last, rtcore_gate_result *result);
+/* The link at now_ns. fresh: a new sample this tick, after lost_in_a_row of the firmware's
+ * samples that never arrived (stale_sensor_ticks of them is a stale sensor; value: that
+ * count). Without one, silence since the last sample (or since the first check) of
+ * transport_timeout_ns is a lost transport (value: the silence in ns). */
+int32_t rtcore_gate_frame(rtcore_gate *gate, int32_t fresh, int64_t lost_in_a_row, int64_t now_ns,
+                          rtcore_gate_result *result);
+
+/* ---- The supervisor's tick (csrc/rtcore_tick.c) --------------------------------------
+ * Everything a supervisor tick does between reading the sensors and sending the valve
+ * commands, in one call on caller-owned structs: the gate's checks on the way in, the
+ * references for the supervisor's state (a trajectory row, the API's targets, a hold or a
+ * vent), the control step, the gate's checks on the way out, and the command to send.
+ * The supervisor's state machine, the wording of a fault and the transports stay in
+ * Python; each check's finding is in the struct for it to word.
+ */
+/* The references a tick feeds the step (the supervisor's state) */
+#define RTCORE_REFS_VENT 0 /* every finger vents (INIT, DISARMED, ARMED, FAULT, ESTOP) */
+#define RTCORE_REFS_HOLD 1 /* HOLD: every reference stays where it is, at rest */
+#define RTCORE_REFS_RUN 2 /* RUNNING: the trajectory while it plays, else the targets */
+
+/* What a tick found: bits of the return value */
+#define RTCORE_TICK_OVERRUN 1
+#define RTCORE_TICK_SAMPLE 2
+#define RTCORE_TICK_FRAME 4
+#define RTCORE_TICK_OUTPUT 8
+#define RTCORE_TICK_LEAK 16
+#define RTCORE_TICK_FAULTS 31
+#define RTCORE_TICK_TRAJECTORY_END 32
+
+/* A trajectory on the tick grid: n_ticks rows of n_fingers (the tick's), row-major, in
+ * caller memory that outlives its use. driven[i] 0: finger i follows its target instead. */
+typedef struct {
+    const int32_t *mode;
+    const double *angle_deg;
+    const double *velocity_deg_per_s;
+    const double *accel_deg_per_s2;
+    const double *jerk_deg_per_s3;
+    const double *force_n;
+    int64_t n_ticks; /* 0: no trajectory */
+    int32_t loop; /* from its start again at its end; else its last row becomes the targets */
+    int32_t driven[RTCORE_MAX_FINGERS];
+} rtcore_trajectory;
+
+typedef struct {
+    int32_t n_fingers;
+    rtcore_hand *hand;
+    rtcore_inputs *inputs;
+    rtcore_outputs *outputs;
+    rtcore_gate *gate;
+    /* the API's targets, for the fingers no trajectory drives */
+    int32_t target_mode[RTCORE_MAX_FINGERS];
+    double target_angle_deg[RTCORE_MAX_FINGERS];
+    double target_force_n[RTCORE_MAX_FINGERS];
+    double target_pressure_kpa[RTCORE_MAX_FINGERS];
+    rtcore_trajectory trajectory;
+    int64_t trajectory_tick; /* the row the next RUNNING tick plays */
+    int32_t trajectory_done; /* its end has been reached: the targets hold its last row */
+    /* the command this tick sends: the step's, or 0 kPa when vented or at fault */
+    double sent_kpa[RTCORE_MAX_FINGERS];
+    /* what each check found this tick (cause RTCORE_GATE_OK: nothing) */
+    rtcore_gate_result overrun;
+    rtcore_gate_result sample;
+    rtcore_gate_result frame;
+    rtcore_gate_result output;
+    rtcore_gate_result follow;
+} rtcore_tick;
+
+/* The tick up to the send. The caller has written a fresh sample into inputs->sensor_mv and
+ * inputs->pressure_meas_kpa (fresh = 1, after lost_in_a_row lost ones) or left the last one.
+ * Runs the overrun, sample and frame checks, the references for refs (RTCORE_REFS_*), the
+ * step and the output checks, then sets sent_kpa: the step's command, or 0 kPa when refs
+ * vents, vent is set (the caller found a fault of its own) or a check found one. Returns
+ * RTCORE_TICK_* bits: the checks that found a fault, and RTCORE_TICK_TRAJECTORY_END when a
+ * trajectory that does not loop ended (the targets now hold its last row: HOLD). */
+int32_t rtcore_tick_control(rtcore_tick *tick, int32_t refs, int32_t vent, int32_t missed_last,
+                            int32_t fresh, int64_t lost_in_a_row, int64_t woke_ns);
+/* After the send: the leak-or-burst check on sent_kpa. RTCORE_TICK_LEAK or 0. */
+int32_t rtcore_tick_follow(rtcore_tick *tick);
+
+/* The simulated hand as a link in the same process: it samples once per command it holds
+ * for a sample period, and lives through the deadlines the host skipped holding the last
+ * command (hand_service/transports/sim.py). Counters as a bus link has them. A sent
+ * command's period is simulated later, by rtcore_sim_link_advance: in the host's slack
+ * after the tick, as a board's firmware runs beside the host, or at the latest when the
+ * next sample or command needs it. Either way the hand's time and samples are the same. */
+typedef struct {
+    rtcore_sim *sim;
+    rtcore_sim_outputs *out;
+    double *command_kpa; /* the command the simulated valves hold */
+    int32_t open;
+    int32_t fresh; /* a sample not yet taken */
+    int32_t pending; /* a sent command whose sample period is not simulated yet */
+    int32_t has_tick;
+    int64_t last_tick_index;
+    int64_t sequence; /* samples taken */
+    int64_t frames_in;
+    int64_t frames_out;
+} rtcore_sim_link;
+
+/* Simulate the period of the command sent last, if that is still to do. */
+void rtcore_sim_link_advance(rtcore_sim_link *link);
+/* The host's tick tick_index is about to read: the deadlines it skipped since the last
+ * one pass for the hand, each a sample period holding the last command. */
+void rtcore_sim_link_on_tick(rtcore_sim_link *link, int64_t tick_index);
+/* The newest sample into sensor_mv and pressure_meas_kpa if there is one not taken: 1, else 0. */
+int32_t rtcore_sim_link_latest(rtcore_sim_link *link, double *sensor_mv, double *pressure_meas_kpa);
+/* Hold pressure_cmd_kpa for the next sample period (nothing when closed). */
+void rtcore_sim_link_send(rtcore_sim_link *link, const double *pressure_cmd_kpa);
+/* A whole tick on the simulated hand: on_tick, latest into the step's inputs, control,
+ * send sent_kpa (its period left pending), follow. The RTCORE_TICK_* bits of both halves. */
+int32_t rtcore_tick_sim(rtcore_tick *tick, rtcore_sim_link *link, int64_t tick_index, int32_t refs,
+                        int32_t missed_last, int64_t woke_ns);
 /* END CDEF */
 
 #ifdef __cplusplus

@@ -32,6 +32,50 @@ void rtcore_gate_reset(rtcore_gate *gate)
         gate->leak_ticks[i] = 0;
         gate->rejected_ticks[i] = 0;
     }
+    gate->overruns = 0;
+    gate->has_frame = 0;
+    gate->last_frame_ns = 0;
+}
+
+int32_t rtcore_gate_overrun(rtcore_gate *gate, int32_t missed_last, rtcore_gate_result *result)
+{
+    if (gate == 0) {
+        return found(result, RTCORE_GATE_NON_FINITE, -1, NAN, NAN);
+    }
+    gate->overruns = missed_last ? gate->overruns + 1 : 0;
+    if (gate->overruns >= gate->config.overrun_streak) {
+        return found(result, RTCORE_GATE_OVERRUN_STREAK, -1, (double)gate->overruns,
+                     (double)gate->config.overrun_streak);
+    }
+    return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);
+}
+
+int32_t rtcore_gate_frame(rtcore_gate *gate, int32_t fresh, int64_t lost_in_a_row, int64_t now_ns,
+                          rtcore_gate_result *result)
+{
+    int64_t silent_ns;
+    if (gate == 0) {
+        return found(result, RTCORE_GATE_NON_FINITE, -1, NAN, NAN);
+    }
+    if (fresh) {
+        gate->last_frame_ns = now_ns;
+        gate->has_frame = 1;
+        if (lost_in_a_row >= gate->config.stale_sensor_ticks) {
+            return found(result, RTCORE_GATE_STALE_SENSOR, -1, (double)lost_in_a_row,
+                         (double)gate->config.stale_sensor_ticks);
+        }
+        return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);
+    }
+    if (!gate->has_frame) { /* silence counts from the first check */
+        gate->last_frame_ns = now_ns;
+        gate->has_frame = 1;
+    }
+    silent_ns = now_ns - gate->last_frame_ns;
+    if (silent_ns >= gate->config.transport_timeout_ns) {
+        return found(result, RTCORE_GATE_TRANSPORT_LOST, -1, (double)silent_ns,
+                     (double)gate->config.transport_timeout_ns);
+    }
+    return found(result, RTCORE_GATE_OK, -1, 0.0, 0.0);
 }
 
 int32_t rtcore_gate_inputs(const rtcore_gate *gate, const rtcore_inputs *in, rtcore_gate_result *result)

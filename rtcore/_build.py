@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CSRC = ROOT / "csrc"
 HEADER = CSRC / "rtcore.h"
 SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_step.c", "rtcore_sim.c",
-           "rtcore_gate.c", "rtcore_clock.c", "rtcore_ring.c")
+           "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c", "rtcore_ring.c")
 COMPILE_ARGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"]
 BEGIN, END = "/* BEGIN CDEF */", "/* END CDEF */"
 

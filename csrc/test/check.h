@@ -35,5 +35,6 @@ double mv_for_deg(const rtcore_finger_config *c, double deg);
 void run_step_tests(void);
 void run_loop_tests(void);
 void run_supervisor_tests(void);
+void run_tick_tests(void);
 
 #endif

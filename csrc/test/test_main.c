@@ -9,6 +9,7 @@ int main(void)
     run_step_tests();
     run_loop_tests();
     run_supervisor_tests();
+    run_tick_tests();
     printf("%d checks, %d failures\n", checks, failures);
     return failures == 0 ? 0 : 1;
 }
