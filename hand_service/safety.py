@@ -8,17 +8,16 @@ different code, because a fault here must vent even if the core is wrong.
 from __future__ import annotations
 
 import enum
-import functools
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-import rtcore
 from hand_service.effects import effect_value
 from hand_service.profile import Profile
-from hand_service.transports.base import FirmwareStatus, SensorSample
+from hand_service.transports.base import FirmwareStatus
 from rtcore._rtcore import ffi, lib
 
 
@@ -71,16 +70,14 @@ class FaultLog:
 
 
 class SafetyGate:
-    """Per-tick checks in C (csrc/rtcore_gate.c) on the control step's own structs: no
-    conversion and no allocation unless a check fails, when the Fault is worded here."""
+    """The checks in C (csrc/rtcore_gate.c), run by the tick (csrc/rtcore_tick.c) on the
+    control step's own structs: no conversion and no allocation unless a check fails, when
+    the Fault is worded here from what the check found (an rtcore_gate_result)."""
 
-    def __init__(self, profile: Profile, hand: rtcore.Hand, sent_kpa: np.ndarray) -> None:
+    def __init__(self, profile: Profile) -> None:
         safety = profile.safety
         self.names = profile.finger_names
         rate_hz = profile.control["rate_hz"]
-        self.stale_ticks = int(safety["stale_sensor_ticks"])
-        self.timeout_ns = int(safety["transport_timeout_ms"] * 1e6)
-        self.overrun_streak = int(safety["overrun_streak"])
         self._gate = ffi.new("rtcore_gate *")
         config = self._gate.config
         config.n_fingers = len(profile.fingers)
@@ -88,7 +85,10 @@ class SafetyGate:
         config.angle_max_deg = float(safety["angle_max_deg"])
         config.leak_tolerance_kpa = float(safety["leak_tolerance_kpa"])
         config.leak_ticks = int(safety["leak_ticks"])
-        config.sensor_rejected_ticks = self.stale_ticks  # held readings count like stale ones
+        config.stale_sensor_ticks = int(safety["stale_sensor_ticks"])
+        config.sensor_rejected_ticks = config.stale_sensor_ticks  # held readings count like stale ones
+        config.overrun_streak = int(safety["overrun_streak"])
+        config.transport_timeout_ns = int(safety["transport_timeout_ms"] * 1e6)
         for i, f in enumerate(profile.fingers):
             config.pressure_min_kpa[i] = f.pressure_min_kpa
             config.pressure_max_kpa[i] = f.pressure_max_kpa
@@ -97,106 +97,88 @@ class SafetyGate:
             lag_s = (effect_value(f.model.effects, "valve_lag")
                      + effect_value(f.model.effects, "dead_time"))
             config.follow_alpha[i] = 1.0 - math.exp(-1.0 / (rate_hz * max(lag_s, 1e-9)))
-        self._result = ffi.new("rtcore_gate_result *")
-        self._hand = hand
-        self._inputs = functools.partial(lib.rtcore_gate_inputs, self._gate, hand.c_inputs, self._result)
-        self._outputs = functools.partial(lib.rtcore_gate_outputs, self._gate, hand.c_outputs,
-                                          self._result)
-        self._follow = functools.partial(lib.rtcore_gate_follow, self._gate,
-                                         ffi.cast("double *", ffi.from_buffer(sent_kpa)),
-                                         hand.c_inputs, self._result)
         self.reset()
+
+    @property
+    def c_gate(self) -> object:
+        """The rtcore_gate struct (cdata pointer) the tick runs the checks on."""
+        return self._gate
 
     @property
     def expected_kpa(self) -> np.ndarray:
         return np.array(self._gate.expected_kpa[0:len(self.names)])
 
+    @property
+    def overruns(self) -> int:
+        """Deadline misses in a row, as the last tick counted them."""
+        return int(self._gate.overruns)
+
     def reset(self) -> None:
         """Forget the history (after a re-handshake)."""
-        self.last_frame_ns: int | None = None
         self.firmware_vents: int | None = None  # FirmwareStatus.vents when last seen
-        self.overruns = 0
         lib.rtcore_gate_reset(self._gate)
 
-    # -- inputs ----------------------------------------------------------------------
-    def frame(self, sample: SensorSample | None, now_ns: int) -> Fault | None:
-        """Stale sensor and lost transport, given this tick's fresh sample (None: no new
-        sample this tick).
+    # -- the wording of what a check found -----------------------------------------------
+    def overrun_fault(self, r: Any) -> Fault:
+        return Fault(Cause.OVERRUN_STREAK, f"{r.value:.0f} deadline misses in a row "
+                     f"(overrun_streak {self._gate.config.overrun_streak})")
+
+    def frame_fault(self, r: Any, sequence: int | None) -> Fault:
+        """Stale sensor or lost transport (rtcore_gate_frame).
 
         Freshness is judged on the firmware's clock: the transport counts, by the firmware's
-        sequence, the samples that never reached it, so stale_ticks of them in a row are a
-        stale sensor. Samples that did arrive but were replaced by a newer one before the
+        sequence, the samples that never reached it, so stale_sensor_ticks of them in a row are
+        a stale sensor. Samples that did arrive but were replaced by a newer one before the
         tick took it (a host that ticked late) are not lost. A tick with no new sample is
         not by itself a stale sensor either: the firmware's clock and the host's tick beat
         against each other, and scheduling on either side delays and bunches the frames.
         Silence on the host's clock is bounded by transport_timeout_ms.
         """
-        if sample is not None:
-            self.last_frame_ns = now_ns
-            lost = sample.lost_in_a_row
-            if lost >= self.stale_ticks:
-                return Fault(Cause.STALE_SENSOR, f"{lost} sensor samples in a row never arrived "
-                             f"(up to sequence {sample.sequence}; stale_sensor_ticks {self.stale_ticks})")
-            return None
-        if self.last_frame_ns is None:
-            self.last_frame_ns = now_ns
-        silent_ns = now_ns - self.last_frame_ns
-        if silent_ns >= self.timeout_ns:
-            return Fault(Cause.TRANSPORT_LOST, f"no sensor frame for {silent_ns / 1e6:.0f} ms "
-                         f"(transport_timeout_ms {self.timeout_ns / 1e6:g})")
-        return None
+        config = self._gate.config
+        if r.cause == lib.RTCORE_GATE_STALE_SENSOR:
+            upto = f"up to sequence {sequence}; " if sequence is not None else ""
+            return Fault(Cause.STALE_SENSOR, f"{r.value:.0f} sensor samples in a row never arrived "
+                         f"({upto}stale_sensor_ticks {config.stale_sensor_ticks})")
+        return Fault(Cause.TRANSPORT_LOST, f"no sensor frame for {r.value / 1e6:.0f} ms "
+                     f"(transport_timeout_ms {config.transport_timeout_ns / 1e6:g})")
 
-    def sample(self) -> Fault | None:
+    def sample_fault(self, r: Any, inputs: Any) -> Fault:
         """The hand's inputs as received: every sensor finite; a measured pressure finite
         or NaN (not reported), never infinite."""
-        if not self._inputs():
-            return None
-        i = self._result.finger
-        if not math.isfinite(self._hand.inputs.sensor_mv[i]):
-            return Fault(Cause.NON_FINITE, f"sensor reads {self._result.value} mV", self.names[i])
-        return Fault(Cause.NON_FINITE, f"measured pressure {self._result.value} kPa", self.names[i])
-
-    # -- outputs ---------------------------------------------------------------------
-    def outputs(self) -> Fault | None:
-        """The controller's result before it is sent: finite, in range, within limits."""
-        cause = self._outputs()
-        if not cause:
-            return None
-        r, config = self._result, self._gate.config
         i = r.finger
-        angle, command = self._hand.outputs.angle_deg[i], self._hand.outputs.pressure_cmd_kpa[i]
+        if not math.isfinite(inputs.sensor_mv[i]):
+            return Fault(Cause.NON_FINITE, f"sensor reads {r.value} mV", self.names[i])
+        return Fault(Cause.NON_FINITE, f"measured pressure {r.value} kPa", self.names[i])
+
+    def outputs_fault(self, r: Any, outputs: Any) -> Fault:
+        """The controller's result before it is sent: finite, in range, within limits."""
+        config = self._gate.config
+        cause, i, limit = r.cause, r.finger, r.limit
+        angle, command = outputs.angle_deg[i], outputs.pressure_cmd_kpa[i]
         if cause == lib.RTCORE_GATE_NON_FINITE:
             return Fault(Cause.NON_FINITE, f"angle {angle} deg, command {command} kPa", self.names[i])
         if cause == lib.RTCORE_GATE_ANGLE_OUT_OF_RANGE:
             return Fault(Cause.ANGLE_OUT_OF_RANGE, f"angle {angle:.1f} deg outside "
                          f"[{config.angle_min_deg:g}, {config.angle_max_deg:g}]", self.names[i])
         if cause == lib.RTCORE_GATE_SENSOR_REJECTED:
-            return Fault(Cause.SENSOR_REJECTED, f"the sensor reading was implausible for {r.limit:.0f} "
+            return Fault(Cause.SENSOR_REJECTED, f"the sensor reading was implausible for {limit:.0f} "
                          f"ticks in a row; the control step held {angle:.1f} deg "
                          f"(stale_sensor_ticks {config.sensor_rejected_ticks})", self.names[i])
         return Fault(Cause.PRESSURE_OVER_LIMIT, f"command {command:.2f} kPa outside "
-                     f"[{r.limit:g}, {config.pressure_max_kpa[i]:g}] kPa", self.names[i])
+                     f"[{limit:g}, {config.pressure_max_kpa[i]:g}] kPa", self.names[i])
 
-    def follow(self) -> Fault | None:
-        """Leak or burst: the measured chamber pressure stays away from where the command
-        sent (sent_kpa) should have taken it for leak_ticks ticks (NaN, not reported, is
-        not checked)."""
-        if not self._follow():
-            return None
-        r, config = self._result, self._gate.config
-        kind = "leak" if r.value < r.limit else "stuck or over-pressure"
-        return Fault(Cause.LEAK_OR_BURST, f"{kind}: chamber at {r.value:.1f} kPa where {r.limit:.1f} "
+    def follow_fault(self, r: Any) -> Fault:
+        """Leak or burst: the measured chamber pressure stayed away from where the sent
+        command should have taken it for leak_ticks ticks (NaN, not reported, is not
+        checked)."""
+        config = self._gate.config
+        value, limit = r.value, r.limit
+        kind = "leak" if value < limit else "stuck or over-pressure"
+        return Fault(Cause.LEAK_OR_BURST, f"{kind}: chamber at {value:.1f} kPa where {limit:.1f} "
                      f"kPa was expected, for {config.leak_ticks} ticks "
                      f"(leak_tolerance_kpa {config.leak_tolerance_kpa:g})", self.names[r.finger])
 
-    # -- timing and firmware ---------------------------------------------------------
-    def overrun(self, missed_deadline: bool) -> Fault | None:
-        self.overruns = self.overruns + 1 if missed_deadline else 0
-        if self.overruns >= self.overrun_streak:
-            return Fault(Cause.OVERRUN_STREAK, f"{self.overruns} deadline misses in a row "
-                         f"(overrun_streak {self.overrun_streak})")
-        return None
-
+    # -- firmware --------------------------------------------------------------------
     def firmware(self, status: FirmwareStatus, commanding: bool) -> Fault | None:
         """A fault the firmware reports of its own, and, while the supervisor commands
         (`commanding`: RUNNING, HOLD), a vent it did not ask for: the board's watchdog (the

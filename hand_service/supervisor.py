@@ -1,19 +1,22 @@
 """The supervisor: one tick per deadline of an absolute schedule that never drifts.
 
-A tick reads the newest sensor frame, fills the references for the current state, runs
-the C control step for the whole hand, lets the safety gate check inputs and outputs,
-sends the valve commands (or vents), and pushes one row to the recording ring. The
-control API, the status line, the watchdog and the garbage collector run in the slack
-after the tick, in the same thread: nothing else ever holds the GIL.
-"""
+A tick reads the newest sensor frame, lets the safety gate check it, fills the
+references for the current state, runs the C control step for the whole hand, lets the
+gate check its outputs, sends the valve commands (or vents), and pushes one row to the
+recording ring. Everything between the sensors and the valves is one C call
+(csrc/rtcore_tick.c); on the simulated hand the sensors and valves are too, so a tick is
+two C calls from Python. Python keeps the state machine, the transports of a bus and
+the wording of a fault. The control API, the status line, the watchdog, the simulated
+hand's physics and the garbage collector run in the slack after the tick, in the same
+thread: nothing else ever holds the GIL."""
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import signal
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,26 +25,14 @@ from hand_service.profile import Profile
 from hand_service.recorder import Recorder
 from hand_service.safety import Cause, Fault, FaultLog, SafetyGate
 from hand_service.states import ACTIVE, LATCHED, Event, State, StateMachine
+from hand_service.tickstruct import REFS, Targets, TickStruct
 from hand_service.timing import GcControl, TickStats
 from hand_service.trajectory import NOT_DRIVEN, Trajectory
 from hand_service.transports import FirmwareStatus, HandshakeError, Transport
-from rtcore import MODE_FORCE, MODE_POSITION, MODE_VENT, clock
+from rtcore import MODE_VENT, clock
+from rtcore._rtcore import lib
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class Targets:
-    """What the API asked of each finger (used when no trajectory drives it)."""
-
-    mode: np.ndarray
-    angle_deg: np.ndarray
-    force_n: np.ndarray
-    pressure_kpa: np.ndarray
-
-    @classmethod
-    def vented(cls, n: int) -> Targets:
-        return cls(np.full(n, MODE_VENT, dtype=np.int32), np.zeros(n), np.zeros(n), np.zeros(n))
 
 
 class Supervisor:
@@ -55,17 +46,18 @@ class Supervisor:
         self.period_ns = round(1e9 / self.rate_hz)
         self.spin_ns = int(spin_us * 1000)
         self.hand = rtcore.Hand(profile.hand_config())
+        self.gate = SafetyGate(profile)
+        # the tick between sensors and valves in C (csrc/rtcore_tick.c)
+        self._ts = TickStruct(self.hand, self.gate, n)
+        self._tick = tick = self._ts.c
         self.faults = FaultLog()
         self.machine = StateMachine()
         self.stats = TickStats(self.period_ns)
         self.gc = GcControl(self.rate_hz)
         self.recorder = recorder or Recorder(self.names, self.rate_hz)
-        self.targets = Targets.vented(n)
+        self.targets = self._ts.targets
         self.trajectory: Trajectory | None = None
-        self.trajectory_tick = 0
-        self.trajectory_done = False
         self.trajectory_loop = False
-        self._driven: np.ndarray | None = None  # None: every finger follows the trajectory
         self.trajectory_driven: np.ndarray | None = None  # the fingers it drives (checked off the loop)
         self.firmware: FirmwareStatus | None = None
         self.link_open = False
@@ -74,14 +66,38 @@ class Supervisor:
         self.stop_reason: str | None = None
         self.tick_index = 0
         self.t_s = 0.0
-        self.sent_kpa = np.zeros(n)
-        self.gate = SafetyGate(profile, self.hand, self.sent_kpa)
+        self.sent_kpa = self._ts.sent_kpa
         self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa)
-        self._zeros = np.zeros(n)
+        self._control = functools.partial(lib.rtcore_tick_control, tick)
+        self._follow = functools.partial(lib.rtcore_tick_follow, tick)
+        link = transport.core_link()
+        # the in-process simulated hand: the whole tick, sensors to valves, in one C call
+        self._tick_core = None if link is None else functools.partial(lib.rtcore_tick_sim, tick, link)
+        # the simulated hand lives through the period of the command just sent in the slack
+        # after the tick, as a board's firmware runs beside the host
+        self._advance_hand = None if link is None else functools.partial(lib.rtcore_sim_link_advance, link)
         self._last_missed = False
         self._latched_causes: set[Cause] = set()
         self.on_fault: list[Callable[[Fault], None]] = []
         self.on_state: list[Callable[[State], None]] = []
+
+    @property
+    def trajectory_tick(self) -> int:
+        """The trajectory's row the next RUNNING tick plays."""
+        return int(self._tick.trajectory_tick)
+
+    @trajectory_tick.setter
+    def trajectory_tick(self, value: int) -> None:
+        self._tick.trajectory_tick = value
+
+    @property
+    def trajectory_done(self) -> bool:
+        """It reached its end (and did not loop): its last row is the targets, HOLD."""
+        return bool(self._tick.trajectory_done)
+
+    @trajectory_done.setter
+    def trajectory_done(self, value: bool) -> None:
+        self._tick.trajectory_done = int(value)
 
     # -- state changes -----------------------------------------------------------------
     @property
@@ -144,54 +160,6 @@ class Supervisor:
             log.warning("closing the transport: %s: %s", type(exc).__name__, exc)
 
     # -- references --------------------------------------------------------------------
-    def _references(self, state: State) -> None:
-        inputs = self.hand.inputs
-        if state not in ACTIVE:
-            inputs.mode[:] = MODE_VENT
-            return
-        if state is State.HOLD:
-            inputs.velocity_ref_deg_per_s[:] = 0.0
-            inputs.accel_ref_deg_per_s2[:] = 0.0
-            inputs.jerk_ref_deg_per_s3[:] = 0.0
-            return
-        traj = self.trajectory
-        if traj is None or self.trajectory_done:
-            self._targets_to_inputs()
-            return
-        k = self.trajectory_tick
-        if k >= traj.n_ticks:
-            if self.trajectory_loop:
-                k = self.trajectory_tick = k % traj.n_ticks
-            else:
-                self._finish_trajectory(traj)
-                return
-        driven = self._driven
-        if driven is None:  # every finger follows the trajectory: whole rows
-            inputs.mode[:] = traj.mode[k]
-            inputs.angle_ref_deg[:] = traj.angle_deg[k]
-            inputs.velocity_ref_deg_per_s[:] = traj.velocity_deg_per_s[k]
-            inputs.accel_ref_deg_per_s2[:] = traj.accel_deg_per_s2[k]
-            inputs.jerk_ref_deg_per_s3[:] = traj.jerk_deg_per_s3[k]
-            inputs.force_ref_n[:] = traj.force_n[k]
-            return
-        self._targets_to_inputs()
-        np.copyto(inputs.mode, traj.mode[k], where=driven)
-        np.copyto(inputs.angle_ref_deg, traj.angle_deg[k], where=driven)
-        np.copyto(inputs.velocity_ref_deg_per_s, traj.velocity_deg_per_s[k], where=driven)
-        np.copyto(inputs.accel_ref_deg_per_s2, traj.accel_deg_per_s2[k], where=driven)
-        np.copyto(inputs.jerk_ref_deg_per_s3, traj.jerk_deg_per_s3[k], where=driven)
-        np.copyto(inputs.force_ref_n, traj.force_n[k], where=driven)
-
-    def _targets_to_inputs(self) -> None:
-        inputs, targets = self.hand.inputs, self.targets
-        inputs.mode[:] = targets.mode
-        inputs.angle_ref_deg[:] = targets.angle_deg
-        inputs.velocity_ref_deg_per_s[:] = 0.0
-        inputs.accel_ref_deg_per_s2[:] = 0.0
-        inputs.jerk_ref_deg_per_s3[:] = 0.0
-        inputs.force_ref_n[:] = targets.force_n
-        inputs.pressure_ref_kpa[:] = targets.pressure_kpa
-
     @staticmethod
     def check_trajectory(traj: Trajectory) -> np.ndarray:
         """Which fingers traj drives; a ValueError unless it drives each at every tick or never."""
@@ -209,26 +177,8 @@ class Supervisor:
         takes milliseconds)."""
         if traj is not None and driven is None:
             driven = self.check_trajectory(traj)
-        self.trajectory, self.trajectory_tick = traj, 0
-        self.trajectory_done, self.trajectory_loop = False, loop
-        self.trajectory_driven = driven
-        self._driven = None if driven is None or driven.all() else driven
-
-    def _finish_trajectory(self, traj: Trajectory) -> None:
-        """The end holds the last references: they become the fingers' targets, HOLD."""
-        last = traj.n_ticks - 1
-        assert self.trajectory_driven is not None
-        for i in np.flatnonzero(self.trajectory_driven):
-            mode = int(traj.mode[last, i])
-            self.targets.mode[i] = mode
-            if mode == MODE_POSITION:
-                self.targets.angle_deg[i] = traj.angle_deg[last, i]
-            elif mode == MODE_FORCE:
-                self.targets.force_n[i] = traj.force_n[last, i]
-        self.trajectory_done = True
-        log.info("trajectory %s finished after %.2f s", traj.source, traj.duration_s)
-        self._references(State.RUNNING)
-        self.fire(Event.HOLD)
+        self._ts.bind_trajectory(traj, loop, driven)
+        self.trajectory, self.trajectory_loop, self.trajectory_driven = traj, loop, driven
 
     # -- the tick ------------------------------------------------------------------------
     def tick(self, woke_ns: int) -> None:
@@ -237,37 +187,43 @@ class Supervisor:
             self.handshake()
             self._vent_and_record(self.machine.state)
             return
-        fault = self.gate.overrun(self._last_missed)
-        inputs, outputs = self.hand.inputs, self.hand.outputs
+        if self._tick_core is not None:  # sensors, gate, references, step, valves: one C call
+            events = self._tick_core(self.tick_index, REFS[state], self._last_missed, woke_ns)
+            if events:
+                self._found(events)
+        else:
+            self._tick_over_transport(state, woke_ns)
+        self._record(self.machine.state)
+
+    def _tick_over_transport(self, state: State, woke_ns: int) -> None:
+        """A tick on a transport in Python (a bus): read, the C control half, send, the C
+        follow half."""
+        inputs = self.hand.inputs
+        transport_fault = firmware_fault = None
         try:
             self.transport.on_tick(self.tick_index)
             sample = self.transport.latest()
             status = self.transport.status()
         except Exception as exc:  # any failure of the link is a lost transport
             sample, status = None, None
-            fault = fault or Fault(Cause.TRANSPORT_LOST, f"latest(): {type(exc).__name__}: {exc}")
+            transport_fault = Fault(Cause.TRANSPORT_LOST, f"latest(): {type(exc).__name__}: {exc}")
         fresh = sample is not None
-        if fresh:
+        if sample is not None:
             inputs.sensor_mv[:] = sample.sensor_mv
             inputs.pressure_meas_kpa[:] = sample.pressure_meas_kpa
-            fault = fault or self.gate.sample()
-        fault = fault or self.gate.frame(sample, woke_ns)
         if status is not None:
-            fault = fault or self.gate.firmware(status, state in ACTIVE)
-        self._references(state)
-        if state is State.RUNNING and self.trajectory is not None and not self.trajectory_done:
-            self.trajectory_tick += 1
-        self.hand.step()
-        fault = fault or self.gate.outputs()
-        if fault is not None:
-            self.fault(fault)
-        vented = self.machine.vented
-        sent = self._zeros if vented else outputs.pressure_cmd_kpa
+            firmware_fault = self.gate.firmware(status, state in ACTIVE)
+        ours = transport_fault or firmware_fault
+        events = self._control(REFS[state], ours is not None, self._last_missed, fresh,
+                               sample.lost_in_a_row if sample is not None else 0, woke_ns)
+        if events or ours is not None:
+            self._found(events & ~lib.RTCORE_TICK_LEAK, transport_fault, firmware_fault,
+                        sample.sequence if sample is not None else None)
         try:
-            if vented:
+            if self.machine.vented:
                 self.transport.vent()
             else:
-                self.transport.send(sent)
+                self.transport.send(self.sent_kpa)
         except Exception as exc:
             # a command the wire cannot carry (ValueError: the gate should have caught it), or
             # a link that failed: either way nothing went out this tick, so ask for a vent
@@ -275,12 +231,33 @@ class Supervisor:
             self.fault(Fault(cause, f"send(): {type(exc).__name__}: {exc}"))
             with contextlib.suppress(Exception):
                 self.transport.vent()
-            sent = self._zeros
-        self.sent_kpa[:] = sent
-        leak = self.gate.follow()
-        if leak is not None:
-            self.fault(leak)
-        self._record(self.machine.state)
+            self.sent_kpa[:] = 0.0
+        if self._follow():
+            self.fault(self.gate.follow_fault(self._tick.follow))
+
+    def _found(self, events: int, transport_fault: Fault | None = None,
+               firmware_fault: Fault | None = None, sequence: int | None = None) -> None:
+        """What the C tick found: the end of a trajectory (HOLD), then the first fault in
+        the order the checks run (overrun, the link, the sample, the frame, the firmware,
+        the outputs), then a leak found after the send."""
+        tick = self._tick
+        if events & lib.RTCORE_TICK_TRAJECTORY_END:
+            if self.trajectory is not None:
+                log.info("trajectory %s finished after %.2f s", self.trajectory.source,
+                         self.trajectory.duration_s)
+            self.fire(Event.HOLD)
+        fault = ((self.gate.overrun_fault(tick.overrun) if events & lib.RTCORE_TICK_OVERRUN else None)
+                 or transport_fault
+                 or (self.gate.sample_fault(tick.sample, self.hand.inputs)
+                     if events & lib.RTCORE_TICK_SAMPLE else None)
+                 or (self.gate.frame_fault(tick.frame, sequence) if events & lib.RTCORE_TICK_FRAME else None)
+                 or firmware_fault
+                 or (self.gate.outputs_fault(tick.output, self.hand.outputs)
+                     if events & lib.RTCORE_TICK_OUTPUT else None))
+        if fault is not None:
+            self.fault(fault)
+        if events & lib.RTCORE_TICK_LEAK:
+            self.fault(self.gate.follow_fault(tick.follow))
 
     def _vent_and_record(self, state: State) -> None:
         """A tick without control (INIT, shutdown): vent, record zeros."""
@@ -351,6 +328,8 @@ class Supervisor:
             self.stats.skipped += skipped
             if self.state is State.RUNNING and not self.trajectory_done:
                 self.trajectory_tick += skipped
+        if self._advance_hand is not None:
+            self._advance_hand()
         slack_ns = schedule.deadline_ns - clock.now_ns()
         for job in self.slack:
             job(slack_ns)

@@ -21,7 +21,7 @@ from rtcore.config import ConfigError, HandConfig
 _DTYPES = {"double": np.float64, "int32_t": np.int32, "uint32_t": np.uint32}
 
 
-def _view(struct: object, name: str, n: int) -> np.ndarray:
+def struct_view(struct: object, name: str, n: int) -> np.ndarray:
     member = getattr(struct, name)
     dtype = _DTYPES[ffi.typeof(member).item.cname]
     return np.frombuffer(ffi.buffer(member), dtype=dtype)[:n]
@@ -67,8 +67,8 @@ class Hand:
         self.config = config
         self.configure(config)
         n = config.n_fingers
-        self.inputs = Inputs(**{name: _view(self._in, name, n) for name in field_names(Inputs)})
-        self.outputs = Outputs(**{name: _view(self._out, name, n) for name in field_names(Outputs)})
+        self.inputs = Inputs(**{name: struct_view(self._in, name, n) for name in field_names(Inputs)})
+        self.outputs = Outputs(**{name: struct_view(self._out, name, n) for name in field_names(Outputs)})
         self.inputs.pressure_meas_kpa[:] = np.nan
         # one tick, all fingers: a C-level partial, so the call adds no Python frame
         self.step = functools.partial(lib.rtcore_hand_step, self._hand, self._in, self._out)
@@ -87,6 +87,11 @@ class Hand:
 
     def reset_finger(self, finger: int) -> None:
         lib.rtcore_finger_reset(self._hand, finger)
+
+    @property
+    def c_hand(self) -> object:
+        """The rtcore_hand struct (cdata pointer)."""
+        return self._hand
 
     @property
     def c_inputs(self) -> object:

@@ -18,7 +18,7 @@ import numpy as np
 
 from rtcore._rtcore import ffi, lib
 from rtcore.config import ConfigError, Effects
-from rtcore.hand import _fill, _view, error_message
+from rtcore.hand import _fill, error_message, struct_view
 
 
 @dataclass
@@ -85,12 +85,27 @@ class Simulator:
         self._out = ffi.new("rtcore_sim_outputs *")
         self._command = np.zeros(lib.RTCORE_MAX_FINGERS)
         self.command_kpa = self._command[: len(fingers)]
-        self.outputs = SimOutputs(**{f.name: _view(self._out, f.name, len(fingers))
+        self.outputs = SimOutputs(**{f.name: struct_view(self._out, f.name, len(fingers))
                                      for f in dataclasses.fields(SimOutputs)})
         command_ptr = ffi.cast("double *", ffi.from_buffer(self._command))
         self._command_ptr = command_ptr
         self.step = functools.partial(lib.rtcore_sim_step, self._sim, command_ptr, self._out)
         self.sample()
+
+    @property
+    def c_sim(self) -> object:
+        """The rtcore_sim struct (cdata pointer), for a link stepped in C."""
+        return self._sim
+
+    @property
+    def c_outputs(self) -> object:
+        """The rtcore_sim_outputs struct that step() writes."""
+        return self._out
+
+    @property
+    def c_command(self) -> object:
+        """The double * of the command step() holds (command_kpa's memory)."""
+        return self._command_ptr
 
     def sample(self) -> None:
         """Read the sensors without advancing time (the reading before the first tick)."""

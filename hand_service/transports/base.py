@@ -112,6 +112,11 @@ class Transport(ABC):
         its own clock whatever the host says; the simulated hand stands still."""
         del tick_index
 
+    def core_link(self) -> object | None:
+        """A link the tick can run in C, in the same call as the control step (the
+        in-process simulated hand: an rtcore_sim_link); None for a bus."""
+        return None
+
     def vent(self) -> None:
         """Command every valve to 0 kPa now."""
         self.send(np.zeros(self.n_fingers))

@@ -9,6 +9,7 @@ the same health as on hardware.
 
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -16,70 +17,79 @@ import numpy as np
 from hand_service.profile import Profile
 from hand_service.simulator import Contact, hand_simulator
 from hand_service.transports.base import FirmwareStatus, SensorSample, Transport, TransportHealth
+from rtcore._rtcore import ffi, lib
 
 
 class SimTransport(Transport):
+    """The link's state is an rtcore_sim_link in C, so that the supervisor's tick can run
+    the whole exchange in one C call (rtcore_tick_sim) when nothing here is overridden
+    (core_link()); these methods are the same exchange, one call at a time."""
+
     kind = "sim"
+    _WIRE = ("open", "close", "latest", "send", "vent", "status", "on_tick", "resume_at")
 
     def __init__(self, profile: Profile, seed: int | None = None,
                  contacts: dict[str, Contact] | None = None) -> None:
         self.profile = profile
         self.n_fingers = len(profile.fingers)
         self.simulator = hand_simulator(profile, seed=seed, contacts=contacts)
-        self._health = TransportHealth()
         self._status = FirmwareStatus(protocol_version=profile.protocol_version,
                                       firmware_version="sim")
-        self._sequence = 0
-        self._fresh = False
-        self._open = False
-        self._tick_index: int | None = None
+        self._link = ffi.new("rtcore_sim_link *")
+        self._link.sim, self._link.out = self.simulator.c_sim, self.simulator.c_outputs
+        self._link.command_kpa = self.simulator.c_command
+        self._sensor_mv = np.zeros(lib.RTCORE_MAX_FINGERS)
+        self._pressure_kpa = np.zeros(lib.RTCORE_MAX_FINGERS)
+        self._latest = functools.partial(lib.rtcore_sim_link_latest, self._link,
+                                         ffi.cast("double *", ffi.from_buffer(self._sensor_mv)),
+                                         ffi.cast("double *", ffi.from_buffer(self._pressure_kpa)))
+        self._send_buffer = np.zeros(lib.RTCORE_MAX_FINGERS)
+        self._send_ptr = ffi.cast("double *", ffi.from_buffer(self._send_buffer))
+
+    def core_link(self) -> object | None:
+        """The rtcore_sim_link, for a tick in one C call, unless a subclass changes what
+        goes over the wire (a fake with faults overrides latest, send...)."""
+        cls = type(self)
+        if all(getattr(cls, name) is getattr(SimTransport, name) for name in self._WIRE):
+            return self._link
+        return None
 
     def open(self) -> FirmwareStatus:
-        self._open = True
-        self._fresh = True  # the reading before the first command
+        self._link.open = 1
+        self._link.fresh = 1  # the reading before the first command
         return self._status
 
     def close(self) -> None:
-        self._open = False
+        self._link.open = 0
 
     def latest(self) -> SensorSample | None:
-        if not (self._open and self._fresh):
+        if not self._latest():
             return None
-        self._fresh = False
-        self._health.frames_in += 1
-        out = self.simulator.outputs
-        sample = SensorSample(self._sequence, time.monotonic(), out.sensor_mv.copy(),
-                              out.pressure_meas_kpa.copy())
-        self._sequence += 1
-        return sample
+        n = self.n_fingers
+        return SensorSample(int(self._link.sequence) - 1, time.monotonic(), self._sensor_mv[:n].copy(),
+                            self._pressure_kpa[:n].copy())
 
     def on_tick(self, tick_index: int) -> None:
         """Deadlines the host skipped still pass for the hand: the valves hold the last
         command through them, as a firmware on its own clock would, so the recording's
         time and the physics stay in step."""
-        last, self._tick_index = self._tick_index, tick_index
-        if not self._open or last is None or tick_index <= last + 1:
-            return
-        for _ in range(tick_index - last - 1):
-            self.simulator.step()
-        self._fresh = True
+        lib.rtcore_sim_link_on_tick(self._link, tick_index)
 
     def resume_at(self, tick_index: int) -> None:
         """The host's schedule went on to tick_index while the hand's time stood still: a
         benchmark's blocks of the bare loop are not the hand's time, and simulating them in
         the next tick (a second of hand in one tick) would time the simulator, not the tick."""
-        self._tick_index = tick_index - 1
+        self._link.last_tick_index = tick_index - 1
+        self._link.has_tick = 1
 
     def send(self, pressure_cmd_kpa: np.ndarray) -> None:
-        if not self._open:
-            return
-        self.simulator.command_kpa[:] = pressure_cmd_kpa
-        self.simulator.step()
-        self._health.frames_out += 1
-        self._fresh = True
+        self._send_buffer[:self.n_fingers] = pressure_cmd_kpa
+        lib.rtcore_sim_link_send(self._link, self._send_ptr)
+        lib.rtcore_sim_link_advance(self._link)  # its period now (the C tick leaves it to the slack)
 
     def status(self) -> FirmwareStatus | None:
         return self._status
 
     def health(self) -> TransportHealth:
-        return self._health
+        """No bus, so no frame is ever lost; the counters still count."""
+        return TransportHealth(frames_in=int(self._link.frames_in), frames_out=int(self._link.frames_out))
