@@ -410,7 +410,7 @@ typedef struct {
     int32_t rejected_ticks[RTCORE_MAX_FINGERS];
     int32_t overruns; /* deadline misses in a row */
     int32_t has_frame; /* last_frame_ns holds a time */
-    int64_t last_frame_ns; /* when the newest sample arrived (the tick's wake-up) */
+    int64_t last_frame_ns; /* the wake-up of the tick with the newest sample, or of the first check */
 } rtcore_gate;
 
 typedef struct {

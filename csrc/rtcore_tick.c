@@ -201,7 +201,8 @@ int32_t rtcore_sim_link_latest(rtcore_sim_link *link, double *sensor_mv, double 
 {
     int32_t i;
     rtcore_sim_link_advance(link);
-    if (link == 0 || link->out == 0 || link->sim == 0 || !link->open || !link->fresh) {
+    if (link == 0 || link->out == 0 || link->sim == 0 || !link->open || !link->fresh || sensor_mv == 0
+        || pressure_meas_kpa == 0) {
         return 0;
     }
     link->fresh = 0;
@@ -217,7 +218,7 @@ int32_t rtcore_sim_link_latest(rtcore_sim_link *link, double *sensor_mv, double 
 void rtcore_sim_link_send(rtcore_sim_link *link, const double *pressure_cmd_kpa)
 {
     int32_t i;
-    if (link == 0 || link->sim == 0 || link->command_kpa == 0 || !link->open) {
+    if (link == 0 || link->sim == 0 || link->command_kpa == 0 || !link->open || pressure_cmd_kpa == 0) {
         return;
     }
     rtcore_sim_link_advance(link); /* a period still pending is the last command's */

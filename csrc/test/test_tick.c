@@ -173,7 +173,14 @@ static void test_faults_vent(void)
           && r.tick.frame.cause == RTCORE_GATE_STALE_SENSOR, "three misses and five lost samples");
     CHECK(run(&r, RTCORE_REFS_RUN) == 0 && r.tick.sent_kpa[0] > 0.0, "clean again");
     r.gate.config.leak_tolerance_kpa = 1.0; /* the measured pressure is NaN: never a leak */
-    CHECK(rtcore_tick_follow(&r.tick) == 0, "NaN is not reported");
+    for (k = 0; k < 10; ++k) {
+        CHECK(rtcore_tick_follow(&r.tick) == 0, "NaN is not reported (tick %d)", k);
+    }
+    r.in.pressure_meas_kpa[0] = r.tick.sent_kpa[0] + 30.0; /* the chamber stuck high */
+    for (k = 0; k < 4; ++k) {
+        CHECK(rtcore_tick_follow(&r.tick) == 0, "off by 30 kPa for %d ticks", k + 1);
+    }
+    CHECK(rtcore_tick_follow(&r.tick) == RTCORE_TICK_LEAK && r.tick.follow.finger == 0, "the 5th tick off: a leak");
     CHECK(rtcore_tick_control(0, RTCORE_REFS_RUN, 0, 0, 1, 0, 0) == RTCORE_TICK_OUTPUT, "null tick refused");
     r.tick.gate = 0;
     CHECK(rtcore_tick_follow(&r.tick) == RTCORE_TICK_LEAK, "a tick without its gate refused");
