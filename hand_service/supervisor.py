@@ -56,9 +56,6 @@ class Supervisor:
         self.gc = GcControl(self.rate_hz)
         self.recorder = recorder or Recorder(self.names, self.rate_hz)
         self.targets = self._ts.targets
-        self.trajectory: Trajectory | None = None
-        self.trajectory_loop = False
-        self.trajectory_driven: np.ndarray | None = None  # the fingers it drives (checked off the loop)
         self.firmware: FirmwareStatus | None = None
         self.link_open = False
         self.schedule: clock.Schedule | None = None
@@ -75,11 +72,26 @@ class Supervisor:
         self._tick_core = None if link is None else functools.partial(lib.rtcore_tick_sim, tick, link)
         # the simulated hand lives through the period of the command just sent in the slack
         # after the tick, as a board's firmware runs beside the host
-        self._advance_hand = None if link is None else functools.partial(lib.rtcore_sim_link_advance, link)
+        self.advance_hand: Callable[[], object] | None = (
+            None if link is None else functools.partial(lib.rtcore_sim_link_advance, link))
         self._last_missed = False
         self._latched_causes: set[Cause] = set()
         self.on_fault: list[Callable[[Fault], None]] = []
         self.on_state: list[Callable[[State], None]] = []
+
+    @property
+    def trajectory(self) -> Trajectory | None:
+        """The trajectory the tick plays while RUNNING (set_trajectory)."""
+        return self._ts.trajectory
+
+    @property
+    def trajectory_loop(self) -> bool:
+        return self._ts.loop
+
+    @property
+    def trajectory_driven(self) -> np.ndarray | None:
+        """The fingers the trajectory drives (checked off the loop)."""
+        return self._ts.driven
 
     @property
     def trajectory_tick(self) -> int:
@@ -178,7 +190,6 @@ class Supervisor:
         if traj is not None and driven is None:
             driven = self.check_trajectory(traj)
         self._ts.bind_trajectory(traj, loop, driven)
-        self.trajectory, self.trajectory_loop, self.trajectory_driven = traj, loop, driven
 
     # -- the tick ------------------------------------------------------------------------
     def tick(self, woke_ns: int) -> None:
@@ -238,8 +249,9 @@ class Supervisor:
     def _found(self, events: int, transport_fault: Fault | None = None,
                firmware_fault: Fault | None = None, sequence: int | None = None) -> None:
         """What the C tick found: the end of a trajectory (HOLD), then the first fault in
-        the order the checks run (overrun, the link, the sample, the frame, the firmware,
-        the outputs), then a leak found after the send."""
+        this order (overrun, the link, the sample, the frame, the firmware, the outputs),
+        then a leak found after the send. Every check runs on every tick, so that each
+        streak (misses, held readings, silence) counts every tick, fault or not."""
         tick = self._tick
         if events & lib.RTCORE_TICK_TRAJECTORY_END:
             if self.trajectory is not None:
@@ -328,8 +340,8 @@ class Supervisor:
             self.stats.skipped += skipped
             if self.state is State.RUNNING and not self.trajectory_done:
                 self.trajectory_tick += skipped
-        if self._advance_hand is not None:
-            self._advance_hand()
+        if self.advance_hand is not None:
+            self.advance_hand()
         slack_ns = schedule.deadline_ns - clock.now_ns()
         for job in self.slack:
             job(slack_ns)

@@ -45,27 +45,34 @@ class TickStruct:
                                  for name in ("mode", "angle_deg", "force_n", "pressure_kpa")))
         self.sent_kpa = struct_view(c, "sent_kpa", n_fingers)
         self._trajectory_arrays: tuple[np.ndarray, ...] = ()
+        self.trajectory: Trajectory | None = None  # what the struct plays, with:
+        self.loop = False
+        self.driven: np.ndarray | None = None  # the fingers it drives
 
     def bind_trajectory(self, traj: Trajectory | None, loop: bool = False,
                         driven: np.ndarray | None = None) -> None:
-        """Point the struct at traj's rows (None: no trajectory) from its first row. The
-        arrays are kept here while the struct points into them."""
+        """Point the struct at traj's rows (None: no trajectory) from its first row, with
+        `driven` one flag per finger. The arrays are kept here while the struct points into
+        them. A ValueError leaves the trajectory bound before as it was."""
+        arrays: tuple[np.ndarray, ...] = ()
+        if traj is not None:
+            shape = (traj.n_ticks, self.n_fingers)
+            arrays = (np.ascontiguousarray(traj.mode, dtype=np.int32),
+                      *(np.ascontiguousarray(a, dtype=np.float64) for a in
+                        (traj.angle_deg, traj.velocity_deg_per_s, traj.accel_deg_per_s2,
+                         traj.jerk_deg_per_s3, traj.force_n)))
+            if any(a.shape != shape for a in arrays):
+                raise ValueError(f"a trajectory for this hand has {shape[1]} columns per quantity")
+            if driven is None or np.shape(driven) != (self.n_fingers,):
+                raise ValueError("which fingers the trajectory drives: one flag per finger")
         c = self.c.trajectory
         c.n_ticks = 0  # no trajectory while the pointers change
         self.c.trajectory_tick, self.c.trajectory_done = 0, 0
-        self._trajectory_arrays = ()
-        if traj is None:
-            return
-        shape = (traj.n_ticks, self.n_fingers)
-        arrays = (np.ascontiguousarray(traj.mode, dtype=np.int32),
-                  *(np.ascontiguousarray(a, dtype=np.float64) for a in
-                    (traj.angle_deg, traj.velocity_deg_per_s, traj.accel_deg_per_s2,
-                     traj.jerk_deg_per_s3, traj.force_n)))
-        if any(a.shape != shape for a in arrays):
-            raise ValueError(f"a trajectory for this hand has {shape[1]} columns per quantity")
-        if driven is None or driven.shape != (self.n_fingers,):
-            raise ValueError("which fingers the trajectory drives: one flag per finger")
         self._trajectory_arrays = arrays
+        self.trajectory, self.loop = traj, loop
+        self.driven = None if traj is None else driven
+        if traj is None or driven is None:
+            return
         c.mode = ffi.cast("int32_t *", ffi.from_buffer(arrays[0]))
         c.angle_deg, c.velocity_deg_per_s, c.accel_deg_per_s2, c.jerk_deg_per_s3, c.force_n = (
             ffi.cast("double *", ffi.from_buffer(a)) for a in arrays[1:])

@@ -138,6 +138,7 @@ def test_pressure_over_limit_even_if_the_core_is_wrong(rig: Rig) -> None:
         if rig.sup.state is not State.RUNNING:
             break
     assert all(cmd[0] <= limit_kpa for cmd in rig.transport.sent[sent_before:])
+    assert np.all(rig.transport.sent[-1] == 0.0)  # the tick that found it vented
     rig.assert_faulted("pressure_over_limit")
 
 
