@@ -80,6 +80,14 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
     floor_late: list[np.ndarray] = []
     floor_misses = 0
     cpu_sup_s = cpu_floor_s = 0.0
+    plant_ns: list[int] = []  # the simulated hand's period, simulated in the slack after each tick
+    advance = sup.advance_hand
+    if advance is not None:
+        def timed_advance() -> None:
+            start = clock.now_ns()
+            advance()
+            plant_ns.append(clock.now_ns() - start)
+        sup.advance_hand = timed_advance
     sup.gc.start()
     with switch_interval(switch_interval_s):
         try:
@@ -96,6 +104,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
             for _ in range(max(1, round(rate_hz / 4))):  # settle
                 sup.run_one(schedule)
             sup.stats = TickStats(sup.period_ns)
+            plant_ns.clear()
             done = 0
             while done < n_ticks:
                 count = min(block, n_ticks - done)
@@ -140,6 +149,8 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         "faults": sum(sup.faults.counts.values()),
         "realtime": realtime.describe(),
         "switch_interval_us": switch_interval_s * 1e6,
+        "plant_ns_p50": float(np.percentile(plant_ns, 50)) if plant_ns else None,
+        "plant_ns_p99": float(np.percentile(plant_ns, 99)) if plant_ns else None,
         "jitter_ratio_p99": (s["jitter_us_p99"] / float(np.percentile(floor, 99))
                              if np.percentile(floor, 99) > 0 else math.nan),
     }

@@ -32,6 +32,7 @@ def test_bench_over_the_serial_mock(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     assert figures["ticks"] == 200 and figures["ticks_floor"] == 200
     assert figures["faults"] == 0  # the bare loop's blocks stay inside the firmware's watchdog
     assert 0 < figures["tick_ns_p50"] <= figures["tick_ns_p99"]
+    assert figures["plant_ns_p50"] is None  # a board on a bus runs its own physics
     (rig,) = rigs
     assert rig.profile.name == "serial-v1" and rig.process is not None
     assert rig.process.poll() is not None  # the mock process has ended

@@ -65,6 +65,7 @@ def test_bench_reports_tick_and_floor_keys(tmp_path: Path) -> None:
     assert figures["record_sync_s"] == 0.5
     assert 0 < figures["tick_ns_p50"] <= figures["tick_ns_p99"]
     assert 0 <= figures["jitter_floor_us_p50"] <= figures["jitter_floor_us_p99"]
+    assert 0 < figures["plant_ns_p50"] <= figures["plant_ns_p99"]  # the simulated hand, in the slack
 
 
 def test_ctl_without_daemon_is_one_line(tmp_path: Path) -> None:

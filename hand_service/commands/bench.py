@@ -22,6 +22,9 @@ Then the whole supervisor tick (read, step, safety, send, record) on the simulat
 hand at --rate for --seconds, in one-second blocks interleaved with a bare C loop on the
 same absolute clock_nanosleep schedule: the machine's own jitter floor, measured in the
 same run. --spin-us wakes that much early and spins to the deadline (both loops).
+On the simulated hand the tick is two C calls from Python (csrc/rtcore_tick.c); the
+hand's physics for the period after it runs in the slack, as a board's firmware runs
+beside the host, and is timed apart (plant_ns_*).
 A deadline miss is a tick that ends after its period; deadline_misses_woke_late counts
 those that woke after their period had ended already, a stall no tick could make up
 (every miss of the bare loop is of that kind).
@@ -160,6 +163,9 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
                               **extra)
         r["transport"] = profile.transport["kind"]
     print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
+    if r.get("plant_ns_p50") is not None:
+        print(f"  simulated hand         p50 {r['plant_ns_p50']:8.0f} ns   p99 {r['plant_ns_p99']:8.0f} ns"
+              "   (its physics, in the slack after the tick)")
     print(f"  jitter supervisor      p50 {r['jitter_us_p50']:8.1f} us   p99 {r['jitter_us_p99']:8.1f} us   "
           f"max {r['jitter_us_max']:8.1f} us   misses {r['deadline_misses']} "
           f"({r['deadline_misses_woke_late']} woke after their period)")
