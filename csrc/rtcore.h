@@ -496,6 +496,12 @@ typedef struct {
     int32_t trajectory_done; /* its end has been reached: the targets hold its last row */
     /* the command this tick sends: the step's, or 0 kPa when vented or at fault */
     double sent_kpa[RTCORE_MAX_FINGERS];
+    /* the recording ring a tick that found nothing pushes its row into in
+     * rtcore_tick_sim_at (rtcore_ring_push_tick); ring_rows 0: not recording */
+    double *ring_rows;
+    int64_t *ring_count;
+    int32_t ring_capacity;
+    int32_t ring_cols;
     /* what each check found this tick (cause RTCORE_GATE_OK: nothing) */
     rtcore_gate_result overrun;
     rtcore_gate_result sample;
@@ -549,6 +555,15 @@ void rtcore_sim_link_send(rtcore_sim_link *link, const double *pressure_cmd_kpa)
  * send sent_kpa (its period left pending), follow. The RTCORE_TICK_* bits of both halves. */
 int32_t rtcore_tick_sim(rtcore_tick *tick, rtcore_sim_link *link, int64_t tick_index, int32_t refs,
                         int32_t missed_last, int64_t woke_ns);
+/* The scheduled tick on the simulated hand, with no Python between the wake-up and the
+ * end: sleep to deadline_ns (rtcore_sleep_until_ns, spin_ns), rtcore_tick_sim, and when
+ * it found nothing (the state did not change) the ring row of t_s and state. times_ns[0]
+ * is the wake-up, times_ns[1] the end. Returns the RTCORE_TICK_* bits, the row left to
+ * the caller when any is set; or -1 with nothing done when the sleep failed (times_ns[0]:
+ * -EINTR, a signal woke it early, or another -errno). */
+int32_t rtcore_tick_sim_at(rtcore_tick *tick, rtcore_sim_link *link, int64_t deadline_ns,
+                           int64_t spin_ns, int64_t tick_index, int32_t refs, int32_t missed_last,
+                           double t_s, int32_t state, int64_t *times_ns);
 /* END CDEF */
 
 #ifdef __cplusplus

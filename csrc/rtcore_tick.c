@@ -243,3 +243,27 @@ int32_t rtcore_tick_sim(rtcore_tick *tick, rtcore_sim_link *link, int64_t tick_i
     rtcore_sim_link_send(link, tick->sent_kpa);
     return events | rtcore_tick_follow(tick);
 }
+
+int32_t rtcore_tick_sim_at(rtcore_tick *tick, rtcore_sim_link *link, int64_t deadline_ns,
+                           int64_t spin_ns, int64_t tick_index, int32_t refs, int32_t missed_last,
+                           double t_s, int32_t state, int64_t *times_ns)
+{
+    int64_t woke;
+    int32_t events;
+    if (times_ns == 0) {
+        return -1;
+    }
+    woke = rtcore_sleep_until_ns(deadline_ns, spin_ns);
+    times_ns[0] = woke;
+    times_ns[1] = woke;
+    if (woke < 0) {
+        return -1;
+    }
+    events = rtcore_tick_sim(tick, link, tick_index, refs, missed_last, woke);
+    if (events == 0 && tick->ring_rows != 0) {
+        rtcore_ring_push_tick(tick->ring_rows, tick->ring_count, tick->ring_capacity, tick->ring_cols,
+                              tick->n_fingers, tick->inputs, tick->outputs, tick->sent_kpa, t_s, state);
+    }
+    times_ns[1] = rtcore_clock_now_ns();
+    return events;
+}

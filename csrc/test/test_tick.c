@@ -303,6 +303,40 @@ static void test_tick_sim(void)
     CHECK(rtcore_tick_sim(&r.tick, 0, 0, RTCORE_REFS_RUN, 0, 0) == RTCORE_TICK_OUTPUT, "null link refused");
 }
 
+static void test_tick_sim_at(void)
+{
+    static rig r;
+    static sim_rig s;
+    static double rows[4 * 22];
+    int64_t count = 0;
+    int64_t times[2];
+    int32_t k;
+    rig_init(&r);
+    sim_init(&s);
+    r.tick.ring_rows = rows;
+    r.tick.ring_count = &count;
+    r.tick.ring_capacity = 4;
+    r.tick.ring_cols = 22;
+    r.tick.target_mode[0] = RTCORE_MODE_PRESSURE;
+    r.tick.target_pressure_kpa[0] = 60.0;
+    for (k = 0; k < 3; ++k) { /* deadlines already passed: no sleep */
+        CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, k, RTCORE_REFS_RUN, 0, 0.01 * k,
+                                 3, times) == 0, "clean tick %d", k);
+    }
+    CHECK(count == 3 && rows[2 * 22] == 0.02 && rows[2 * 22 + 1] == 3.0, "each clean tick its row");
+    CHECK(times[0] > 0 && times[1] >= times[0], "wake-up %lld, end %lld", (long long)times[0],
+          (long long)times[1]);
+    r.gate.config.pressure_max_kpa[0] = 1.0;
+    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, 3, RTCORE_REFS_RUN, 0, 0.03, 3,
+                             times) == RTCORE_TICK_OUTPUT && count == 3, "a fault: the row is the caller's");
+    r.tick.ring_rows = 0;
+    r.gate.config.pressure_max_kpa[0] = 200.0;
+    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, 4, RTCORE_REFS_RUN, 0, 0.04, 3,
+                             times) == 0 && count == 3, "not recording: no row");
+    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, 0, 0, 5, RTCORE_REFS_RUN, 0, 0.05, 3, 0) == -1,
+          "no times: refused");
+}
+
 void run_tick_tests(void)
 {
     test_gate_timing();
@@ -311,4 +345,5 @@ void run_tick_tests(void)
     test_faults_vent();
     test_sim_link();
     test_tick_sim();
+    test_tick_sim_at();
 }
