@@ -93,13 +93,19 @@ class Recorder:
         self.last: dict[str, object] | None = None  # the last finished recording's result
         self.push_tick = self._not_recording_tick
         self._tick_source: tuple[object, object, np.ndarray] | None = None
+        self._c_tick: object | None = None
 
-    def bind(self, c_inputs: object, c_outputs: object, sent_kpa: np.ndarray) -> None:
+    def bind(self, c_inputs: object, c_outputs: object, sent_kpa: np.ndarray,
+             c_tick: object | None = None) -> None:
         """The control step's structs and the sent commands: push_tick(t_s, state) then
-        records a tick in one C call (rtcore_ring_push_tick)."""
+        records a tick in one C call (rtcore_ring_push_tick). c_tick: an rtcore_tick struct
+        that pushes its rows itself while a recording runs (rtcore_tick_sim_at)."""
         self._tick_source = (c_inputs, c_outputs, sent_kpa)
+        self._c_tick = c_tick
         if self._ring is not None:
             self.push_tick = self._ring.tick_pusher(len(self.fingers), *self._tick_source)
+            if c_tick is not None:
+                self._ring.publish_to(c_tick, len(self.fingers))
 
     @staticmethod
     def _not_recording_tick(_t_s: float, _state: int) -> int:
@@ -152,6 +158,8 @@ class Recorder:
         self._ring, self.path = ring, path
         if self._tick_source is not None:
             self.push_tick = ring.tick_pusher(len(self.fingers), *self._tick_source)
+        if self._c_tick is not None:
+            ring.publish_to(self._c_tick, len(self.fingers))
         log.info("recording to %s (%s writer)", path, self.kind)
 
     def _command(self, word: bytes) -> None:
@@ -203,6 +211,8 @@ class Recorder:
         if not self.active or self._ring is None or self.path is None:
             return {"active": False}
         self.push_tick = self._not_recording_tick
+        if self._c_tick is not None:
+            Ring.unpublish(self._c_tick)
         closing = _Closing(self.path, self._ring, self._ring.count, self._process, self._thread,
                            self._thread_file)
         if self._process is not None:

@@ -119,6 +119,25 @@ class SafetyGate:
         lib.rtcore_gate_reset(self._gate)
 
     # -- the wording of what a check found -----------------------------------------------
+    def first_fault(self, c_tick: Any, events: int, hand: Any, transport_fault: Fault | None = None,
+                    firmware_fault: Fault | None = None, sequence: int | None = None) -> Fault | None:
+        """The fault a tick reports of what its checks found (RTCORE_TICK_* bits in
+        events, the results in c_tick) and the link's own: the first in the order overrun,
+        the link, the sample, the frame, the firmware, the outputs."""
+        if events & lib.RTCORE_TICK_OVERRUN:
+            return self.overrun_fault(c_tick.overrun)
+        if transport_fault is not None:
+            return transport_fault
+        if events & lib.RTCORE_TICK_SAMPLE:
+            return self.sample_fault(c_tick.sample, hand.inputs)
+        if events & lib.RTCORE_TICK_FRAME:
+            return self.frame_fault(c_tick.frame, sequence)
+        if firmware_fault is not None:
+            return firmware_fault
+        if events & lib.RTCORE_TICK_OUTPUT:
+            return self.outputs_fault(c_tick.output, hand.outputs)
+        return None
+
     def overrun_fault(self, r: Any) -> Fault:
         return Fault(Cause.OVERRUN_STREAK, f"{r.value:.0f} deadline misses in a row "
                      f"(overrun_streak {self._gate.config.overrun_streak})")

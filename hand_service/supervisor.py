@@ -4,8 +4,9 @@ A tick reads the newest sensor frame, lets the safety gate check it, fills the
 references for the current state, runs the C control step for the whole hand, lets the
 gate check its outputs, sends the valve commands (or vents), and pushes one row to the
 recording ring. Everything between the sensors and the valves is one C call
-(csrc/rtcore_tick.c); on the simulated hand the sensors and valves are too, so a tick is
-two C calls from Python. Python keeps the state machine, the transports of a bus and
+(csrc/rtcore_tick.c); on the simulated hand the sensors, the valves, the sleep before
+and the ring row after are too, so no Python runs from the wake-up to the end of a tick
+that finds nothing. Python keeps the state machine, the transports of a bus and
 the wording of a fault. The control API, the status line, the watchdog, the simulated
 hand's physics and the garbage collector run in the slack after the tick, in the same
 thread: nothing else ever holds the GIL."""
@@ -13,8 +14,10 @@ thread: nothing else ever holds the GIL."""
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import logging
+import os
 import signal
 from collections.abc import Callable
 
@@ -30,7 +33,7 @@ from hand_service.timing import GcControl, TickStats
 from hand_service.trajectory import NOT_DRIVEN, Trajectory
 from hand_service.transports import FirmwareStatus, HandshakeError, Transport
 from rtcore import MODE_VENT, clock
-from rtcore._rtcore import lib
+from rtcore._rtcore import ffi, lib
 
 log = logging.getLogger(__name__)
 
@@ -64,12 +67,15 @@ class Supervisor:
         self.tick_index = 0
         self.t_s = 0.0
         self.sent_kpa = self._ts.sent_kpa
-        self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa)
+        self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa, tick)
         self._control = functools.partial(lib.rtcore_tick_control, tick)
         self._follow = functools.partial(lib.rtcore_tick_follow, tick)
         link = transport.core_link()
         # the in-process simulated hand: the whole tick, sensors to valves, in one C call
         self._tick_core = None if link is None else functools.partial(lib.rtcore_tick_sim, tick, link)
+        # and on the schedule, the sleep, that tick and its ring row in one C call
+        self._tick_at = None if link is None else functools.partial(lib.rtcore_tick_sim_at, tick, link)
+        self._times_ns = ffi.new("int64_t[2]")  # its wake-up and end
         # the simulated hand lives through the period of the command just sent in the slack
         # after the tick, as a board's firmware runs beside the host
         self.advance_hand: Callable[[], object] | None = (
@@ -252,24 +258,17 @@ class Supervisor:
         this order (overrun, the link, the sample, the frame, the firmware, the outputs),
         then a leak found after the send. Every check runs on every tick, so that each
         streak (misses, held readings, silence) counts every tick, fault or not."""
-        tick = self._tick
         if events & lib.RTCORE_TICK_TRAJECTORY_END:
             if self.trajectory is not None:
                 log.info("trajectory %s finished after %.2f s", self.trajectory.source,
                          self.trajectory.duration_s)
             self.fire(Event.HOLD)
-        fault = ((self.gate.overrun_fault(tick.overrun) if events & lib.RTCORE_TICK_OVERRUN else None)
-                 or transport_fault
-                 or (self.gate.sample_fault(tick.sample, self.hand.inputs)
-                     if events & lib.RTCORE_TICK_SAMPLE else None)
-                 or (self.gate.frame_fault(tick.frame, sequence) if events & lib.RTCORE_TICK_FRAME else None)
-                 or firmware_fault
-                 or (self.gate.outputs_fault(tick.output, self.hand.outputs)
-                     if events & lib.RTCORE_TICK_OUTPUT else None))
+        fault = self.gate.first_fault(self._tick, events, self.hand, transport_fault, firmware_fault,
+                                      sequence)
         if fault is not None:
             self.fault(fault)
         if events & lib.RTCORE_TICK_LEAK:
-            self.fault(self.gate.follow_fault(tick.follow))
+            self.fault(self.gate.follow_fault(self._tick.follow))
 
     def _vent_and_record(self, state: State) -> None:
         """A tick without control (INIT, shutdown): vent, record zeros."""
@@ -325,15 +324,33 @@ class Supervisor:
     def run_one(self, schedule: clock.Schedule) -> None:
         """Sleep to the next deadline, tick, then the slack jobs."""
         deadline = schedule.deadline_ns
-        woke = clock.sleep_until_ns(deadline, self.spin_ns)
-        while woke < 0:  # a signal: its handler has run; sleep on unless told to stop
-            if self.stop_reason is not None:
-                return
-            woke = clock.sleep_until_ns(deadline, self.spin_ns)
         self.tick_index = schedule.index
         self.t_s = schedule.index / self.rate_hz
-        self.tick(woke)
-        end = clock.now_ns()
+        state = self.machine.state
+        if self._tick_at is not None and state is not State.INIT:
+            # the simulated hand: from the wake-up to the end of the tick, C only
+            times = self._times_ns
+            events = self._tick_at(deadline, self.spin_ns, self.tick_index, REFS[state],
+                                   self._last_missed, self.t_s, state, times)
+            while events < 0:  # the sleep failed: nothing was done
+                self._check_sleep(times[0])
+                if self.stop_reason is not None:
+                    return
+                events = self._tick_at(deadline, self.spin_ns, self.tick_index, REFS[state],
+                                       self._last_missed, self.t_s, state, times)
+            woke, end = times[0], times[1]
+            if events:  # the state may change: the row is recorded here, after
+                self._found(events)
+                self._record(self.machine.state)
+                end = clock.now_ns()
+        else:
+            woke = clock.sleep_until_ns(deadline, self.spin_ns)
+            while woke < 0:  # a signal: its handler has run; sleep on unless told to stop
+                if self.stop_reason is not None:
+                    return
+                woke = clock.sleep_until_ns(deadline, self.spin_ns)
+            self.tick(woke)
+            end = clock.now_ns()
         self._last_missed = self.stats.add(deadline, woke, end)
         skipped = schedule.advance(end)
         if skipped:
@@ -348,6 +365,13 @@ class Supervisor:
         if self.recorder.closing:  # a stopped recording's writer: collect it once it is done
             self.recorder.reap()
         self.gc.maybe_collect(self.stats.ticks, schedule.deadline_ns - clock.now_ns())
+
+    @staticmethod
+    def _check_sleep(result: int) -> None:
+        """A sleep woken early by a signal (its handler has run by now) is slept again;
+        any other failure of clock_nanosleep is an OSError."""
+        if result != -errno.EINTR:
+            raise OSError(-result, os.strerror(-result))
 
     def shutdown(self) -> None:
         """Vent, record the vented tick, flush and close the recording, close the link.

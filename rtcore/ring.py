@@ -18,6 +18,7 @@ import functools
 import mmap
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -65,6 +66,19 @@ class Ring:
         return functools.partial(lib.rtcore_ring_push_tick, self._rows_ptr, self._count_ptr,
                                  self.capacity, self.n_cols, n_fingers, c_inputs, c_outputs,
                                  ffi.cast("double *", ffi.from_buffer(sent_kpa)))
+
+    def publish_to(self, c_tick: Any, n_fingers: int) -> None:
+        """Point a tick struct (rtcore_tick) at this ring: the scheduled tick in C
+        (rtcore_tick_sim_at) pushes each clean tick's row itself. unpublish() before close."""
+        if self.n_cols != 2 + 10 * n_fingers:
+            raise ValueError(f"a ring of {self.n_cols} columns does not hold {n_fingers} fingers")
+        c_tick.ring_count, c_tick.ring_capacity = self._count_ptr, self.capacity
+        c_tick.ring_cols, c_tick.ring_rows = self.n_cols, self._rows_ptr
+
+    @staticmethod
+    def unpublish(c_tick: Any) -> None:
+        """The tick struct pushes into no ring any more."""
+        c_tick.ring_rows = ffi.NULL
 
     @property
     def count(self) -> int:

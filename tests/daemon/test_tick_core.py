@@ -4,13 +4,17 @@ the slack after the tick (run_one), never skipped and never twice."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from hand_service.profile import load_profile
 from hand_service.recorder import Recorder
+from hand_service.recording import read_recording
 from hand_service.states import Event, State
 from hand_service.supervisor import Supervisor
+from hand_service.trajectory import CosineSweep, Trajectory
 from hand_service.transports.sim import SimTransport
 from rtcore import MODE_POSITION, clock
 
@@ -112,3 +116,39 @@ def test_the_slack_lives_through_each_period_once() -> None:
     core.sup.request_stop("test")
     core.sup.shutdown()  # its vent holds one period more
     assert sim.time_s == pytest.approx((schedule.index + 1) * core.period_s)
+
+
+def test_the_scheduled_tick_records_every_row(tmp_path: Path) -> None:
+    """run() on the simulated hand: the sleep, the tick and its row are one C call, and a
+    tick that changes the state (the trajectory's end: HOLD) leaves its row to Python.
+    Every slot has one row, in order, with the state after its tick."""
+    profile = load_profile(None)
+    transport = SimTransport(profile, seed=2)
+    recorder = Recorder(profile.finger_names, 100.0, "thread")
+    sup = Supervisor(profile, transport, recorder)
+    traj = Trajectory.empty(30, len(profile.fingers), 100.0, "short")
+    refs = CosineSweep(amplitude_deg=10.0, period_s=0.3).at(np.arange(30) / 100.0)
+    for i in range(len(profile.fingers)):
+        traj.set_position(slice(None), i, refs)
+    sup.set_trajectory(traj)
+
+    def drive(_slack_ns: int) -> None:
+        if sup.state is State.DISARMED:
+            sup.fire(Event.ARM)
+        elif sup.state is State.ARMED:
+            sup.fire(Event.START)
+
+    sup.slack.append(drive)
+    path = tmp_path / "rec.csv"
+    recorder.start(path, {"test": "scheduled tick"})
+    sup.run(max_ticks=120)
+    rec = read_recording(path, finger=profile.finger_names[0])
+    states = rec.text_columns.get("state") or [State(int(s)).name for s in rec.columns["state"]]
+    slots = np.round(rec.t_s * 100.0).astype(int)
+    skipped = sup.stats.skipped
+    assert len(rec) == 120 + 1 and slots[0] == 0  # every tick, then the shutdown's vented row
+    assert np.all(np.diff(slots) >= 1) and slots[-1] - slots[0] == 120 + skipped
+    assert states[:3] == ["DISARMED", "ARMED", "RUNNING"]  # the state after each tick
+    hold = states.index("HOLD")  # the tick that found the end: 30 rows played before it
+    assert set(states[2:hold]) == {"RUNNING"} and 30 - skipped <= hold - 2 <= 30
+    assert set(states[hold:]) == {"HOLD"}
