@@ -22,9 +22,9 @@ Then the whole supervisor tick (read, step, safety, send, record) on the simulat
 hand at --rate for --seconds, in one-second blocks interleaved with a bare C loop on the
 same absolute clock_nanosleep schedule: the machine's own jitter floor, measured in the
 same run. --spin-us wakes that much early and spins to the deadline (both loops).
-On the simulated hand the tick is two C calls from Python (csrc/rtcore_tick.c); the
-hand's physics for the period after it runs in the slack, as a board's firmware runs
-beside the host, and is timed apart (plant_ns_*).
+On the simulated hand the sleep, the tick and its row are one C call
+(csrc/rtcore_tick.c); the hand's physics for the period after it runs in the slack, as
+a board's firmware runs beside the host, and is timed apart (plant_ns_*).
 A deadline miss is a tick that ends after its period; deadline_misses_woke_late counts
 those that woke after their period had ended already, a stall no tick could make up
 (every miss of the bare loop is of that kind).
