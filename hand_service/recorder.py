@@ -101,6 +101,8 @@ class Recorder:
         records a tick in one C call (rtcore_ring_push_tick). c_tick: an rtcore_tick struct
         that pushes its rows itself while a recording runs (rtcore_tick_sim_at)."""
         self._tick_source = (c_inputs, c_outputs, sent_kpa)
+        if self._c_tick is not None and self._c_tick is not c_tick:
+            Ring.unpublish(self._c_tick)  # the struct bound before pushes no more
         self._c_tick = c_tick
         if self._ring is not None:
             self.push_tick = self._ring.tick_pusher(len(self.fingers), *self._tick_source)

@@ -343,6 +343,8 @@ class Supervisor:
                 self._found(events)
                 self._record(self.machine.state)
                 end = clock.now_ns()
+            else:  # the tick ended in C: how long until Python ran again, apart
+                self.stats.add_return(clock.now_ns() - end)
         else:
             woke = clock.sleep_until_ns(deadline, self.spin_ns)
             while woke < 0:  # a signal: its handler has run; sleep on unless told to stop
@@ -352,7 +354,7 @@ class Supervisor:
             self.tick(woke)
             end = clock.now_ns()
         self._last_missed = self.stats.add(deadline, woke, end)
-        skipped = schedule.advance(end)
+        skipped = schedule.advance(clock.now_ns())  # a deadline already gone is skipped
         if skipped:
             self.stats.skipped += skipped
             if self.state is State.RUNNING and not self.trajectory_done:

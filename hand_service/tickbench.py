@@ -149,6 +149,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         "faults": sum(sup.faults.counts.values()),
         "realtime": realtime.describe(),
         "switch_interval_us": switch_interval_s * 1e6,
+        "tick_return_ns_p50": s.get("tick_return_ns_p50"), "tick_return_ns_p99": s.get("tick_return_ns_p99"),
         "plant_ns_p50": float(np.percentile(plant_ns, 50)) if plant_ns else None,
         "plant_ns_p99": float(np.percentile(plant_ns, 99)) if plant_ns else None,
         "jitter_ratio_p99": (s["jitter_us_p99"] / float(np.percentile(floor, 99))

@@ -39,6 +39,13 @@ class TickStats:
         self.skipped = 0
         self.jitter_max_ns = 0
         self.tick_max_ns = 0
+        # a tick that ends in C (the simulated hand): from its end until Python runs again
+        self.return_ns = np.zeros(window, dtype=np.int64)
+        self.returns = 0
+
+    def add_return(self, ns: int) -> None:
+        self.return_ns[self.returns % self.window] = ns
+        self.returns += 1
 
     def add(self, deadline_ns: int, woke_ns: int, end_ns: int) -> bool:
         """Record one tick; returns whether it missed its deadline (ended after its period)."""
@@ -76,7 +83,15 @@ class TickStats:
                 "jitter_us_p99": float(j99), "jitter_us_max": self.jitter_max_ns / 1e3,
                 "deadline_misses": self.misses, "deadline_misses_woke_late": self.misses_woke_late,
                 "skipped_deadlines": self.skipped,
-                "window_ticks": int(late.size)}
+                "window_ticks": int(late.size), **self._return_summary(last)}
+
+    def _return_summary(self, last: int | None) -> dict[str, float]:
+        n = min(self.returns, self.window, last or self.window)
+        if n == 0:
+            return {}
+        back = self.return_ns[np.arange(self.returns - n, self.returns) % self.window]
+        r50, r99 = np.percentile(back, [50, 99])
+        return {"tick_return_ns_p50": float(r50), "tick_return_ns_p99": float(r99)}
 
 
 @dataclass

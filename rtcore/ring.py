@@ -70,15 +70,17 @@ class Ring:
     def publish_to(self, c_tick: Any, n_fingers: int) -> None:
         """Point a tick struct (rtcore_tick) at this ring: the scheduled tick in C
         (rtcore_tick_sim_at) pushes each clean tick's row itself. unpublish() before close."""
-        if self.n_cols != 2 + 10 * n_fingers:
-            raise ValueError(f"a ring of {self.n_cols} columns does not hold {n_fingers} fingers")
+        if self.n_cols != 2 + 10 * n_fingers or c_tick.n_fingers != n_fingers:
+            raise ValueError(f"a ring of {self.n_cols} columns does not hold the tick's "
+                             f"{c_tick.n_fingers} fingers")
         c_tick.ring_count, c_tick.ring_capacity = self._count_ptr, self.capacity
         c_tick.ring_cols, c_tick.ring_rows = self.n_cols, self._rows_ptr
 
     @staticmethod
     def unpublish(c_tick: Any) -> None:
         """The tick struct pushes into no ring any more."""
-        c_tick.ring_rows = ffi.NULL
+        c_tick.ring_rows, c_tick.ring_count = ffi.NULL, ffi.NULL
+        c_tick.ring_capacity, c_tick.ring_cols = 0, 0
 
     @property
     def count(self) -> int:

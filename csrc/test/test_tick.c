@@ -324,16 +324,21 @@ static void test_tick_sim_at(void)
                                  3, times) == 0, "clean tick %d", k);
     }
     CHECK(count == 3 && rows[2 * 22] == 0.02 && rows[2 * 22 + 1] == 3.0, "each clean tick its row");
-    CHECK(times[0] > 0 && times[1] >= times[0], "wake-up %lld, end %lld", (long long)times[0],
+    CHECK(times[0] > 0 && times[1] > times[0], "wake-up %lld, end %lld", (long long)times[0],
           (long long)times[1]);
+    {
+        const int64_t deadline_ns = rtcore_clock_now_ns() + 2000000;
+        CHECK(rtcore_tick_sim_at(&r.tick, &s.link, deadline_ns, 0, 3, RTCORE_REFS_RUN, 0, 0.03, 3, times) == 0
+              && times[0] >= deadline_ns && count == 4, "slept to its deadline, then ticked");
+    }
     r.gate.config.pressure_max_kpa[0] = 1.0;
-    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, 3, RTCORE_REFS_RUN, 0, 0.03, 3,
-                             times) == RTCORE_TICK_OUTPUT && count == 3, "a fault: the row is the caller's");
+    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, 4, RTCORE_REFS_RUN, 0, 0.04, 3,
+                             times) == RTCORE_TICK_OUTPUT && count == 4, "a fault: the row is the caller's");
     r.tick.ring_rows = 0;
     r.gate.config.pressure_max_kpa[0] = 200.0;
-    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, 4, RTCORE_REFS_RUN, 0, 0.04, 3,
-                             times) == 0 && count == 3, "not recording: no row");
-    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, 0, 0, 5, RTCORE_REFS_RUN, 0, 0.05, 3, 0) == -1,
+    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, 5, RTCORE_REFS_RUN, 0, 0.05, 3,
+                             times) == 0 && count == 4, "not recording: no row");
+    CHECK(rtcore_tick_sim_at(&r.tick, &s.link, 0, 0, 6, RTCORE_REFS_RUN, 0, 0.06, 3, 0) == -1,
           "no times: refused");
 }
 

@@ -23,8 +23,9 @@ hand at --rate for --seconds, in one-second blocks interleaved with a bare C loo
 same absolute clock_nanosleep schedule: the machine's own jitter floor, measured in the
 same run. --spin-us wakes that much early and spins to the deadline (both loops).
 On the simulated hand the sleep, the tick and its row are one C call
-(csrc/rtcore_tick.c); the hand's physics for the period after it runs in the slack, as
-a board's firmware runs beside the host, and is timed apart (plant_ns_*).
+(csrc/rtcore_tick.c), so the tick ends in C; the time until Python runs again is timed
+apart (tick_return_ns_*), and so is the hand's physics for the period after the tick,
+which runs in the slack as a board's firmware runs beside the host (plant_ns_*).
 A deadline miss is a tick that ends after its period; deadline_misses_woke_late counts
 those that woke after their period had ended already, a stall no tick could make up
 (every miss of the bare loop is of that kind).
@@ -163,6 +164,9 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
                               **extra)
         r["transport"] = profile.transport["kind"]
     print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
+    if r.get("tick_return_ns_p50") is not None:
+        print(f"  back in Python         p50 {r['tick_return_ns_p50']:8.0f} ns   p99 "
+              f"{r['tick_return_ns_p99']:8.0f} ns   (after a tick that ended in C)")
     if r.get("plant_ns_p50") is not None:
         print(f"  simulated hand         p50 {r['plant_ns_p50']:8.0f} ns   p99 {r['plant_ns_p99']:8.0f} ns"
               "   (its physics, in the slack after the tick)")

@@ -139,6 +139,15 @@ def test_the_scheduled_tick_records_every_row(tmp_path: Path) -> None:
             sup.fire(Event.START)
 
     sup.slack.append(drive)
+    assert sup._tick_at is not None
+    python_rows: list[State] = []  # the rows Python pushes: INIT, the tick with events, shutdown
+    record = sup._record
+
+    def counted(state: State) -> None:
+        python_rows.append(state)
+        record(state)
+
+    sup._record = counted  # type: ignore[method-assign]
     path = tmp_path / "rec.csv"
     recorder.start(path, {"test": "scheduled tick"})
     sup.run(max_ticks=120)
@@ -152,3 +161,4 @@ def test_the_scheduled_tick_records_every_row(tmp_path: Path) -> None:
     hold = states.index("HOLD")  # the tick that found the end: 30 rows played before it
     assert set(states[2:hold]) == {"RUNNING"} and 30 - skipped <= hold - 2 <= 30
     assert set(states[hold:]) == {"HOLD"}
+    assert python_rows == [State.DISARMED, State.HOLD, State.HOLD]  # the other 118 rows: C
