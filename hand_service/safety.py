@@ -108,11 +108,6 @@ class SafetyGate:
     def expected_kpa(self) -> np.ndarray:
         return np.array(self._gate.expected_kpa[0:len(self.names)])
 
-    @property
-    def overruns(self) -> int:
-        """Deadline misses in a row, as the last tick counted them."""
-        return int(self._gate.overruns)
-
     def reset(self) -> None:
         """Forget the history (after a re-handshake)."""
         self.firmware_vents: int | None = None  # FirmwareStatus.vents when last seen

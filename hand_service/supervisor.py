@@ -28,7 +28,7 @@ from hand_service.profile import Profile
 from hand_service.recorder import Recorder
 from hand_service.safety import Cause, Fault, FaultLog, SafetyGate
 from hand_service.states import ACTIVE, LATCHED, Event, State, StateMachine
-from hand_service.tickstruct import REFS, Targets, TickStruct
+from hand_service.tickstruct import REFS, TickStruct
 from hand_service.timing import GcControl, TickStats
 from hand_service.trajectory import NOT_DRIVEN, Trajectory
 from hand_service.transports import FirmwareStatus, HandshakeError, Transport
@@ -391,4 +391,4 @@ class Supervisor:
                 log.error("shutting down: %s: %s", type(exc).__name__, exc)
 
 
-__all__ = ["Supervisor", "Targets"]
+__all__ = ["Supervisor"]
