@@ -175,6 +175,9 @@ def print_summary(summary: dict[str, Any], out: TextIO) -> None:
     if summary["ticks"]:
         out.write(f"  tick     p50 {summary['tick_ns_p50'] / 1e3:7.1f} us   p99 "
                   f"{summary['tick_ns_p99'] / 1e3:7.1f} us   max {summary['tick_ns_max'] / 1e3:7.1f} us\n")
+        if "tick_return_ns_p50" in summary:  # the tick ended in C (the simulated hand)
+            out.write(f"  back in Python p50 {summary['tick_return_ns_p50'] / 1e3:5.1f} us   p99 "
+                      f"{summary['tick_return_ns_p99'] / 1e3:7.1f} us (after a tick that ended in C)\n")
         out.write(f"  jitter   p50 {summary['jitter_us_p50']:7.1f} us   p99 "
                   f"{summary['jitter_us_p99']:7.1f} us   max {summary['jitter_us_max']:7.1f} us\n")
         out.write(f"  deadline misses {summary['deadline_misses']} ({summary['deadline_misses_woke_late']} "
