@@ -14,10 +14,8 @@ thread: nothing else ever holds the GIL."""
 from __future__ import annotations
 
 import contextlib
-import errno
 import functools
 import logging
-import os
 import signal
 from collections.abc import Callable
 
@@ -330,14 +328,11 @@ class Supervisor:
         if self._tick_at is not None and state is not State.INIT:
             # the simulated hand: from the wake-up to the end of the tick, C only
             times = self._times_ns
-            events = self._tick_at(deadline, self.spin_ns, self.tick_index, REFS[state],
-                                   self._last_missed, self.t_s, state, times)
-            while events < 0:  # the sleep failed: nothing was done
-                self._check_sleep(times[0])
+            while (events := self._tick_at(deadline, self.spin_ns, self.tick_index, REFS[state],
+                                           self._last_missed, self.t_s, state, times)) < 0:
+                clock.check_sleep(times[0])  # a signal woke the sleep: nothing was done
                 if self.stop_reason is not None:
                     return
-                events = self._tick_at(deadline, self.spin_ns, self.tick_index, REFS[state],
-                                       self._last_missed, self.t_s, state, times)
             woke, end = times[0], times[1]
             if events:  # the state may change: the row is recorded here, after
                 self._found(events)
@@ -367,13 +362,6 @@ class Supervisor:
         if self.recorder.closing:  # a stopped recording's writer: collect it once it is done
             self.recorder.reap()
         self.gc.maybe_collect(self.stats.ticks, schedule.deadline_ns - clock.now_ns())
-
-    @staticmethod
-    def _check_sleep(result: int) -> None:
-        """A sleep woken early by a signal (its handler has run by now) is slept again;
-        any other failure of clock_nanosleep is an OSError."""
-        if result != -errno.EINTR:
-            raise OSError(-result, os.strerror(-result))
 
     def shutdown(self) -> None:
         """Vent, record the vented tick, flush and close the recording, close the link.

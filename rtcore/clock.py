@@ -28,9 +28,16 @@ def sleep_until_ns(deadline_ns: int, spin_ns: int = 0) -> int:
     before the caller sleeps again; raises OSError on any other error.
     """
     woke = lib.rtcore_sleep_until_ns(deadline_ns, spin_ns)
-    if woke < 0 and woke != -errno.EINTR:
-        raise OSError(-woke, os.strerror(-woke))
+    if woke < 0:
+        check_sleep(woke)
     return woke
+
+
+def check_sleep(result: int) -> None:
+    """A failed sleep's -errno: -EINTR (a signal woke it early; its handler has run by the
+    time Python sees this) is for the caller to sleep again; anything else is an OSError."""
+    if result != -errno.EINTR:
+        raise OSError(-result, os.strerror(-result))
 
 
 class Schedule:
