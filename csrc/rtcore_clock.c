@@ -7,7 +7,7 @@
 #include <sys/mman.h>
 #include <time.h>
 
-#include "rtcore.h"
+#include "rtcore_clock.h"
 
 #define NS_PER_S 1000000000LL
 

@@ -3,6 +3,7 @@
 #include <math.h>
 
 #include "rtcore_internal.h"
+#include "rtcore_step.h"
 
 /* One low-pass section of an analogue prototype 1/(u^2 + u/q + 1), u = s/wc, mapped by
  * the bilinear transform with the cutoff prewarped: tan_half = tan(pi*fc/fs). */

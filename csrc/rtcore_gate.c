@@ -1,7 +1,7 @@
 /* The supervisor's safety gate, on the control step's own structs. */
 #include <math.h>
 
-#include "rtcore.h"
+#include "rtcore_gate.h"
 
 static int32_t found(rtcore_gate_result *result, int32_t cause, int32_t finger, double value,
                      double limit)

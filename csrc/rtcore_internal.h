@@ -4,7 +4,9 @@
 #ifndef RTCORE_INTERNAL_H
 #define RTCORE_INTERNAL_H
 
-#include "rtcore.h"
+#include <stdint.h>
+
+#include "rtcore_step.h"
 
 #define RTCORE_PI 3.14159265358979323846
 #define RTCORE_DEG_PER_RAD (180.0 / RTCORE_PI)

@@ -12,7 +12,7 @@
  * programming language memory models?", MSPC 2012). */
 #include <string.h>
 
-#include "rtcore.h"
+#include "rtcore_ring.h"
 
 int64_t rtcore_ring_count(const int64_t *count)
 {

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "rtcore_internal.h"
+#include "rtcore_sim.h"
 
 /* ---- random numbers: xorshift64* and Box-Muller, state in the caller's struct ------- */
 

@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "rtcore_internal.h"
+#include "rtcore_step.h"
 
 static int finite_at_least(double x, double lowest)
 {

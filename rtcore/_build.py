@@ -1,36 +1,68 @@
 """cffi build script (API mode) for the rtcore extension, named by setup.py's cffi_modules.
 
-The cdef is read from the CDEF block of csrc/rtcore.h, the one public header, so the
-Python binding and the C API cannot drift apart; API mode then compiles that same
-header, so the C compiler checks every declaration against the real definitions.
+csrc/ has one public header per C unit, each with one CDEF block; the cdef is those blocks
+joined in the dependency order of HEADERS (a header's block may use what the blocks before
+it declare), so the Python binding and the C API cannot drift apart. The build refuses a
+header with a CDEF block that HEADERS does not list, one that includes a listed header
+listed after it, and an umbrella csrc/rtcore.h that does not include them all. API mode
+then compiles the umbrella, so the C compiler checks every declaration against the real
+definitions.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import cffi
 
 ROOT = Path(__file__).resolve().parent.parent
 CSRC = ROOT / "csrc"
-HEADER = CSRC / "rtcore.h"
+HEADER = CSRC / "rtcore.h"  # the umbrella: includes every header of HEADERS, no CDEF block
+HEADERS = tuple(CSRC / name for name in ("rtcore_step.h", "rtcore_sim.h", "rtcore_clock.h",
+                                         "rtcore_ring.h", "rtcore_gate.h", "rtcore_tick.h"))
 SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_step.c", "rtcore_sim.c",
-           "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c", "rtcore_ring.c")
+           "rtcore_sim_link.c", "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c", "rtcore_ring.c")
 COMPILE_ARGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"]
 BEGIN, END = "/* BEGIN CDEF */", "/* END CDEF */"
+INCLUDE = re.compile(r'^\s*#\s*include\s+"(rtcore\w*\.h)"', re.M)
 
 
 def cdef_from_header(text: str) -> str:
-    """The declarations between the CDEF markers of the public header."""
+    """The declarations between the CDEF markers of one header."""
     start, end = text.index(BEGIN) + len(BEGIN), text.index(END)
     return text[start:end]
 
 
+def check_headers(headers: tuple[Path, ...] = HEADERS, umbrella: Path = HEADER) -> None:
+    """Raise ValueError when the headers and HEADERS disagree (see the module docstring)."""
+    names = [path.name for path in headers]
+    with_block = {path.name for path in CSRC.glob("*.h") if BEGIN in path.read_text()}
+    if with_block != set(names):
+        raise ValueError(f"CDEF blocks in {sorted(with_block)}, but HEADERS lists {names}")
+    for position, path in enumerate(headers):
+        text = path.read_text()
+        if text.count(BEGIN) != 1 or text.count(END) != 1:
+            raise ValueError(f"{path.name}: needs exactly one CDEF block")
+        later = [name for name in INCLUDE.findall(text) if name in names[position + 1:]]
+        if later:
+            raise ValueError(f"{path.name} includes {later}, listed after it in HEADERS")
+    missing = set(names) - set(INCLUDE.findall(umbrella.read_text()))
+    if missing:
+        raise ValueError(f"{umbrella.name} does not include {sorted(missing)}")
+
+
+def cdef_from_headers(headers: tuple[Path, ...] = HEADERS) -> str:
+    """The CDEF blocks of the headers, joined in order: what cffi is given."""
+    check_headers(headers)
+    return "".join(f"\n/* {path.name} */" + cdef_from_header(path.read_text()) for path in headers)
+
+
 ffibuilder = cffi.FFI()
-ffibuilder.cdef(cdef_from_header(HEADER.read_text()))
+ffibuilder.cdef(cdef_from_headers())
 ffibuilder.set_source(
     "rtcore._rtcore",
-    '#include "rtcore.h"\n',
+    f'#include "{HEADER.name}"\n',
     sources=[str((CSRC / name).relative_to(ROOT)) for name in SOURCES],
     include_dirs=[str(CSRC.relative_to(ROOT))],
     extra_compile_args=COMPILE_ARGS,

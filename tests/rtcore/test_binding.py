@@ -1,9 +1,10 @@
-"""The public header, the cffi binding and the Python dataclasses stay in step."""
+"""The public headers, the cffi binding and the Python dataclasses stay in step."""
 
 from __future__ import annotations
 
 import dataclasses
 import re
+import shutil
 import subprocess
 from pathlib import Path
 
@@ -11,11 +12,12 @@ import pytest
 
 import rtcore
 from rtcore import Effects, FingerConfig, config
-from rtcore._build import HEADER, cdef_from_header
+from rtcore._build import HEADER, HEADERS, cdef_from_header, cdef_from_headers, check_headers
 from rtcore._rtcore import ffi, lib
 from rtcore.arrays import Inputs, Outputs, field_names
 
 ROOT = Path(__file__).resolve().parents[2]
+ALL_HEADERS = "".join(path.read_text() for path in HEADERS)
 
 
 def c_fields(struct: str) -> list[str]:
@@ -34,7 +36,7 @@ def test_finger_config_fields_equal_c_fields() -> None:
 
 
 def test_python_constants_equal_header_constants() -> None:
-    names = re.findall(r"#define (RTCORE_(?:MODE|FF|FLAG)_\w+)", HEADER.read_text())
+    names = re.findall(r"#define (RTCORE_(?:MODE|FF|FLAG)_\w+)", ALL_HEADERS)
     assert len(names) > 10
     for name in names:
         python_name = name.removeprefix("RTCORE_")
@@ -43,7 +45,7 @@ def test_python_constants_equal_header_constants() -> None:
 
 
 def test_every_header_function_is_bound() -> None:
-    declared = set(re.findall(r"\b(rtcore_\w+)\s*\(", cdef_from_header(HEADER.read_text())))
+    declared = set(re.findall(r"\b(rtcore_\w+)\s*\(", cdef_from_headers()))
     assert declared, "no functions found in the CDEF block"
     for name in declared:
         assert hasattr(lib, name), name
@@ -60,6 +62,26 @@ def test_extension_exports_only_prefixed_symbols() -> None:
     assert all(name.startswith("rtcore_") for name in ours), [n for n in ours if not n.startswith("rtcore_")]
 
 
-def test_header_block_has_only_what_cffi_parses() -> None:
-    block = re.sub(r"/\*.*?\*/", "", cdef_from_header(HEADER.read_text()), flags=re.S)
+@pytest.mark.parametrize("header", HEADERS, ids=lambda path: path.name)
+def test_header_block_has_only_what_cffi_parses(header: Path) -> None:
+    block = re.sub(r"/\*.*?\*/", "", cdef_from_header(header.read_text()), flags=re.S)
     assert "#include" not in block and "#if" not in block and "static" not in block
+
+
+def test_build_refuses_headers_out_of_step() -> None:
+    """A CDEF block the build does not list, or listed before what it includes, fails the build."""
+    check_headers()
+    with pytest.raises(ValueError, match="HEADERS lists"):
+        check_headers(HEADERS[:-1])
+    with pytest.raises(ValueError, match="listed after it"):
+        check_headers(HEADERS[::-1])
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
+@pytest.mark.parametrize("header", [HEADER, *HEADERS, HEADER.with_name("rtcore_internal.h")],
+                         ids=lambda path: path.name)
+def test_each_header_compiles_on_its_own(header: Path) -> None:
+    """Every header includes what it uses."""
+    built = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-fsyntax-only",
+                            "-x", "c", str(header)], capture_output=True, text=True)
+    assert built.returncode == 0, built.stderr
