@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hand_service import effects as fx
-from hand_service.model import FingerModel
-from hand_service.profile import FingerProfile, Profile
+from hand_service.config import effects as fx
+from hand_service.config.model import FingerModel
+from hand_service.config.profile import FingerProfile, Profile
 from rtcore.sim import SimFinger, Simulator, simulate
 
 SUPPLY_MAX_KPA = 300.0  # what the rig's regulators can deliver

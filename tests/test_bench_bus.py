@@ -47,8 +47,8 @@ def test_bench_refuses_a_real_bus(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_a_firmware_that_does_not_come_up_ends_the_bench(tmp_path: Path) -> None:
     """A refused handshake used to leave the bench ticking in FAULT for ever."""
+    from hand_service.bench.tick import measure_ticks
     from hand_service.errors import UserError
-    from hand_service.tickbench import measure_ticks
 
     with rig_module.Rig("serial", tmp_path) as rig:
         rig.start_mock(protocol_version=rig.profile.protocol_version + 1)

@@ -14,7 +14,7 @@ import pytest
 
 import rtcore
 from hand_service import cli
-from hand_service.profile import DEFAULT_PROFILE
+from hand_service.config.profile import DEFAULT_PROFILE
 
 
 def one_line_error(capsys: pytest.CaptureFixture[str], argv: list[str]) -> tuple[str, str]:
@@ -152,7 +152,7 @@ def test_bad_input_is_one_line(capsys: pytest.CaptureFixture[str], tmp_path: Pat
 
 def test_plot_paths(tmp_path: Path) -> None:
     from hand_service.errors import UserError
-    from hand_service.plots import pyplot, save
+    from hand_service.identification.plots import pyplot, save
 
     with pytest.raises(UserError, match="Format 'txt' is not supported"):
         save(pyplot().figure(), tmp_path / "figure.txt")
@@ -173,7 +173,7 @@ def strict_json(text: str) -> object:
 def test_bench_json_writes_nan_as_null(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                        capsys: pytest.CaptureFixture[str]) -> None:
     """jitter_ratio_p99 is NaN when the floor's p99 is 0; bare json.dump wrote `NaN`."""
-    from hand_service import tickbench
+    from hand_service.bench import tick as tickbench
 
     def ticks(*_args: object, **_kwargs: object) -> dict[str, object]:
         return {"rate_hz": 100.0, "ticks": 100, "tick_ns_p50": 1e5, "tick_ns_p99": 2e5,

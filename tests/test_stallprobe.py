@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service.stallprobe import match_stalls
+from hand_service.bench.machine import match_stalls
 from tests.test_cli import run_cli
 
 PERIOD_NS = 1_000_000
@@ -65,8 +65,8 @@ def test_a_worker_that_fails_ends_the_probe_with_one_error_and_no_process_left()
 
     import pytest
 
+    from hand_service.bench.machine import probe
     from hand_service.errors import UserError
-    from hand_service.stallprobe import probe
 
     with pytest.raises(UserError, match="the stall probe on CPU 99999 cannot run there"):
         probe(0.2, 1000.0, None, cpus=[min(os.sched_getaffinity(0)), 99999])  # no CPU 99999

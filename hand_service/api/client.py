@@ -1,6 +1,6 @@
 """A small Python client for the daemon's control API (docs/api.md).
 
-    from hand_service.client import HandClient
+    from hand_service.api.client import HandClient
     with HandClient() as hand:                 # the default socket, or HandClient(path)
         hand.arm()
         hand.target("index", angle_deg=45)
@@ -15,7 +15,7 @@ import socket
 from pathlib import Path
 from typing import Any
 
-from hand_service.apiserver import default_socket_path
+from hand_service.api.server import default_socket_path
 
 
 class ApiError(Exception):

@@ -14,15 +14,15 @@ from typing import Any
 
 import numpy as np
 
-from hand_service.apiserver import Deferred
-from hand_service.background import Background
+from hand_service.api.server import Deferred
+from hand_service.config.profile import Profile
 from hand_service.errors import UserError
-from hand_service.profile import Profile
-from hand_service.safety import finite_or_none
-from hand_service.states import Event, State, TransitionError
-from hand_service.supervisor import Supervisor
-from hand_service.trajectory import Trajectory
-from hand_service.trajectory_csv import read_trajectory
+from hand_service.service.background import Background
+from hand_service.service.safety import finite_or_none
+from hand_service.service.states import Event, State, TransitionError
+from hand_service.service.supervisor import Supervisor
+from hand_service.service.trajectory import Trajectory
+from hand_service.service.trajectory_csv import read_trajectory
 from hand_service.version import software_version
 from rtcore import MODE_FORCE, MODE_POSITION, MODE_PRESSURE
 from rtcore.config import MODE_NAMES, MODES_BY_NAME, flag_names

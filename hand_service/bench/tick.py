@@ -18,14 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service.daemon import with_rate
+from hand_service.config.profile import Profile
 from hand_service.errors import UserError
-from hand_service.profile import Profile
-from hand_service.recorder import Recorder
-from hand_service.states import Event, State
-from hand_service.supervisor import Supervisor
-from hand_service.timing import SWITCH_INTERVAL_S, TickStats, setup_realtime, switch_interval
-from hand_service.trajectory import CosineSweep, Trajectory
+from hand_service.service.daemon import with_rate
+from hand_service.service.recorder import Recorder
+from hand_service.service.states import Event, State
+from hand_service.service.supervisor import Supervisor
+from hand_service.service.timing import SWITCH_INTERVAL_S, TickStats, setup_realtime, switch_interval
+from hand_service.service.trajectory import CosineSweep, Trajectory
 from hand_service.transports import Transport, transport_class
 from rtcore import clock
 

@@ -7,10 +7,10 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
+from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
 
 if TYPE_CHECKING:
-    from hand_service.profile import Profile
+    from hand_service.config.profile import Profile
 
 HELP = "measure the control step latency (C and Python reference)"
 DESCRIPTION = """\
@@ -70,9 +70,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from hand_service.bench.step import measure
+    from hand_service.config.profile import load_profile
     from hand_service.jsonio import tables_out, write_json
-    from hand_service.profile import load_profile
-    from hand_service.stepbench import measure
 
     profile = load_profile(args.profile)
     rate_hz, seconds = _check(args, profile)
@@ -92,7 +92,7 @@ def main(args: argparse.Namespace) -> int:
               f"(timer overhead {results['timer_overhead_ns']:.0f} ns, included)")
         results.update(_ticks(args, profile, rate_hz, seconds))
         if args.io:
-            from hand_service.iobench import run_io_bench
+            from hand_service.bench.io import run_io_bench
 
             print("valve I/O against the mock firmware (virtual bus, SLCAN pty, serial pty):", flush=True)
             results.update(run_io_bench(quick=args.quick))
@@ -107,10 +107,10 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
     """Every argument checked before anything is measured; returns the rate (Hz) and the
     ticking time (s)."""
     from hand_service.commands import checks
-    from hand_service.daemon import with_rate
     from hand_service.errors import UserError
     from hand_service.firmware.rig import Rig
     from hand_service.outputs import check_writable
+    from hand_service.service.daemon import with_rate
 
     rate_hz = with_rate(profile, args.rate).control["rate_hz"]  # range, filter cutoff, a bus firmware's rate
     if profile.transport["kind"] != "sim" and Rig.name_for(profile) is None:
@@ -137,9 +137,9 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
 def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: float) -> dict[str, object]:
     import tempfile
 
+    from hand_service.bench.tick import measure_ticks
     from hand_service.errors import UserError
     from hand_service.firmware.rig import Rig, RigError
-    from hand_service.tickbench import measure_ticks
 
     print(f"supervisor tick at {rate_hz:g} Hz, {seconds:g} s, interleaved with the bare C loop "
           f"(spin {args.spin_us:g} us, recorder {args.recorder}) ...", flush=True)
@@ -184,8 +184,8 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
 
 
 def _machine(args: argparse.Namespace, rate_hz: float, seconds: float) -> int:
+    from hand_service.bench.machine import match_stalls, probe, summary
     from hand_service.jsonio import tables_out, write_json
-    from hand_service.stallprobe import match_stalls, probe, summary
 
     with tables_out(args.json):
         print(f"the bare C loop on every CPU at once, {rate_hz:g} Hz, {seconds:g} s ...", flush=True)

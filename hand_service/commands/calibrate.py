@@ -81,9 +81,9 @@ def _finger_name(args: argparse.Namespace, model_finger: str | None, recording_f
 
 def _write_back(args: argparse.Namespace, model: Any, changes: dict[str, Any], finger: str | None,
                 header: str) -> None:
-    from hand_service.model import save_model
-    from hand_service.profile import load_profile
-    from hand_service.yamledit import update_values
+    from hand_service.config.model import save_model
+    from hand_service.config.profile import load_profile
+    from hand_service.config.yamledit import update_values
 
     if args.write_model is not None:
         save_model(model.with_changes(**changes), args.write_model, header=header)
@@ -105,8 +105,8 @@ def _write_back(args: argparse.Namespace, model: Any, changes: dict[str, Any], f
 
 
 def _gain(args: argparse.Namespace) -> dict[str, Any]:
-    from hand_service.calibration import fit_pressure_gain
-    from hand_service.model import load_model
+    from hand_service.config.profile import load_model
+    from hand_service.identification.calibration import fit_pressure_gain
     from hand_service.recording import check_finger, read_recording
 
     model = load_model(args.model, args.finger)
@@ -126,7 +126,7 @@ def _gain(args: argparse.Namespace) -> dict[str, Any]:
         print(f"warning: R² = {fit.r_squared:.4f}: the angle is not linear in the pressure; a static "
               "effect (cubic stiffness, dead zone, gravity) may be missing: try `hand-service diagnose`")
     if args.plot is not None:
-        from hand_service.plots import gain_figure
+        from hand_service.identification.plots import gain_figure
 
         print(f"wrote {gain_figure(fit, args.plot)}")
     _write_back(args, model, {"pressure_gain_nm_per_kpa": fit.pressure_gain_nm_per_kpa}, recording.finger,
@@ -136,11 +136,11 @@ def _gain(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _sensor(args: argparse.Namespace) -> dict[str, Any]:
-    from hand_service.calibration import fit_sensor_map
+    from hand_service.config.profile import load_profile
+    from hand_service.config.yamledit import update_values
     from hand_service.errors import UserError
-    from hand_service.profile import load_profile
+    from hand_service.identification.calibration import fit_sensor_map
     from hand_service.recording import read_recording
-    from hand_service.yamledit import update_values
 
     if args.write_model is not None:
         raise UserError("the sensor map is not part of a model file (formats.md): write it into a profile "
@@ -173,8 +173,8 @@ def _sensor(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _valve(args: argparse.Namespace) -> dict[str, Any]:
-    from hand_service.calibration import fit_valve
-    from hand_service.model import load_model
+    from hand_service.config.profile import load_model
+    from hand_service.identification.calibration import fit_valve
     from hand_service.recording import check_finger, read_recording
 
     model = load_model(args.model, args.finger)

@@ -14,7 +14,7 @@ def seed(value: int | None, flag: str = "--seed") -> None:
     """A simulator seed: the range of a profile's simulation.seed."""
     if value is None:
         return
-    from hand_service.profile import SIMULATION_SECTION
+    from hand_service.config.profile import SIMULATION_SECTION
 
     key = SIMULATION_SECTION.by_name()["seed"]
     if not key.min <= value <= key.max:  # type: ignore[operator]

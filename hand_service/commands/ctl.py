@@ -108,7 +108,7 @@ def _show_status(result: dict[str, Any]) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
-    from hand_service.client import ApiError, HandClient
+    from hand_service.api.client import ApiError, HandClient
     from hand_service.commands import checks
     from hand_service.errors import UserError
 

@@ -48,11 +48,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from hand_service.config.profile import load_model
     from hand_service.diagnose.engine import diagnose
     from hand_service.diagnose.timebase import regular_grid
     from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
-    from hand_service.model import load_model
     from hand_service.outputs import check_writable
     from hand_service.recording import read_recording
 
@@ -94,7 +94,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _write_files(args: argparse.Namespace, result: Any) -> None:
-    from hand_service.model import save_model
+    from hand_service.config.model import save_model
 
     if args.report:
         from hand_service.diagnose.report import write_report

@@ -47,9 +47,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     import sys
 
-    from hand_service.identify import identify_recordings
+    from hand_service.config.model import save_model
+    from hand_service.config.profile import load_model
+    from hand_service.identification.identify import identify_recordings
     from hand_service.jsonio import tables_out, write_json
-    from hand_service.model import load_model, save_model
 
     with tables_out(args.json):
         model = load_model(args.model, args.finger)
@@ -62,7 +63,7 @@ def main(args: argparse.Namespace) -> int:
         for warning in result.warnings:
             print(f"warning: {warning}", file=sys.stderr)
         if args.plot is not None:
-            from hand_service.plots import identify_figure
+            from hand_service.identification.plots import identify_figure
 
             print(f"wrote {identify_figure(result, args.plot)}")
         if args.write_model is not None:

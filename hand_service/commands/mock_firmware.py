@@ -49,10 +49,10 @@ def main(args: argparse.Namespace) -> int:
     import signal
 
     from hand_service.commands import checks
+    from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
     from hand_service.firmware.mock import MockFirmware
     from hand_service.firmware.ports import open_port
-    from hand_service.profile import load_profile
 
     checks.seed(args.seed)
     checks.positive(args.seconds, "--seconds")

@@ -43,7 +43,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.commands import checks
     from hand_service.jsonio import tables_out, write_json
     from hand_service.outputs import check_writable, make_directory
-    from hand_service.replicate import Options, replicate
+    from hand_service.replicate.run import Options, replicate
 
     checks.seed(args.seed)
     if args.json is not None:
@@ -62,7 +62,7 @@ def main(args: argparse.Namespace) -> int:
         result = replicate(options, progress)
         print(result.tables())
         if args.plots is not None:
-            from hand_service.replicate_plots import write_plots
+            from hand_service.replicate.plots import write_plots
 
             for path in write_plots(result, args.plots):
                 print(f"wrote {path}", file=sys.stderr)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
+from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
 
 HELP = "run the supervisor daemon (default: the simulated hand of sim.yaml); --demo shows it off"
 DESCRIPTION = """\
@@ -62,9 +62,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from hand_service.commands import checks
-    from hand_service.daemon import Daemon, DaemonOptions, print_summary, with_rate
+    from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
-    from hand_service.profile import load_profile
+    from hand_service.service.daemon import Daemon, DaemonOptions, print_summary, with_rate
     from hand_service.transports import transport_class
 
     checks.positive(args.duration, "--duration")
@@ -83,7 +83,7 @@ def main(args: argparse.Namespace) -> int:
     if args.demo:
         if kind != "sim":
             raise UserError(f"--demo runs on the simulated hand (transport sim), not {kind}")
-        from hand_service.pinch_demo import contacts
+        from hand_service.service.demo import contacts
         transport_options["contacts"] = contacts(profile)
     if args.port is not None:
         if kind == "sim":
@@ -94,7 +94,7 @@ def main(args: argparse.Namespace) -> int:
             raise UserError("--seed applies to the sim transport only")
         transport_options["seed"] = args.seed
     transport = transport_class(kind)(profile, **transport_options)
-    from hand_service.apiserver import default_socket_path
+    from hand_service.api.server import default_socket_path
     options = DaemonOptions(
         socket_path=None if args.no_socket else (args.socket or default_socket_path()),
         tcp_port=args.tcp_port, record=args.record, recorder=args.recorder,
@@ -105,7 +105,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed)
     daemon = Daemon(profile, transport, options)
     if args.demo:
-        from hand_service.pinch_demo import run_demo
+        from hand_service.service.demo import run_demo
         return run_demo(daemon, args.record, sys.stdout)
     daemon.open()
     summary = daemon.run(args.duration)

@@ -51,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def parse_effects(items: list[str]) -> dict[str, float | None]:
-    from hand_service import effects as fx
+    from hand_service.config import effects as fx
     from hand_service.errors import UserError
 
     hidden: dict[str, float | None] = {}
@@ -81,12 +81,12 @@ def main(args: argparse.Namespace) -> int:
     import numpy as np
 
     from hand_service.commands import checks
-    from hand_service.concealed.generator import generate
+    from hand_service.config.model import save_model
+    from hand_service.config.profile import load_model, load_profile
+    from hand_service.diagnose.concealed.generator import generate
     from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
-    from hand_service.model import load_model, save_model
     from hand_service.outputs import check_writable
-    from hand_service.profile import load_profile
     from hand_service.recording import write_recording
     from hand_service.version import software_version
 

@@ -40,11 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from hand_service import trials
     from hand_service.commands import checks
+    from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
+    from hand_service.identification import trials
     from hand_service.outputs import make_directory
-    from hand_service.profile import load_profile
 
     checks.seed(args.seed)
     if not 1 <= args.count <= MAX_COUNT:

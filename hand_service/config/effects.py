@@ -11,8 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hand_service.schema import fail, unknown_key_message
-from hand_service.yamlio import LineDict
+from hand_service.config.schema import fail, unknown_key_message
+from hand_service.config.yamlio import LineDict
 from rtcore import Effects
 
 

@@ -12,10 +12,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from hand_service import effects as fx
+from hand_service.config import effects as fx
+from hand_service.config.schema import Key, Section, expect_mapping, validate
+from hand_service.config.yamlio import LineDict, dump_yaml
 from hand_service.errors import UserError
-from hand_service.schema import Key, Section, expect_mapping, validate
-from hand_service.yamlio import LineDict, dump_yaml, load_yaml
 
 GRAVITY_M_PER_S2 = 9.81
 
@@ -123,23 +123,6 @@ def model_from_mapping(data: LineDict, source: str | Path, context: str = "",
     return model, rest
 
 
-def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
-    """A model file, or one finger of a profile (`hand:` block) chosen by `finger`."""
-    data = load_yaml(path)
-    if not isinstance(data, dict):
-        raise UserError(f"{path}: a model file is a mapping of keys (formats.md), not {type(data).__name__}")
-    if "hand" in data:
-        from hand_service.profile import load_profile
-
-        return load_profile(path).finger(finger).model
-    model, _ = model_from_mapping(data, path)
-    if finger is not None and model.finger is not None and model.finger != finger:
-        raise UserError(f"{path}: this model is for finger '{model.finger}', not '{finger}'")
-    if model.finger is None and finger is not None:
-        model.finger = finger
-    return model
-
-
 def save_model(model: FingerModel, path: str | Path, header: str = "") -> None:
     """Write a model file in the formats.md format (readable by load_model)."""
     text = "".join(f"# {line}\n" for line in header.splitlines()) + dump_yaml(model.to_dict())
@@ -156,4 +139,4 @@ def gravity_torque_nm(model: FingerModel) -> float:
 
 
 __all__ = ["MODEL_KEYS", "MODEL_SECTION", "FingerModel", "expect_mapping", "gravity_torque_nm",
-           "inertia_from_geometry", "load_model", "model_from_mapping", "save_model"]
+           "inertia_from_geometry", "model_from_mapping", "save_model"]

@@ -10,22 +10,22 @@ which is generated from the sections below.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import rtcore
-from hand_service import effects as fx
+from hand_service.config import effects as fx
+from hand_service.config.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
+from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
+from hand_service.config.schema import Key, Section, expect_mapping, fail, validate
+from hand_service.config.transports import KINDS
+from hand_service.config.tuning import INTEGRAL_RATE_PER_S, margin_gains
+from hand_service.config.yamlio import LineDict, load_yaml
 from hand_service.errors import UserError, where
-from hand_service.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
-from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
-from hand_service.schema import Key, Section, expect_mapping, fail, validate
-from hand_service.yamlio import LineDict, load_yaml
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PROFILE_DIR = ROOT / "firmware_profiles"
 DEFAULT_PROFILE = PROFILE_DIR / "sim.yaml"
 
@@ -111,7 +111,7 @@ FINGER_EXTRA_SECTION = Section(
         Key("pressure_rate_max_kpa_per_s", "fastest change of the command", "float", "kPa/s",
             2000.0, 0.0, None, True),
         Key("kp_kpa_per_deg", "position PID: proportional gain; absent: the finger's critical "
-            "gain / 3 from its own model (hand_service/tuning.py)", "float", "kPa/deg", None, 0.0),
+            "gain / 3 from its own model (hand_service/config/tuning.py)", "float", "kPa/deg", None, 0.0),
         Key("ki_kpa_per_deg_s", "position PID: integral gain; absent: 10/s · kp", "float",
             "kPa/(deg·s)", None, 0.0),
         Key("kd_kpa_s_per_deg", "position PID: derivative gain", "float", "kPa·s/deg", 0.0, 0.0),
@@ -120,18 +120,6 @@ FINGER_EXTRA_SECTION = Section(
     ))
 FINGER_EXTRA_KEYS = tuple(k.name for k in FINGER_EXTRA_SECTION.keys)
 
-SIM_TRANSPORT_SECTION = Section("Transport: sim", "`transport: {kind: sim}` — the in-process "
-                                "simulated hand; no hardware, no bus.", (
-    Key("kind", "transport kind", "choice", default="sim", choices=("sim",)),
-))
-
-# Transport kinds register their section here (hand_service.transports adds can and serial),
-# and optionally a check of the validated values: check(values, source, block) raises; and
-# the pressure commands their wire carries: command_range(values) -> (low kPa, high kPa,
-# what carries them), which every finger's limits must lie within.
-TRANSPORT_SECTIONS: dict[str, Section] = {"sim": SIM_TRANSPORT_SECTION}
-TRANSPORT_CHECKS: dict[str, Callable[[dict[str, Any], Path, Any], None]] = {}
-TRANSPORT_COMMAND_RANGES: dict[str, Callable[[dict[str, Any]], tuple[float, float, str]]] = {}
 PRESSURE_LIMIT_KEYS = ("pressure_min_kpa", "pressure_max_kpa")
 INCLUDED_SECTIONS = ("control", "safety", "simulation", "hand")
 
@@ -285,8 +273,6 @@ def _fill_gains(finger: FingerProfile, control: dict[str, Any]) -> None:
     """Absent PI gains come from the finger's model by gain margin (tuning.py)."""
     if finger.kp_kpa_per_deg is not None and finger.ki_kpa_per_deg_s is not None:
         return
-    from hand_service.tuning import INTEGRAL_RATE_PER_S, margin_gains
-
     provisional = finger.rtcore_config(control, kp_kpa_per_deg=0.0, ki_kpa_per_deg_s=0.0)
     gains = margin_gains(provisional, control["rate_hz"])
     finger.gains_from_model = True
@@ -305,14 +291,13 @@ def load_profile(path: str | Path | None = None) -> Profile:
     top = validate(data, TOP_SECTION, source)
     transport_block = expect_mapping(top["transport"], source, data, "transport", "transport")
     kind = transport_block.get("kind")
-    if kind not in TRANSPORT_SECTIONS:
-        _register_transports()
-    if kind not in TRANSPORT_SECTIONS:
+    if kind not in KINDS:
         raise fail(source, transport_block, "kind",
-                   f"transport.kind must be one of {', '.join(sorted(TRANSPORT_SECTIONS))}, not {kind!r}")
-    transport = validate(transport_block, TRANSPORT_SECTIONS[kind], source, "transport")
-    if kind in TRANSPORT_CHECKS:
-        TRANSPORT_CHECKS[kind](transport, source, transport_block)
+                   f"transport.kind must be one of {', '.join(sorted(KINDS))}, not {kind!r}")
+    transport_kind = KINDS[kind]
+    transport = validate(transport_block, transport_kind.section, source, "transport")
+    if transport_kind.check is not None:
+        transport_kind.check(transport, source, transport_block)
     base = _included(source, data, top["include"]) if top["include"] else None
     if top["hand"] is None and base is None:
         raise fail(source, data, None, "missing required key 'hand' (one block per finger), or "
@@ -349,8 +334,8 @@ def load_profile(path: str | Path | None = None) -> Profile:
         fingers = [_finger(str(name), block, source, hand) for name, block in hand.items()]
     for finger in fingers:
         _fill_gains(finger, control)
-    if kind in TRANSPORT_COMMAND_RANGES:
-        _check_command_range(fingers, TRANSPORT_COMMAND_RANGES[kind](transport), source)
+    if transport_kind.command_range is not None:
+        _check_command_range(fingers, transport_kind.command_range(transport), source)
     return Profile(path=source, name=top["profile"], description=top["description"],
                    protocol_version=top["protocol_version"], transport=transport, control=control,
                    safety=safety, simulation=simulation, fingers=fingers, lines=lines)
@@ -368,17 +353,25 @@ def _included(source: Path, data: Any, include: str) -> Profile:
     return load_profile(path)
 
 
-def _register_transports() -> None:
-    """Import the transports package, which registers its sections, if it exists yet."""
-    with contextlib.suppress(ImportError):
-        import hand_service.transports  # noqa: F401
+def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
+    """A model file, or one finger of a profile (`hand:` block) chosen by `finger`."""
+    data = load_yaml(path)
+    if not isinstance(data, dict):
+        raise UserError(f"{path}: a model file is a mapping of keys (formats.md), not {type(data).__name__}")
+    if "hand" in data:
+        return load_profile(path).finger(finger).model
+    model, _ = model_from_mapping(data, path)
+    if finger is not None and model.finger is not None and model.finger != finger:
+        raise UserError(f"{path}: this model is for finger '{model.finger}', not '{finger}'")
+    if model.finger is None and finger is not None:
+        model.finger = finger
+    return model
 
 
 def all_sections() -> list[Section]:
-    _register_transports()
-    return [TOP_SECTION, *TRANSPORT_SECTIONS.values(), CONTROL_SECTION, SAFETY_SECTION,
+    return [TOP_SECTION, *(kind.section for kind in KINDS.values()), CONTROL_SECTION, SAFETY_SECTION,
             SIMULATION_SECTION, FINGER_EXTRA_SECTION, MODEL_SECTION]
 
 
-__all__ = ["DEFAULT_PROFILE", "MODEL_KEYS", "MODEL_SECTION", "PROFILE_DIR", "TRANSPORT_SECTIONS",
-           "FingerProfile", "Profile", "all_sections", "cutoff_problem", "load_profile", "where"]
+__all__ = ["DEFAULT_PROFILE", "MODEL_KEYS", "MODEL_SECTION", "PROFILE_DIR", "FingerProfile",
+           "Profile", "all_sections", "cutoff_problem", "load_model", "load_profile", "where"]

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hand_service.config.yamlio import LineDict
 from hand_service.errors import UserError, where
-from hand_service.yamlio import LineDict
 
 REQUIRED: Any = object()
 

@@ -1,19 +1,23 @@
-"""The profile keys of the bus transports (`transport: {kind: can | serial, ...}`).
+"""The transport kinds a profile may name (`transport: {kind: sim | can | serial, ...}`).
 
-Imported by hand_service.transports, which registers them in profile.TRANSPORT_SECTIONS
-(with their cross-key checks in profile.TRANSPORT_CHECKS), so a profile is validated
-before any bus library is touched.
+One table, `KINDS`, as python-can keeps its backends: each kind's class by module and
+name (imported only when a transport is built, by hand_service.transports), its profile
+keys, an optional check across those keys, and the pressure commands its wire carries.
+The profile reads this table; nothing writes into it, and no bus library is loaded to
+validate a profile.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import can
 
+from hand_service.config.schema import Key, Section, fail
 from hand_service.errors import UserError
-from hand_service.schema import Key, Section, fail
 
 # python-can's own backend registry (its names only: no backend is loaded).
 CAN_INTERFACES = tuple(sorted(can.interfaces.VALID_INTERFACES))
@@ -102,6 +106,35 @@ def can_command_range(values: dict[str, Any]) -> tuple[float, float, str]:
     return low, high, f"ValveCommand.pressure_cmd_kpa in {values['dbc']}"
 
 
-SECTIONS: dict[str, Section] = {"can": CAN_SECTION, "serial": SERIAL_SECTION}
-CHECKS = {"can": check_can, "serial": check_common}
-COMMAND_RANGES = {"can": can_command_range}
+SIM_SECTION = Section("Transport: sim", "`transport: {kind: sim}` — the in-process "
+                      "simulated hand; no hardware, no bus.", (
+    Key("kind", "transport kind", "choice", default="sim", choices=("sim",)),
+))
+
+Check = Callable[[dict[str, Any], Path, Any], None]
+CommandRange = Callable[[dict[str, Any]], tuple[float, float, str]]
+
+
+@dataclass(frozen=True)
+class TransportKind:
+    """One kind of transport: where its class lives and what a profile says about it.
+
+    `check(values, source, block)` raises a UserError naming the line when keys disagree;
+    `command_range(values)` gives (low kPa, high kPa, what carries them), which every
+    finger's pressure limits must lie within.
+    """
+
+    module: str
+    class_name: str
+    section: Section
+    check: Check | None = None
+    command_range: CommandRange | None = None
+
+
+KINDS: dict[str, TransportKind] = {
+    "sim": TransportKind("hand_service.transports.sim", "SimTransport", SIM_SECTION),
+    "can": TransportKind("hand_service.transports.can_transport", "CanTransport", CAN_SECTION,
+                         check_can, can_command_range),
+    "serial": TransportKind("hand_service.transports.serial_transport", "SerialTransport",
+                            SERIAL_SECTION, check_common),
+}

@@ -19,8 +19,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from hand_service.config.yamlio import LineDict, parse_yaml
 from hand_service.errors import UserError
-from hand_service.yamlio import LineDict, parse_yaml
 
 KeyPath = tuple[str, ...]
 _VALUE = r"(?P<value>[^\s,}\]#]+)"

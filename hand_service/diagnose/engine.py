@@ -16,13 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hand_service import effects as fx
+from hand_service.config import effects as fx
+from hand_service.config.model import FingerModel
 from hand_service.diagnose import stats
 from hand_service.diagnose.evidence import Context, sentence
 from hand_service.diagnose.fit import Fit, fit
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
 from hand_service.diagnose.search import Candidate, Progress, Selection, select
-from hand_service.model import FingerModel
 
 MAX_RELATIVE_STD = 0.1  # a plain parameter known worse than ±10 % is not identified
 STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured

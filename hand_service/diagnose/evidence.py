@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service import effects as fx
+from hand_service.config import effects as fx
 from hand_service.diagnose.problem import Problem
 
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service import effects as fx
-from hand_service.model import FingerModel
+from hand_service.config import effects as fx
+from hand_service.config.model import FingerModel
 from hand_service.simulator import sim_finger
 from rtcore.sim import SimFinger, simulate
 

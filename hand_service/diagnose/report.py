@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service import effects as fx
+from hand_service.config import effects as fx
 from hand_service.diagnose import stats
 from hand_service.diagnose.engine import Diagnosis
 from hand_service.errors import UserError

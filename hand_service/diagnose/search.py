@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hand_service import effects as fx
+from hand_service.config import effects as fx
 from hand_service.diagnose import stats
 from hand_service.diagnose.fit import Fit, fit, sensitivity
 from hand_service.diagnose.problem import Param, Problem

@@ -36,7 +36,7 @@ def hold(transport: Transport, pressure_kpa: float, stop: threading.Event,
 
 
 def main(argv: list[str] | None = None) -> int:
-    from hand_service.profile import load_profile
+    from hand_service.config.profile import load_profile
     from hand_service.transports import transport_class
 
     parser = argparse.ArgumentParser(description=__doc__)

@@ -20,9 +20,9 @@ from typing import Any
 import can
 import numpy as np
 
+from hand_service.config.profile import Profile
 from hand_service.firmware.faults import FaultInjector
 from hand_service.firmware.ports import CanBusPort, FirmwarePort
-from hand_service.profile import Profile
 from hand_service.simulator import hand_simulator
 from hand_service.wire.can_codec import CanCodec
 from hand_service.wire.messages import (

@@ -6,7 +6,7 @@
 
 Each rig gets its own channel (a fresh virtual channel name, or a pty path in its own
 directory) and ends everything it started in close(): transports, hosts, the mock.
-The HIL tests and the I/O benchmarks (iobench.py) both build on it.
+The HIL tests and the I/O benchmarks (bench/io.py) both build on it.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ import uuid
 from pathlib import Path
 from typing import Any
 
+from hand_service.config.profile import PROFILE_DIR, Profile, load_profile
 from hand_service.firmware.mock import MockThread, run_in_thread
-from hand_service.profile import PROFILE_DIR, Profile, load_profile
 from hand_service.transports import transport_class
 from hand_service.transports.link import LinkTransport
 

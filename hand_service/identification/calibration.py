@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 from scipy import optimize, signal, stats
 
-from hand_service import effects as fx
+from hand_service.config import effects as fx
+from hand_service.config.model import FingerModel
 from hand_service.errors import UserError
-from hand_service.model import FingerModel
 from hand_service.recording import Recording
 from rtcore import Effects, FingerConfig
 from rtcore.reference import effective_pressure, model_torque

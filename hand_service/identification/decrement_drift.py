@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.ldm import DecayEstimate, FreeDecay
+from hand_service.identification.ldm import DecayEstimate, FreeDecay
 
 MIN_T_STAT = 4.0  # β this many standard errors from zero ...
 MIN_DRIFT = 0.2  # ... and a decrement that changes by this fraction over the amplitudes seen

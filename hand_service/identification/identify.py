@@ -1,9 +1,9 @@
 """`identify`: k and B of one finger from free-oscillation trials, by the LDM.
 
 Each trial is read, its release found and its free decay read by the chosen method
-(hand_service.ldm). The inertia A is held at the model's value (physics.md §1), so
+(hand_service.identification.ldm). The inertia A is held at the model's value (physics.md §1), so
 k = A·ω_n² and B = 2·ζ·ω_n·A. The damped-sine fit runs on every trial whatever the
-method, because the decrement-drift check (hand_service.decrement_drift) needs it.
+method, because the decrement-drift check (hand_service.identification.decrement_drift) needs it.
 """
 
 from __future__ import annotations
@@ -17,10 +17,15 @@ from typing import Any
 import numpy as np
 from scipy import signal
 
-from hand_service import ldm
-from hand_service.decrement_drift import CycleAmplitudes, Drift, cycle_amplitudes, decrement_drift
+from hand_service.config.model import FingerModel
 from hand_service.errors import UserError
-from hand_service.model import FingerModel
+from hand_service.identification import ldm
+from hand_service.identification.decrement_drift import (
+    CycleAmplitudes,
+    Drift,
+    cycle_amplitudes,
+    decrement_drift,
+)
 from hand_service.recording import Recording, check_finger, read_recording
 
 NOISE_RATIO_WARNING = 2.0  # fit residual over the sensor noise beyond which the decay is no damped sine

@@ -27,8 +27,10 @@ from typing import Any
 
 import numpy as np
 
-from hand_service import trials
-from hand_service.calibration import (
+from hand_service.config.model import FingerModel
+from hand_service.config.profile import FingerProfile, Profile
+from hand_service.identification import trials
+from hand_service.identification.calibration import (
     GainFit,
     SensorFit,
     ValveFit,
@@ -36,9 +38,7 @@ from hand_service.calibration import (
     fit_sensor_map,
     fit_valve,
 )
-from hand_service.identify import IdentifyResult, identify_recordings
-from hand_service.model import FingerModel
-from hand_service.profile import FingerProfile, Profile
+from hand_service.identification.identify import IdentifyResult, identify_recordings
 from hand_service.recording import read_recording
 
 

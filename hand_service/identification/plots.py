@@ -11,8 +11,8 @@ import numpy as np
 from hand_service.errors import UserError
 
 if TYPE_CHECKING:
-    from hand_service.calibration import GainFit
-    from hand_service.identify import IdentifyResult
+    from hand_service.identification.calibration import GainFit
+    from hand_service.identification.identify import IdentifyResult
 
 MAX_TRIAL_PANELS = 12
 

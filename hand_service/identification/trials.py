@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from hand_service.profile import FingerProfile
+from hand_service.config.profile import FingerProfile
 from hand_service.recording import write_recording
 from hand_service.simulator import Simulator, profile_sim_finger
 from hand_service.version import software_version

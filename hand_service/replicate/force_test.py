@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import rtcore
-from hand_service.profile import Profile
+from hand_service.config.profile import Profile
 from hand_service.simulator import Simulator
 
 CONTACT_ANGLE_DEG = 90.0

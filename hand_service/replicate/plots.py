@@ -7,10 +7,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from hand_service.plots import identify_figure, pyplot, save
+from hand_service.identification.plots import identify_figure, pyplot, save
 
 if TYPE_CHECKING:
-    from hand_service.replicate import Result
+    from hand_service.replicate.result import Result
 
 
 def ldm_figure(result: Result, path: Path) -> Path:

@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import rtcore
+from hand_service.service.trajectory import CosineSweep
 from hand_service.simulator import Simulator
-from hand_service.trajectory import CosineSweep
 
 TUNED = ("kp_kpa_per_deg", "ki_kpa_per_deg_s", "kd_kpa_s_per_deg", "derivative_cutoff_hz")
 KP_GRID = (0.1, 0.2, 0.4, 0.7, 1.0, 1.5, 2.5, 4.0)

@@ -13,16 +13,16 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from hand_service.apiserver import ApiServer
-from hand_service.control import Api
+from hand_service.api.requests import Api
+from hand_service.api.server import ApiServer
+from hand_service.config.profile import Profile, cutoff_problem
+from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
 from hand_service.errors import UserError
-from hand_service.profile import Profile, cutoff_problem
-from hand_service.rates import RATE_MAX_HZ, RATE_MIN_HZ
-from hand_service.recorder import Recorder
-from hand_service.sdnotify import Notifier
-from hand_service.states import State
-from hand_service.supervisor import Supervisor
-from hand_service.timing import Realtime, setup_realtime, switch_interval
+from hand_service.service.recorder import Recorder
+from hand_service.service.sdnotify import Notifier
+from hand_service.service.states import State
+from hand_service.service.supervisor import Supervisor
+from hand_service.service.timing import Realtime, setup_realtime, switch_interval
 from hand_service.transports import Transport
 from hand_service.version import software_version
 from rtcore import MODE_POSITION, clock

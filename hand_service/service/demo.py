@@ -12,12 +12,12 @@ from typing import TextIO
 
 import numpy as np
 
-from hand_service.daemon import Daemon, print_summary
-from hand_service.profile import Profile
+from hand_service.config.profile import Profile
 from hand_service.recording import read_recording
+from hand_service.service.daemon import Daemon, print_summary
+from hand_service.service.states import Event, State
+from hand_service.service.trajectory import CosineSweep, References, SmoothStep, Trajectory
 from hand_service.simulator import Contact
-from hand_service.states import Event, State
-from hand_service.trajectory import CosineSweep, References, SmoothStep, Trajectory
 
 SWEEP = CosineSweep()
 PINCH_FINGERS = ("thumb", "index")

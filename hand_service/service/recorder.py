@@ -1,5 +1,5 @@
 """Tick recording: every tick one row into a preallocated shared-memory ring (one C call),
-drained into the CSV by a writer process (hand_service.recwriter), so the tick never
+drained into the CSV by a writer process (hand_service.service.recorder_writer), so the tick never
 waits on the disk and never shares the GIL with text formatting.
 
 The CSV is formats.md's multi-finger recording: `t`, `state`, then per finger the
@@ -25,7 +25,7 @@ from typing import IO
 import numpy as np
 
 from hand_service.errors import UserError
-from hand_service.recwriter import Drainer, WriterThread, csv_header, ring_columns
+from hand_service.service.recorder_writer import Drainer, WriterThread, csv_header, ring_columns
 from rtcore.ring import Ring
 
 log = logging.getLogger(__name__)
@@ -75,7 +75,7 @@ class Recorder:
     def __init__(self, fingers: list[str], rate_hz: float, kind: str = "process",
                  sync_every_s: float | None = None) -> None:
         """sync_every_s: the writer also fdatasyncs that often (default: on faults, signals
-        and at the end only; recwriter)."""
+        and at the end only; recorder_writer)."""
         if kind not in KINDS:
             raise UserError(f"recorder must be one of {', '.join(KINDS)}, not {kind!r}")
         if sync_every_s is not None and not 0 < sync_every_s < math.inf:
@@ -143,7 +143,7 @@ class Recorder:
             if self.kind == "process":
                 sync = [] if self.sync_every_s is None else ["--sync-every-s", repr(self.sync_every_s)]
                 self._process = subprocess.Popen(
-                    [sys.executable, "-m", "hand_service.recwriter", ring_path, str(path),
+                    [sys.executable, "-m", "hand_service.service.recorder_writer", ring_path, str(path),
                      "--fingers", ",".join(self.fingers), *sync],
                     stdin=subprocess.PIPE, stdout=subprocess.DEVNULL)
                 assert self._process.stdin is not None
@@ -200,7 +200,7 @@ class Recorder:
         if not self.active or self._ring is None:
             return {"active": False, "path": str(self.path) if self.path else None,
                     "closing": self.closing, "last": self.last}
-        lost = self._ring.lost  # before drained, which the writer publishes first (recwriter)
+        lost = self._ring.lost  # before drained, which the writer publishes first (recorder_writer)
         pushed, drained = self._ring.count, self._ring.drained
         alive = self._process.poll() is None if self._process else True
         return {"active": True, "path": str(self.path), "writer": self.kind,

@@ -1,6 +1,6 @@
 """The recording writer: drains the ring (rtcore.ring) into the CSV of formats.md.
 
-It runs as its own process by default (`python -m hand_service.recwriter`), so that
+It runs as its own process by default (`python -m hand_service.service.recorder_writer`), so that
 formatting text never holds the daemon's GIL; the same Drainer can run as a thread in
 the daemon, to measure what that costs (`bench --recorder thread`).
 
@@ -27,7 +27,7 @@ from typing import IO
 
 import numpy as np
 
-from hand_service.states import State
+from hand_service.service.states import State
 from rtcore.config import MODE_FORCE, MODE_NAMES, MODE_POSITION
 from rtcore.ring import Ring
 
@@ -126,7 +126,7 @@ class WriterThread:
         self._lock = threading.Lock()
         self._ended = False
         self._closers: list[Callable[[], None]] = []  # left to it by leave()
-        self._thread = threading.Thread(target=self._run, name="recwriter", daemon=True)
+        self._thread = threading.Thread(target=self._run, name="recorder-writer", daemon=True)
         self._thread.start()
 
     def _run(self) -> None:

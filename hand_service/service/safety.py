@@ -15,10 +15,18 @@ from typing import Any
 
 import numpy as np
 
-from hand_service.effects import effect_value
-from hand_service.profile import Profile
+from hand_service.config.effects import effect_value
+from hand_service.config.profile import FingerProfile, Profile
 from hand_service.transports.base import FirmwareStatus
-from rtcore._rtcore import ffi, lib
+from rtcore.gate import (
+    CAUSE_ANGLE_OUT_OF_RANGE,
+    CAUSE_NON_FINITE,
+    CAUSE_SENSOR_REJECTED,
+    CAUSE_STALE_SENSOR,
+    Gate,
+    GateConfig,
+)
+from rtcore.tick import FOUND_FRAME, FOUND_OUTPUT, FOUND_OVERRUN, FOUND_SAMPLE, Tick
 
 
 class Cause(str, enum.Enum):
@@ -78,64 +86,57 @@ class SafetyGate:
         safety = profile.safety
         self.names = profile.finger_names
         rate_hz = profile.control["rate_hz"]
-        self._gate = ffi.new("rtcore_gate *")
-        config = self._gate.config
-        config.n_fingers = len(profile.fingers)
-        config.angle_min_deg = float(safety["angle_min_deg"])
-        config.angle_max_deg = float(safety["angle_max_deg"])
-        config.leak_tolerance_kpa = float(safety["leak_tolerance_kpa"])
-        config.leak_ticks = int(safety["leak_ticks"])
-        config.stale_sensor_ticks = int(safety["stale_sensor_ticks"])
-        config.sensor_rejected_ticks = config.stale_sensor_ticks  # held readings count like stale ones
-        config.overrun_streak = int(safety["overrun_streak"])
-        config.transport_timeout_ns = int(safety["transport_timeout_ms"] * 1e6)
-        for i, f in enumerate(profile.fingers):
-            config.pressure_min_kpa[i] = f.pressure_min_kpa
-            config.pressure_max_kpa[i] = f.pressure_max_kpa
+        stale_sensor_ticks = int(safety["stale_sensor_ticks"])
+        self.core = Gate(GateConfig(
+            angle_min_deg=float(safety["angle_min_deg"]),
+            angle_max_deg=float(safety["angle_max_deg"]),
+            leak_tolerance_kpa=float(safety["leak_tolerance_kpa"]),
+            leak_ticks=int(safety["leak_ticks"]),
+            stale_sensor_ticks=stale_sensor_ticks,
+            sensor_rejected_ticks=stale_sensor_ticks,  # held readings count like stale ones
+            overrun_streak=int(safety["overrun_streak"]),
+            transport_timeout_ns=int(safety["transport_timeout_ms"] * 1e6),
+            pressure_min_kpa=[f.pressure_min_kpa for f in profile.fingers],
+            pressure_max_kpa=[f.pressure_max_kpa for f in profile.fingers],
             # the chamber follows the command through the valve's lag and dead time (the
             # finger's effects), approximated by one first-order lag
-            lag_s = (effect_value(f.model.effects, "valve_lag")
-                     + effect_value(f.model.effects, "dead_time"))
-            config.follow_alpha[i] = 1.0 - math.exp(-1.0 / (rate_hz * max(lag_s, 1e-9)))
-        self.reset()
-
-    @property
-    def c_gate(self) -> object:
-        """The rtcore_gate struct (cdata pointer) the tick runs the checks on."""
-        return self._gate
+            follow_alpha=[1.0 - math.exp(-1.0 / (rate_hz * max(_valve_delay_s(f), 1e-9)))
+                          for f in profile.fingers]))
+        self.config = self.core.config
+        self.firmware_vents: int | None = None  # FirmwareStatus.vents when last seen
 
     @property
     def expected_kpa(self) -> np.ndarray:
-        return np.array(self._gate.expected_kpa[0:len(self.names)])
+        return self.core.expected_kpa
 
     def reset(self) -> None:
         """Forget the history (after a re-handshake)."""
-        self.firmware_vents: int | None = None  # FirmwareStatus.vents when last seen
-        lib.rtcore_gate_reset(self._gate)
+        self.firmware_vents = None
+        self.core.reset()
 
     # -- the wording of what a check found -----------------------------------------------
-    def first_fault(self, c_tick: Any, events: int, hand: Any, transport_fault: Fault | None = None,
+    def first_fault(self, tick: Tick, events: int, hand: Any, transport_fault: Fault | None = None,
                     firmware_fault: Fault | None = None, sequence: int | None = None) -> Fault | None:
         """The fault a tick reports of what its checks found (RTCORE_TICK_* bits in
         events, the results in c_tick) and the link's own: the first in the order overrun,
         the link, the sample, the frame, the firmware, the outputs."""
-        if events & lib.RTCORE_TICK_OVERRUN:
-            return self.overrun_fault(c_tick.overrun)
+        if events & FOUND_OVERRUN:
+            return self.overrun_fault(tick.overrun)
         if transport_fault is not None:
             return transport_fault
-        if events & lib.RTCORE_TICK_SAMPLE:
-            return self.sample_fault(c_tick.sample, hand.inputs)
-        if events & lib.RTCORE_TICK_FRAME:
-            return self.frame_fault(c_tick.frame, sequence)
+        if events & FOUND_SAMPLE:
+            return self.sample_fault(tick.sample, hand.inputs)
+        if events & FOUND_FRAME:
+            return self.frame_fault(tick.frame, sequence)
         if firmware_fault is not None:
             return firmware_fault
-        if events & lib.RTCORE_TICK_OUTPUT:
-            return self.outputs_fault(c_tick.output, hand.outputs)
+        if events & FOUND_OUTPUT:
+            return self.outputs_fault(tick.output, hand.outputs)
         return None
 
     def overrun_fault(self, r: Any) -> Fault:
         return Fault(Cause.OVERRUN_STREAK, f"{r.value:.0f} deadline misses in a row "
-                     f"(overrun_streak {self._gate.config.overrun_streak})")
+                     f"(overrun_streak {self.config.overrun_streak})")
 
     def frame_fault(self, r: Any, sequence: int | None) -> Fault:
         """Stale sensor or lost transport (rtcore_gate_frame).
@@ -148,8 +149,8 @@ class SafetyGate:
         against each other, and scheduling on either side delays and bunches the frames.
         Silence on the host's clock is bounded by transport_timeout_ms.
         """
-        config = self._gate.config
-        if r.cause == lib.RTCORE_GATE_STALE_SENSOR:
+        config = self.config
+        if r.cause == CAUSE_STALE_SENSOR:
             upto = f"up to sequence {sequence}; " if sequence is not None else ""
             return Fault(Cause.STALE_SENSOR, f"{r.value:.0f} sensor samples in a row never arrived "
                          f"({upto}stale_sensor_ticks {config.stale_sensor_ticks})")
@@ -166,15 +167,15 @@ class SafetyGate:
 
     def outputs_fault(self, r: Any, outputs: Any) -> Fault:
         """The controller's result before it is sent: finite, in range, within limits."""
-        config = self._gate.config
+        config = self.config
         cause, i, limit = r.cause, r.finger, r.limit
         angle, command = outputs.angle_deg[i], outputs.pressure_cmd_kpa[i]
-        if cause == lib.RTCORE_GATE_NON_FINITE:
+        if cause == CAUSE_NON_FINITE:
             return Fault(Cause.NON_FINITE, f"angle {angle} deg, command {command} kPa", self.names[i])
-        if cause == lib.RTCORE_GATE_ANGLE_OUT_OF_RANGE:
+        if cause == CAUSE_ANGLE_OUT_OF_RANGE:
             return Fault(Cause.ANGLE_OUT_OF_RANGE, f"angle {angle:.1f} deg outside "
                          f"[{config.angle_min_deg:g}, {config.angle_max_deg:g}]", self.names[i])
-        if cause == lib.RTCORE_GATE_SENSOR_REJECTED:
+        if cause == CAUSE_SENSOR_REJECTED:
             return Fault(Cause.SENSOR_REJECTED, f"the sensor reading was implausible for {limit:.0f} "
                          f"ticks in a row; the control step held {angle:.1f} deg "
                          f"(stale_sensor_ticks {config.sensor_rejected_ticks})", self.names[i])
@@ -185,7 +186,7 @@ class SafetyGate:
         """Leak or burst: the measured chamber pressure stayed away from where the sent
         command should have taken it for leak_ticks ticks (NaN, not reported, is not
         checked)."""
-        config = self._gate.config
+        config = self.config
         value, limit = r.value, r.limit
         kind = "leak" if value < limit else "stuck or over-pressure"
         return Fault(Cause.LEAK_OR_BURST, f"{kind}: chamber at {value:.1f} kPa where {limit:.1f} "
@@ -208,6 +209,12 @@ class SafetyGate:
                          f"(now {status.state or 'vented'}): its watchdog saw no command for "
                          f"firmware_watchdog_ms, or it rebooted")
         return None
+
+
+def _valve_delay_s(finger: FingerProfile) -> float:
+    """The valve's lag and dead time together (the finger's effects)."""
+    effects = finger.model.effects
+    return effect_value(effects, "valve_lag") + effect_value(effects, "dead_time")
 
 
 def finite_or_none(value: float) -> float | None:

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import enum
 
+from rtcore.tick import REFS_HOLD, REFS_RUN, REFS_VENT
+
 
 class State(enum.IntEnum):
     INIT = 0
@@ -100,5 +102,9 @@ class StateMachine:
         return self.state in VENTED
 
 
-__all__ = ["ACTIVE", "LATCHED", "TRANSITIONS", "VENTED", "Event", "State", "StateMachine",
+# the references each state feeds the control step, indexed by State
+REFS = tuple(REFS_RUN if state is State.RUNNING else REFS_HOLD if state is State.HOLD else REFS_VENT
+             for state in State)
+
+__all__ = ["ACTIVE", "LATCHED", "REFS", "TRANSITIONS", "VENTED", "Event", "State", "StateMachine",
            "TransitionError"]

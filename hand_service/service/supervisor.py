@@ -14,7 +14,6 @@ thread: nothing else ever holds the GIL."""
 from __future__ import annotations
 
 import contextlib
-import functools
 import logging
 import signal
 from collections.abc import Callable
@@ -22,16 +21,15 @@ from collections.abc import Callable
 import numpy as np
 
 import rtcore
-from hand_service.profile import Profile
-from hand_service.recorder import Recorder
-from hand_service.safety import Cause, Fault, FaultLog, SafetyGate
-from hand_service.states import ACTIVE, LATCHED, Event, State, StateMachine
-from hand_service.tickstruct import REFS, TickStruct
-from hand_service.timing import GcControl, TickStats
-from hand_service.trajectory import NOT_DRIVEN, Trajectory
+from hand_service.config.profile import Profile
+from hand_service.service.recorder import Recorder
+from hand_service.service.safety import Cause, Fault, FaultLog, SafetyGate
+from hand_service.service.states import ACTIVE, LATCHED, REFS, Event, State, StateMachine
+from hand_service.service.timing import GcControl, TickStats
+from hand_service.service.trajectory import NOT_DRIVEN, Trajectory
 from hand_service.transports import FirmwareStatus, HandshakeError, Transport
 from rtcore import MODE_VENT, clock
-from rtcore._rtcore import ffi, lib
+from rtcore.tick import FOUND_LEAK, FOUND_TRAJECTORY_END, Tick
 
 log = logging.getLogger(__name__)
 
@@ -49,8 +47,7 @@ class Supervisor:
         self.hand = rtcore.Hand(profile.hand_config())
         self.gate = SafetyGate(profile)
         # the tick between sensors and valves in C (csrc/rtcore_tick.c)
-        self._ts = TickStruct(self.hand, self.gate, n)
-        self._tick = tick = self._ts.c
+        self._ts = Tick(self.hand, self.gate.core, n)
         self.faults = FaultLog()
         self.machine = StateMachine()
         self.stats = TickStats(self.period_ns)
@@ -65,19 +62,20 @@ class Supervisor:
         self.tick_index = 0
         self.t_s = 0.0
         self.sent_kpa = self._ts.sent_kpa
-        self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa, tick)
-        self._control = functools.partial(lib.rtcore_tick_control, tick)
-        self._follow = functools.partial(lib.rtcore_tick_follow, tick)
-        link = transport.core_link()
-        # the in-process simulated hand: the whole tick, sensors to valves, in one C call
-        self._tick_core = None if link is None else functools.partial(lib.rtcore_tick_sim, tick, link)
-        # and on the schedule, the sleep, that tick and its ring row in one C call
-        self._tick_at = None if link is None else functools.partial(lib.rtcore_tick_sim_at, tick, link)
-        self._times_ns = ffi.new("int64_t[2]")  # its wake-up and end
+        self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa, self._ts.c)
+        self._control, self._follow = self._ts.control, self._ts.follow
+        # the transport says how the tick reaches the hand: on the in-process simulated
+        # hand, the whole tick, sensors to valves, is one C call, and on the schedule the
+        # sleep, that tick and its ring row are one C call too; else the transport in
+        # Python around the C control and follow halves
+        self.tick_path = transport.tick_path()
+        in_core = None if self.tick_path.link is None else self._ts.on_link(self.tick_path.link)
+        self._tick_core = None if in_core is None else in_core.tick
+        self._tick_at = None if in_core is None else in_core.tick_at
+        self._times_ns = Tick.times()  # its wake-up and end
         # the simulated hand lives through the period of the command just sent in the slack
         # after the tick, as a board's firmware runs beside the host
-        self.advance_hand: Callable[[], object] | None = (
-            None if link is None else functools.partial(lib.rtcore_sim_link_advance, link))
+        self.advance_hand: Callable[[], object] | None = None if in_core is None else in_core.advance
         self._last_missed = False
         self._latched_causes: set[Cause] = set()
         self.on_fault: list[Callable[[Fault], None]] = []
@@ -100,20 +98,20 @@ class Supervisor:
     @property
     def trajectory_tick(self) -> int:
         """The trajectory's row the next RUNNING tick plays."""
-        return int(self._tick.trajectory_tick)
+        return self._ts.trajectory_tick
 
     @trajectory_tick.setter
     def trajectory_tick(self, value: int) -> None:
-        self._tick.trajectory_tick = value
+        self._ts.trajectory_tick = value
 
     @property
     def trajectory_done(self) -> bool:
         """It reached its end (and did not loop): its last row is the targets, HOLD."""
-        return bool(self._tick.trajectory_done)
+        return self._ts.trajectory_done
 
     @trajectory_done.setter
     def trajectory_done(self, value: bool) -> None:
-        self._tick.trajectory_done = int(value)
+        self._ts.trajectory_done = value
 
     # -- state changes -----------------------------------------------------------------
     @property
@@ -232,7 +230,7 @@ class Supervisor:
         events = self._control(REFS[state], ours is not None, self._last_missed, fresh,
                                sample.lost_in_a_row if sample is not None else 0, woke_ns)
         if events or ours is not None:
-            self._found(events & ~lib.RTCORE_TICK_LEAK, transport_fault, firmware_fault,
+            self._found(events & ~FOUND_LEAK, transport_fault, firmware_fault,
                         sample.sequence if sample is not None else None)
         try:
             if self.machine.vented:
@@ -248,7 +246,7 @@ class Supervisor:
                 self.transport.vent()
             self.sent_kpa[:] = 0.0
         if self._follow():
-            self.fault(self.gate.follow_fault(self._tick.follow))
+            self.fault(self.gate.follow_fault(self._ts.follow_result))
 
     def _found(self, events: int, transport_fault: Fault | None = None,
                firmware_fault: Fault | None = None, sequence: int | None = None) -> None:
@@ -256,17 +254,17 @@ class Supervisor:
         this order (overrun, the link, the sample, the frame, the firmware, the outputs),
         then a leak found after the send. Every check runs on every tick, so that each
         streak (misses, held readings, silence) counts every tick, fault or not."""
-        if events & lib.RTCORE_TICK_TRAJECTORY_END:
+        if events & FOUND_TRAJECTORY_END:
             if self.trajectory is not None:
                 log.info("trajectory %s finished after %.2f s", self.trajectory.source,
                          self.trajectory.duration_s)
             self.fire(Event.HOLD)
-        fault = self.gate.first_fault(self._tick, events, self.hand, transport_fault, firmware_fault,
+        fault = self.gate.first_fault(self._ts, events, self.hand, transport_fault, firmware_fault,
                                       sequence)
         if fault is not None:
             self.fault(fault)
-        if events & lib.RTCORE_TICK_LEAK:
-            self.fault(self.gate.follow_fault(self._tick.follow))
+        if events & FOUND_LEAK:
+            self.fault(self.gate.follow_fault(self._ts.follow_result))
 
     def _vent_and_record(self, state: State) -> None:
         """A tick without control (INIT, shutdown): vent, record zeros."""

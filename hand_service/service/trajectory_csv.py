@@ -24,9 +24,9 @@ from typing import TextIO
 
 import numpy as np
 
+from hand_service.config.profile import Profile
 from hand_service.errors import UserError, where
-from hand_service.profile import Profile
-from hand_service.trajectory import Trajectory
+from hand_service.service.trajectory import Trajectory
 from rtcore import MODE_FORCE, MODE_POSITION, MODE_VENT
 
 QUANTITIES = {"angle_ref_deg": MODE_POSITION, "force_ref_n": MODE_FORCE}

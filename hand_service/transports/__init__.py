@@ -1,16 +1,15 @@
-"""Transports by name, as python-can does it: kind -> (module, class), imported on demand.
+"""Transports by name, as python-can does it: the kind's module and class, imported on demand.
 
-Each kind registers its profile keys in profile.TRANSPORT_SECTIONS when this package is
-imported (the bus kinds' keys live in transports/sections.py, which loads no bus library).
+The table of kinds (config/transports.py) is the profile's as well; nothing here writes
+into it.
 """
 
 from __future__ import annotations
 
 import importlib
 
-from hand_service import profile as _profile
+from hand_service.config.transports import KINDS
 from hand_service.errors import UserError
-from hand_service.transports import sections as _sections
 from hand_service.transports.base import (
     FirmwareStatus,
     HandshakeError,
@@ -19,14 +18,8 @@ from hand_service.transports.base import (
     TransportHealth,
 )
 
-REGISTRY: dict[str, tuple[str, str]] = {
-    "sim": ("hand_service.transports.sim", "SimTransport"),
-    "can": ("hand_service.transports.can_transport", "CanTransport"),
-    "serial": ("hand_service.transports.serial_transport", "SerialTransport"),
-}
-_profile.TRANSPORT_SECTIONS.update(_sections.SECTIONS)
-_profile.TRANSPORT_CHECKS.update(_sections.CHECKS)
-_profile.TRANSPORT_COMMAND_RANGES.update(_sections.COMMAND_RANGES)
+REGISTRY: dict[str, tuple[str, str]] = {name: (kind.module, kind.class_name)
+                                         for name, kind in KINDS.items()}
 
 
 def transport_class(kind: str) -> type[Transport]:

@@ -12,6 +12,27 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rtcore.sim_link import SimLink
+
+
+@dataclass(frozen=True)
+class TickPath:
+    """How the supervisor's tick reaches the hand, chosen by the transport.
+
+    link None: the tick calls the transport's latest() and send() in Python around the
+    two C halves of the tick (a board on a bus). A SimLink: the in-process simulated
+    hand, whose whole tick — sensors, checks, step, valves — runs in one C call on it.
+    """
+
+    link: SimLink | None = None
+
+    @property
+    def in_core(self) -> bool:
+        return self.link is not None
+
+
+PYTHON_TICK = TickPath()
+
 
 @dataclass
 class SensorSample:
@@ -112,10 +133,10 @@ class Transport(ABC):
         its own clock whatever the host says; the simulated hand stands still."""
         del tick_index
 
-    def core_link(self) -> object | None:
-        """A link the tick can run in C, in the same call as the control step (the
-        in-process simulated hand: an rtcore_sim_link); None for a bus."""
-        return None
+    def tick_path(self) -> TickPath:
+        """How the supervisor's tick reaches this hand: through latest() and send() in
+        Python (a board on a bus), unless the transport says otherwise."""
+        return PYTHON_TICK
 
     def vent(self) -> None:
         """Command every valve to 0 kPa now."""

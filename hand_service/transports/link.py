@@ -20,8 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from hand_service.config.profile import Profile
 from hand_service.errors import UserError
-from hand_service.profile import Profile
 from hand_service.transports.base import (
     FirmwareStatus,
     HandshakeError,

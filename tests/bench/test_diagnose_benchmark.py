@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from hand_service.concealed.generator import generate
+from hand_service.config.profile import load_profile
+from hand_service.diagnose.concealed.generator import generate
 from hand_service.diagnose.engine import diagnose
-from hand_service.profile import load_profile
 
 
 @pytest.mark.slow

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from hand_service.bench.io import run_io_bench
 from hand_service.firmware.rig import RIG_PROFILES
-from hand_service.iobench import run_io_bench
 
 
 @pytest.mark.slow

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 import rtcore
-from hand_service.profile import load_profile
+from hand_service.config.profile import load_profile
 
 
 @pytest.fixture(scope="module")

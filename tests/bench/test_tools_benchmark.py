@@ -7,12 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from hand_service import trials
-from hand_service.identify import identify_trial
-from hand_service.profile import Profile, load_profile
+from hand_service.config.profile import Profile, load_profile
+from hand_service.identification import trials
+from hand_service.identification.identify import identify_trial
 from hand_service.recording import read_recording
+from hand_service.replicate.tracking import track
 from hand_service.simulator import hand_simulator
-from hand_service.tracking import track
 
 
 @pytest.fixture(scope="module")

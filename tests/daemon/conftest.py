@@ -3,10 +3,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hand_service.profile import Profile, load_profile
-from hand_service.recorder import Recorder
-from hand_service.states import Event, State
-from hand_service.supervisor import Supervisor
+from hand_service.config.profile import Profile, load_profile
+from hand_service.service.recorder import Recorder
+from hand_service.service.states import Event, State
+from hand_service.service.supervisor import Supervisor
 from tests.daemon.fakes import FaultyTransport
 
 

@@ -5,13 +5,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from hand_service.profile import Profile
+from hand_service.config.profile import Profile
 from hand_service.transports import FirmwareStatus, HandshakeError, SensorSample
 from hand_service.transports.sim import SimTransport
 
 
 class FaultyTransport(SimTransport):
     """The sim transport, with switches: each fault can be turned on at any tick."""
+
+    tick_in_core = False  # the faults are in latest() and send(): the tick goes through them
 
     def __init__(self, profile: Profile, **options: object) -> None:
         super().__init__(profile, **options)  # type: ignore[arg-type]

@@ -13,7 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from hand_service.client import HandClient
+from hand_service.api.client import HandClient
 
 
 def wait_for(predicate: Callable[[], Any], timeout_s: float, what: str) -> Any:

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from hand_service.client import ApiError, HandClient
-from hand_service.daemon import Daemon, DaemonOptions
-from hand_service.profile import load_profile
+from hand_service.api.client import ApiError, HandClient
+from hand_service.config.profile import load_profile
 from hand_service.recording import read_recording
+from hand_service.service.daemon import Daemon, DaemonOptions
 from hand_service.transports import transport_class
 from tests.daemon.process import wait_for
 
@@ -235,14 +235,14 @@ def test_tcp_is_loopback_only(tmp_path: Path) -> None:
 
 
 def test_second_daemon_on_the_same_socket_is_refused(daemon: Running) -> None:
-    from hand_service.apiserver import ApiServer
+    from hand_service.api.server import ApiServer
     from hand_service.errors import UserError
     with pytest.raises(UserError, match="another hand-service daemon"):
         ApiServer(lambda r: {}, daemon.socket).open()
 
 
 def test_a_file_at_the_socket_path_is_never_deleted(tmp_path: Path) -> None:
-    from hand_service.apiserver import ApiServer
+    from hand_service.api.server import ApiServer
     from hand_service.errors import UserError
     precious = tmp_path / "notes.txt"
     precious.write_text("a week of lab notes\n")
@@ -257,7 +257,7 @@ def test_a_file_at_the_socket_path_is_never_deleted(tmp_path: Path) -> None:
 
 
 def test_a_stale_socket_is_replaced(tmp_path: Path) -> None:
-    from hand_service.apiserver import ApiServer
+    from hand_service.api.server import ApiServer
     path = tmp_path / "api.sock"
     dead = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     dead.bind(str(path))  # a daemon that died without removing its socket
@@ -283,7 +283,7 @@ def _replies(sock: socket.socket, n: int) -> list[dict]:
 
 def held_parse(monkeypatch: pytest.MonkeyPatch) -> threading.Event:
     """The worker's parse waits for the returned Event (set it to let the load finish)."""
-    from hand_service import control
+    from hand_service.api import requests as control
     release = threading.Event()
     parse = control.read_trajectory
 

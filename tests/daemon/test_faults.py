@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service.profile import PROFILE_DIR, load_profile
-from hand_service.safety import Cause
-from hand_service.states import Event, State
+from hand_service.config.profile import PROFILE_DIR, load_profile
+from hand_service.service.safety import Cause
+from hand_service.service.states import Event, State
 from rtcore import MODE_PRESSURE
 from tests.daemon.conftest import Rig
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from hand_service.safety import Cause
-from hand_service.states import Event, State
+from hand_service.service.safety import Cause
+from hand_service.service.states import Event, State
 from hand_service.transports.base import FirmwareStatus
 from tests.daemon.conftest import Rig
 

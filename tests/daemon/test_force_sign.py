@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service.control import Api
+from hand_service.api.requests import Api
 from hand_service.recording import read_recording
-from hand_service.states import State
+from hand_service.service.states import State
 from tests.daemon.conftest import Rig
 
 HELD_DEG = 30.0  # an object behind the index finger keeps it from straightening

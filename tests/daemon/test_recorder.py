@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import rtcore
+from hand_service.config.profile import load_profile
 from hand_service.errors import UserError
-from hand_service.profile import load_profile
-from hand_service.recorder import Recorder
-from hand_service.recwriter import Drainer
+from hand_service.service.recorder import Recorder
+from hand_service.service.recorder_writer import Drainer
 from tests.daemon.process import wait_for
 
 
@@ -148,7 +148,7 @@ def test_the_sync_interval_reaches_the_writer_process(tmp_path: Path) -> None:
         pid = rec.writer_pid
         assert pid is not None
         cmdline = Path(f"/proc/{pid}/cmdline")
-        wait_for(lambda: b"recwriter" in cmdline.read_bytes(), 5.0, "the writer to exec")
+        wait_for(lambda: b"recorder_writer" in cmdline.read_bytes(), 5.0, "the writer to exec")
         argv = cmdline.read_bytes().split(b"\0")
         assert argv[argv.index(b"--sync-every-s") + 1] == b"0.25"
     finally:
@@ -159,7 +159,7 @@ def test_the_sync_interval_reaches_the_writer_process(tmp_path: Path) -> None:
 
 def test_the_thread_writer_syncs_when_flushed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """flush() (a fault, a signal) is an fdatasync for the thread writer too."""
-    from hand_service.recwriter import WriterThread
+    from hand_service.service.recorder_writer import WriterThread
     from rtcore.ring import Ring
 
     synced: list[int] = []

@@ -8,12 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from hand_service.profile import load_profile
-from hand_service.recorder import Recorder
+from hand_service.config.profile import load_profile
 from hand_service.recording import read_recording
-from hand_service.states import Event, State
-from hand_service.supervisor import Supervisor
-from hand_service.trajectory_csv import read_trajectory
+from hand_service.service.recorder import Recorder
+from hand_service.service.states import Event, State
+from hand_service.service.supervisor import Supervisor
+from hand_service.service.trajectory_csv import read_trajectory
 from tests.daemon.conftest import Rig
 from tests.daemon.fakes import FaultyTransport
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from hand_service.cli import main
-from hand_service.profile import DEFAULT_PROFILE, load_profile
+from hand_service.config.profile import DEFAULT_PROFILE, load_profile
 from tests.daemon.process import DaemonProcess, wait_for
 
 TRAJECTORY = """\

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service.profile import load_profile
+from hand_service.config.profile import load_profile
 from hand_service.recording import read_recording
 from tests.daemon.process import DaemonProcess
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hand_service.profile import load_profile
+from hand_service.config.profile import load_profile
 from hand_service.transports.sim import SimTransport
 
 

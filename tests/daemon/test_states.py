@@ -6,7 +6,15 @@ import itertools
 
 import pytest
 
-from hand_service.states import LATCHED, TRANSITIONS, VENTED, Event, State, StateMachine, TransitionError
+from hand_service.service.states import (
+    LATCHED,
+    TRANSITIONS,
+    VENTED,
+    Event,
+    State,
+    StateMachine,
+    TransitionError,
+)
 
 EXPECTED = {
     (State.INIT, Event.HANDSHAKE_OK): State.DISARMED,

@@ -6,9 +6,9 @@ import sys
 
 import pytest
 
-from hand_service.daemon import Daemon, DaemonOptions
-from hand_service.profile import load_profile
-from hand_service.timing import SWITCH_INTERVAL_S
+from hand_service.config.profile import load_profile
+from hand_service.service.daemon import Daemon, DaemonOptions
+from hand_service.service.timing import SWITCH_INTERVAL_S
 from hand_service.transports import transport_class
 
 

@@ -9,12 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service.profile import load_profile
-from hand_service.recorder import Recorder
+from hand_service.config.profile import load_profile
 from hand_service.recording import read_recording
-from hand_service.states import Event, State
-from hand_service.supervisor import Supervisor
-from hand_service.trajectory import CosineSweep, Trajectory
+from hand_service.service.recorder import Recorder
+from hand_service.service.states import Event, State
+from hand_service.service.supervisor import Supervisor
+from hand_service.service.trajectory import CosineSweep, Trajectory
 from hand_service.transports.sim import SimTransport
 from rtcore import MODE_POSITION, clock
 
@@ -111,7 +111,7 @@ def test_the_slack_lives_through_each_period_once() -> None:
     sim = core.transport.simulator
     for _ in range(30):
         core.sup.run_one(schedule)
-        assert core.transport._link.pending == 0
+        assert core.transport.link.c_link.pending == 0
         assert sim.time_s == pytest.approx(schedule.index * core.period_s)
     core.sup.request_stop("test")
     core.sup.shutdown()  # its vent holds one period more

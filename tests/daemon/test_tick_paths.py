@@ -9,11 +9,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from hand_service.profile import load_profile
-from hand_service.recorder import Recorder
-from hand_service.states import Event, State
-from hand_service.supervisor import Supervisor
-from hand_service.tickbench import sweep_trajectory
+from hand_service.bench.tick import sweep_trajectory
+from hand_service.config.profile import load_profile
+from hand_service.service.recorder import Recorder
+from hand_service.service.states import Event, State
+from hand_service.service.supervisor import Supervisor
 from hand_service.transports import SensorSample
 from hand_service.transports.sim import SimTransport
 from rtcore import MODE_POSITION
@@ -22,6 +22,8 @@ from tests.daemon.fakes import FaultyTransport
 
 class PythonPathSim(SimTransport):
     """The simulated hand, but its sample goes through Python: no core link."""
+
+    tick_in_core = False
 
     def latest(self) -> SensorSample | None:
         return super().latest()
@@ -85,4 +87,13 @@ def test_the_c_tick_and_the_python_transport_path_agree() -> None:
 def test_only_the_plain_simulated_hand_runs_in_core(cls: type[SimTransport], in_core: bool) -> None:
     """A subclass that changes what crosses the wire keeps its Python path, so its
     overrides are never skipped."""
-    assert (cls(load_profile(None)).core_link() is not None) is in_core
+    assert cls(load_profile(None)).tick_path().in_core is in_core
+
+
+def test_a_subclass_that_changes_the_wire_must_say_how_it_ticks() -> None:
+    """Overriding what crosses the wire while keeping the C tick would skip the override:
+    such a class is refused when it is defined."""
+    with pytest.raises(TypeError, match="tick_in_core = False"):
+        class Sneaky(SimTransport):
+            def send(self, pressure_cmd_kpa: np.ndarray) -> None:
+                super().send(pressure_cmd_kpa)

@@ -1,5 +1,5 @@
 """The tick's ring row, built in C from the control step's structs, lands in the columns
-the writer names (recwriter.QUANTITIES); a reader never keeps a torn row, and counts and
+the writer names (recorder_writer.QUANTITIES); a reader never keeps a torn row, and counts and
 publishes the rows it lost."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 import rtcore
-from hand_service.profile import load_profile
-from hand_service.recwriter import HEAD, QUANTITIES, Drainer
+from hand_service.config.profile import load_profile
+from hand_service.service.recorder_writer import HEAD, QUANTITIES, Drainer
 from rtcore.ring import Ring
 
 

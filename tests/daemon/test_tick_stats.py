@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from hand_service.timing import TickStats
+from hand_service.service.timing import TickStats
 
 PERIOD_NS = 10_000_000
 

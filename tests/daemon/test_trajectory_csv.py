@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hand_service.config.profile import load_profile
 from hand_service.errors import UserError
-from hand_service.profile import load_profile
-from hand_service.trajectory import NOT_DRIVEN
-from hand_service.trajectory_csv import read_trajectory
+from hand_service.service.trajectory import NOT_DRIVEN
+from hand_service.service.trajectory_csv import read_trajectory
 from rtcore import MODE_FORCE, MODE_POSITION, MODE_VENT
 
 PROFILE = load_profile(None)
@@ -62,7 +62,7 @@ def test_bad_files_name_the_line_and_column(tmp_path: Path, text: str, message: 
 def test_too_long_a_file_stops_at_the_first_row_past_the_limit(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch, step_s: float, message: str) -> None:
     """Refused while parsing, at the row past the limit: a bad row after it is never read."""
-    from hand_service import trajectory_csv
+    from hand_service.service import trajectory_csv
     monkeypatch.setattr(trajectory_csv, "MAX_TICKS", 400)
     monkeypatch.setattr(trajectory_csv, "MAX_ROWS", 400)
     rows = "".join(f"{i * step_s!r},10\n" for i in range(1000))

@@ -2,7 +2,7 @@
 
 Every library effect x {steps, sweep} x 3 seeds, plus 12 clean recordings: fingers, noise
 (0.3-1.0 deg), concealment (0.4-1.5 x noise) and ±10 % parameter errors drawn per seed.
-The README's figures come from `python -m hand_service.concealed.battery`, which runs the
+The README's figures come from `python -m hand_service.diagnose.concealed.battery`, which runs the
 same plan.
 """
 
@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from hand_service.concealed.battery import markdown, plan, run_case, summarise
+from hand_service.diagnose.concealed.battery import markdown, plan, run_case, summarise
 
 
 @pytest.mark.slow

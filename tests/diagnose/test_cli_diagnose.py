@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from hand_service.cli import main
-from hand_service.model import load_model, save_model
-from hand_service.profile import load_profile
+from hand_service.config.model import save_model
+from hand_service.config.profile import load_model, load_profile
 from hand_service.recording import read_recording, write_recording
 
 REQUIRED_KEYS = {"verdict", "refit", "effects", "windows", "rmse_deg", "warnings"}
@@ -133,7 +133,7 @@ def test_bad_inputs_give_one_clear_line(case: str, expected: str, tmp_path: Path
 def test_daemon_recording_with_a_profile_and_finger(tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     """A multi-finger recording (suffixed columns) and the profile as the model."""
-    from hand_service.concealed.generator import generate
+    from hand_service.diagnose.concealed.generator import generate
 
     model = load_profile(ROOT / MODEL).finger("middle").model
     c = generate(model, {"gravity": None}, "steps", duration_s=20.0, seed=8, perturbation=0.0)

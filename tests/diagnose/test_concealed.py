@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hand_service import effects as fx
-from hand_service.concealed.excitations import REPRESENTATIVE as EXCITATION
-from hand_service.concealed.generator import generate
+from hand_service.config import effects as fx
+from hand_service.config.profile import load_profile
+from hand_service.diagnose.concealed.excitations import REPRESENTATIVE as EXCITATION
+from hand_service.diagnose.concealed.generator import generate
 from hand_service.diagnose.engine import diagnose
-from hand_service.profile import load_profile
 from hand_service.simulator import Contact, sim_finger
 from rtcore.sim import Simulator
 

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from hand_service.firmware.rig import Rig
-from hand_service.safety import Cause
-from hand_service.states import Event, State
-from hand_service.supervisor import Supervisor
+from hand_service.service.safety import Cause
+from hand_service.service.states import Event, State
+from hand_service.service.supervisor import Supervisor
 from hand_service.transports.link import LinkTransport
 from hand_service.wire.messages import FaultKind, FirmwareFault
 from rtcore import MODE_POSITION, clock

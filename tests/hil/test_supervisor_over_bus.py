@@ -14,8 +14,8 @@ import numpy as np
 
 from hand_service.firmware.rig import Rig
 from hand_service.recording import read_recording
-from hand_service.states import Event, State
-from hand_service.supervisor import Supervisor
+from hand_service.service.states import Event, State
+from hand_service.service.supervisor import Supervisor
 from rtcore import MODE_POSITION, clock
 from tests.daemon.process import DaemonProcess
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from hand_service.config.model import FingerModel, inertia_from_geometry, save_model
+from hand_service.config.profile import DEFAULT_PROFILE, PROFILE_DIR, load_model, load_profile
 from hand_service.errors import UserError
-from hand_service.model import FingerModel, inertia_from_geometry, load_model, save_model
-from hand_service.profile import DEFAULT_PROFILE, PROFILE_DIR, load_profile
 
 SIM = DEFAULT_PROFILE.read_text()
 
@@ -121,7 +121,7 @@ def test_profile_needs_a_finger_name_for_a_model() -> None:
 
 def test_a_wire_that_cannot_carry_0_kpa_is_refused(tmp_path: Path) -> None:
     """Every vent is a 0 kPa command: a DBC whose pressure command starts above 0 could never vent."""
-    from hand_service.profile import _check_command_range
+    from hand_service.config.profile import _check_command_range
 
     fingers = load_profile(None).fingers
     _check_command_range(fingers, (-100.0, 600.0, "ValveCommand.pressure_cmd_kpa"), tmp_path / "p.yaml")

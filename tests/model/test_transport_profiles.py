@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from hand_service.config.profile import PROFILE_DIR, load_profile
 from hand_service.errors import UserError
-from hand_service.profile import PROFILE_DIR, load_profile
 
 CAN = (PROFILE_DIR / "can-v1.yaml").read_text()
 SERIAL = (PROFILE_DIR / "serial-v1.yaml").read_text()

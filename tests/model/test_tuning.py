@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import rtcore
-from hand_service.profile import PROFILE_DIR, Profile, load_profile
+from hand_service.config.profile import PROFILE_DIR, Profile, load_profile
+from hand_service.config.tuning import GAIN_MARGIN, margin_gains
 from hand_service.simulator import profile_sim_finger
-from hand_service.tuning import GAIN_MARGIN, margin_gains
 from rtcore.sim import Simulator
 
 QUIET = {"sensor_noise_deg": 0.0, "adc_step_mv": 0.0, "pressure_noise_kpa": 0.0}

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from hand_service import trials
-from hand_service.profile import FingerProfile, Profile, load_profile
+from hand_service.config.profile import FingerProfile, Profile, load_profile
+from hand_service.identification import trials
 
 RELEASES_PER_FINGER = 10
 

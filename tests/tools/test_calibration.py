@@ -8,12 +8,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service import trials
-from hand_service.calibration import fit_pressure_gain, fit_sensor_map, fit_valve, valve_response_kpa
 from hand_service.cli import main
+from hand_service.config.profile import DEFAULT_PROFILE, Profile, load_model, load_profile
 from hand_service.errors import UserError
-from hand_service.model import load_model
-from hand_service.profile import DEFAULT_PROFILE, Profile, load_profile
+from hand_service.identification import trials
+from hand_service.identification.calibration import (
+    fit_pressure_gain,
+    fit_sensor_map,
+    fit_valve,
+    valve_response_kpa,
+)
 from hand_service.recording import read_recording, write_recording
 from tests.tools.conftest import with_effect
 

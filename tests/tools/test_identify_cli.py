@@ -10,8 +10,7 @@ from pathlib import Path
 import pytest
 
 from hand_service.cli import main
-from hand_service.model import load_model
-from hand_service.profile import Profile
+from hand_service.config.profile import Profile, load_model
 
 REQUIRED = {"stiffness_nm_per_rad", "damping_nms_per_rad", "damping_ratio", "natural_freq_hz",
             "damped_freq_hz",

@@ -9,11 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service import ldm, trials
+from hand_service.config.profile import Profile, load_model
 from hand_service.errors import UserError
-from hand_service.identify import IdentifyResult, identify_recordings
-from hand_service.model import load_model
-from hand_service.profile import Profile
+from hand_service.identification import ldm, trials
+from hand_service.identification.identify import IdentifyResult, identify_recordings
 from hand_service.recording import read_recording, write_recording
 from tests.tools.conftest import with_effect
 

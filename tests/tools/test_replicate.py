@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service import replicate as rep
 from hand_service.cli import main
 from hand_service.errors import UserError
-from hand_service.tracking import pid_alone
+from hand_service.replicate import run as rep
+from hand_service.replicate.tracking import pid_alone
 
 REQUIRED = {
     "ldm": {"stiffness_nm_per_rad", "damping_nms_per_rad", "paper_stiffness_nm_per_rad",

@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service import trials
 from hand_service.cli import main
-from hand_service.profile import Profile
+from hand_service.config.profile import Profile
+from hand_service.identification import trials
 from hand_service.recording import read_recording
 
 

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from hand_service.config.profile import DEFAULT_PROFILE, load_profile
+from hand_service.config.yamledit import set_value, update_values
+from hand_service.config.yamlio import load_yaml
 from hand_service.errors import UserError
-from hand_service.profile import DEFAULT_PROFILE, load_profile
-from hand_service.yamledit import set_value, update_values
-from hand_service.yamlio import load_yaml
 
 TEXT = """\
 # a comment at the top

@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from hand_service.profile import ROOT, load_profile
+from hand_service.config.profile import ROOT, load_profile
 from hand_service.wire.can_codec import CanCodec
 from hand_service.wire.messages import (
     FaultKind,

@@ -7,7 +7,7 @@ import logging
 
 import pytest
 
-from hand_service.profile import load_profile
+from hand_service.config.profile import load_profile
 from hand_service.transports.base import TransportHealth
 from hand_service.transports.monitor import SampleMonitor
 from hand_service.transports.serial_transport import SerialTransport

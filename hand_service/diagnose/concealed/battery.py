@@ -1,6 +1,6 @@
 """The concealed-effect battery: every effect x excitations x seeds, plus clean recordings.
 
-    python -m hand_service.concealed.battery --json battery.json --markdown battery.md
+    python -m hand_service.diagnose.concealed.battery --json battery.json --markdown battery.md
 
 For each case a finger of the default hand (cycling through the five), a sensor noise in
 0.3-1.0 deg, a concealment ratio in 0.4-1.5 and a ±10 % perturbation of k, B, N are drawn
@@ -19,11 +19,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from hand_service import effects as fx
-from hand_service.concealed.generator import generate
+from hand_service.config import effects as fx
+from hand_service.config.profile import load_profile
+from hand_service.diagnose.concealed.generator import generate
 from hand_service.diagnose.engine import diagnose
 from hand_service.jsonio import plain, write_json
-from hand_service.profile import load_profile
 
 FINGERS = ("index", "middle", "ring", "little", "thumb")
 SIGNED = ("cubic_stiffness", "gravity")  # effects that occur either way; the rest one way

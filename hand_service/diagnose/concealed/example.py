@@ -1,7 +1,7 @@
 """The README's worked example: one concealed recording per effect, diagnosed, in a table,
 and the plots of one of them.
 
-    python -m hand_service.concealed.example --out docs/img
+    python -m hand_service.diagnose.concealed.example --out docs/img
 """
 
 from __future__ import annotations
@@ -10,11 +10,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from hand_service import effects as fx
-from hand_service.concealed.excitations import REPRESENTATIVE as EXCITATION
-from hand_service.concealed.generator import generate
+from hand_service.config import effects as fx
+from hand_service.config.profile import load_profile
+from hand_service.diagnose.concealed.excitations import REPRESENTATIVE as EXCITATION
+from hand_service.diagnose.concealed.generator import generate
 from hand_service.diagnose.engine import diagnose
-from hand_service.profile import load_profile
 
 
 def main(argv: list[str] | None = None) -> int:
