@@ -65,7 +65,7 @@ def hand_simulator(profile: Profile, seed: int | None = None,
     contacts = contacts or {}
     sim = profile.simulation
     fingers = [profile_sim_finger(f, sim, contacts.get(f.name)) for f in profile.fingers]
-    return Simulator(fingers, sample_rate_hz=profile.control["rate_hz"], substeps=sim["substeps"],
+    return Simulator(fingers, sample_rate_hz=profile.control.rate_hz, substeps=sim["substeps"],
                      seed=sim["seed"] if seed is None else seed)
 
 

@@ -276,7 +276,7 @@ class Api:
         return {
             "profile": prof.name, "path": str(prof.path), "software_version": software_version(),
             "rate_hz": self.sup.rate_hz, "transport": dict(prof.transport),
-            "control": dict(prof.control), "safety": dict(prof.safety),
+            "control": prof.control.as_dict(), "safety": dict(prof.safety),
             "fingers": {f.name: {"pressure_min_kpa": f.pressure_min_kpa,
                                  "pressure_max_kpa": f.pressure_max_kpa,
                                  "stiffness_nm_per_rad": f.model.stiffness_nm_per_rad,

@@ -38,7 +38,7 @@ def round_trips_ms(rig: Rig, commands: int, seed: int = 1) -> np.ndarray:
     rng = random.Random(seed)
     transport = rig.transport()
     transport.open()
-    period_s = 1.0 / rig.profile.control["rate_hz"]
+    period_s = 1.0 / rig.profile.control.rate_hz
     command = np.full(transport.n_fingers, 20.0)
     out = []
     for _ in range(commands):
@@ -117,7 +117,7 @@ def _run(results: dict[str, float | int | str], trials: int, commands: int, prog
             with Rig(name, Path(workdir)) as rig:
                 rig.start_mock()
                 watchdog_ms = rig.profile.safety["firmware_watchdog_ms"]
-                bound_ms = watchdog_ms + 1e3 / rig.profile.control["rate_hz"]
+                bound_ms = watchdog_ms + 1e3 / rig.profile.control.rate_hz
                 if progress:
                     print(f"  {name}: {commands} round trips, {trials} host deaths ...", flush=True)
                 rtt = _percentiles(name, "round_trip", round_trips_ms(rig, commands))

@@ -112,7 +112,7 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
     from hand_service.outputs import check_writable
     from hand_service.service.daemon import with_rate
 
-    rate_hz = with_rate(profile, args.rate).control["rate_hz"]  # range, filter cutoff, a bus firmware's rate
+    rate_hz = with_rate(profile, args.rate).control.rate_hz  # range, filter cutoff, a bus firmware's rate
     if profile.transport["kind"] != "sim" and Rig.name_for(profile) is None:
         raise UserError(f"{profile.path}: bench runs a bus profile against a mock firmware it starts itself, "
                         f"and cannot mock one on the real bus {profile.transport['interface']}; use "

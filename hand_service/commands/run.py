@@ -74,7 +74,7 @@ def main(args: argparse.Namespace) -> int:
     if not args.no_realtime and not 1 <= args.realtime_priority <= 99:
         raise UserError(f"--realtime-priority must be 1 to 99 (SCHED_FIFO), not {args.realtime_priority}")
     profile = with_rate(load_profile(args.profile), args.rate)  # checks the range and the filter
-    if not 0 <= args.spin_us * 1000 < 1e9 / profile.control["rate_hz"]:
+    if not 0 <= args.spin_us * 1000 < 1e9 / profile.control.rate_hz:
         raise UserError("--spin-us must be at least 0 and shorter than the period")
     if args.record is not None and args.record.exists():
         raise UserError(f"{args.record}: exists already; a recording never overwrites one")

@@ -50,7 +50,7 @@ def main(args: argparse.Namespace) -> int:
     if not 1 <= args.count <= MAX_COUNT:
         raise UserError(f"--count must be 1 to {MAX_COUNT}, not {args.count}")
     profile = load_profile(args.profile)
-    rate = args.rate or profile.control["rate_hz"]
+    rate = args.rate or profile.control.rate_hz
     if not 10.0 <= rate <= 10000.0:
         raise UserError(f"--rate {rate:g} Hz is outside 10 to 10000 Hz")
     fingers = [profile.finger(name) for name in args.finger] if args.finger else profile.fingers

@@ -17,8 +17,8 @@ from typing import Any
 
 import rtcore
 from hand_service.config import effects as fx
+from hand_service.config.control import CONTROL_SECTION, ControlSettings, cutoff_problem
 from hand_service.config.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
-from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
 from hand_service.config.schema import Key, Section, expect_mapping, fail, validate
 from hand_service.config.transports import KINDS
 from hand_service.config.tuning import INTEGRAL_RATE_PER_S, margin_gains
@@ -43,24 +43,6 @@ TOP_SECTION = Section("Profile", "The top level of a profile.", (
         default=None),
     Key("hand", "one block per finger, keyed by finger name (see Finger); required unless "
         "included", "mapping", default=None),
-))
-
-CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
-    Key("rate_hz", "control rate", "float", "Hz", 100.0, RATE_MIN_HZ, RATE_MAX_HZ),
-    Key("filter_order", "Butterworth order on the angle", "int", "", 2, 2, 4),
-    Key("filter_cutoff_hz", "Butterworth cutoff; keep above the fingers' 9–14 Hz, and below half "
-        "rate_hz", "float", "Hz",
-        25.0, 0.0, None, True),
-    Key("velocity_cutoff_hz", "low-pass on the velocity and acceleration estimates", "float", "Hz",
-        25.0, 0.0, None, True),
-    Key("derivative_cutoff_hz", "low-pass on the PID's derivative term", "float", "Hz", 10.0, 0.0,
-        None, True),
-    Key("feedforward", "model inversion in position mode", "choice",
-        default="dynamic", choices=("none", "quasi_static", "dynamic")),
-    Key("force_estimate", "static: (J^T)+(Np − kθ); dynamic adds −Bθ' − Aθ''", "choice",
-        default="static", choices=("static", "dynamic")),
-    Key("integrator_limit_kpa", "bound on the PID and force-PI integrators", "float", "kPa", 50.0,
-        0.0),
 ))
 
 SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces; any breach vents.", (
@@ -142,7 +124,7 @@ class FingerProfile:
     # file:line of each pressure limit, for a bus profile that checks an included hand
     lines: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
 
-    def rtcore_config(self, control: dict[str, Any], **overrides: float) -> rtcore.FingerConfig:
+    def rtcore_config(self, control: ControlSettings, **overrides: float) -> rtcore.FingerConfig:
         m = self.model
         m.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa",
                   "lever_arm_m", purpose=f"controlling finger '{self.name}'")
@@ -154,17 +136,17 @@ class FingerProfile:
             lever_arm_m=m.lever_arm_m,  # type: ignore[arg-type]
             sensor_gain_deg_per_mv=self.sensor_gain_deg_per_mv,
             sensor_offset_deg=self.sensor_offset_deg,
-            filter_order=control["filter_order"],
-            filter_cutoff_hz=control["filter_cutoff_hz"],
-            velocity_cutoff_hz=control["velocity_cutoff_hz"],
+            filter_order=control.filter_order,
+            filter_cutoff_hz=control.filter_cutoff_hz,
+            velocity_cutoff_hz=control.velocity_cutoff_hz,
             effects=fx.to_rtcore(m.effects),
-            feedforward=rtcore.config.FEEDFORWARD_BY_NAME[control["feedforward"]],
-            force_estimate_dynamic=int(control["force_estimate"] == "dynamic"),
+            feedforward=rtcore.config.FEEDFORWARD_BY_NAME[control.feedforward],
+            force_estimate_dynamic=int(control.force_estimate == "dynamic"),
             kp_kpa_per_deg=self.kp_kpa_per_deg,
             ki_kpa_per_deg_s=self.ki_kpa_per_deg_s,
             kd_kpa_s_per_deg=self.kd_kpa_s_per_deg,
-            derivative_cutoff_hz=control["derivative_cutoff_hz"],
-            integrator_limit_kpa=control["integrator_limit_kpa"],
+            derivative_cutoff_hz=control.derivative_cutoff_hz,
+            integrator_limit_kpa=control.integrator_limit_kpa,
             force_kp_kpa_per_n=self.force_kp_kpa_per_n,
             force_ki_kpa_per_n_s=self.force_ki_kpa_per_n_s,
             pressure_min_kpa=self.pressure_min_kpa,
@@ -180,7 +162,7 @@ class Profile:
     description: str
     protocol_version: int
     transport: dict[str, Any]
-    control: dict[str, Any]
+    control: ControlSettings
     safety: dict[str, Any]
     simulation: dict[str, Any]
     fingers: list[FingerProfile] = field(default_factory=list)
@@ -202,7 +184,7 @@ class Profile:
 
     def hand_config(self) -> rtcore.HandConfig:
         return rtcore.HandConfig([f.rtcore_config(self.control) for f in self.fingers],
-                                 sample_rate_hz=self.control["rate_hz"])
+                                 sample_rate_hz=self.control.rate_hz)
 
 
 def _section(data: Any, key: str, section: Section, source: Path) -> dict[str, Any]:
@@ -227,25 +209,14 @@ def _finger(name: str, block: Any, source: Path, hand: Any) -> FingerProfile:
     return FingerProfile(name=name, model=model, **extra, lines=lines)
 
 
-def cutoff_problem(control: dict[str, Any], rate_hz: float) -> str | None:
-    """Why the control step cannot filter at rate_hz, or None. Every finger's Butterworth
-    filter (control.filter_cutoff_hz) must lie below the Nyquist frequency: the C core
-    refuses it otherwise (rtcore_butter_design)."""
-    cutoff = control["filter_cutoff_hz"]
-    if cutoff < 0.5 * rate_hz:
-        return None
-    return (f"control.filter_cutoff_hz = {cutoff:g} Hz must be below half the control rate "
-            f"({0.5 * rate_hz:g} Hz at {rate_hz:g} Hz): lower the cutoff or raise the rate")
-
-
-def _control(data: Any, source: Path) -> tuple[dict[str, Any], dict[str, str]]:
+def _control(data: Any, source: Path) -> tuple[ControlSettings, dict[str, str]]:
     """The control section, its filter checked against its rate, and the line of each key."""
-    control = _section(data, "control", CONTROL_SECTION, source)
+    control = ControlSettings.from_values(_section(data, "control", CONTROL_SECTION, source))
     block = data.get("control")
     lines = {f"control.{key}": where(source, block.line_of(key) if isinstance(block, LineDict)
                                      else getattr(data, "line", None))
              for key in ("rate_hz", "filter_cutoff_hz")}
-    problem = cutoff_problem(control, control["rate_hz"])
+    problem = cutoff_problem(control, control.rate_hz)
     if problem is not None:
         key = "filter_cutoff_hz" if isinstance(block, dict) and "filter_cutoff_hz" in block else "rate_hz"
         raise UserError(f"{lines[f'control.{key}']}: {problem}")
@@ -269,12 +240,12 @@ def _check_command_range(fingers: list[FingerProfile], carried: tuple[float, flo
                                 f"lower the limit, or widen the signal")
 
 
-def _fill_gains(finger: FingerProfile, control: dict[str, Any]) -> None:
+def _fill_gains(finger: FingerProfile, control: ControlSettings) -> None:
     """Absent PI gains come from the finger's model by gain margin (tuning.py)."""
     if finger.kp_kpa_per_deg is not None and finger.ki_kpa_per_deg_s is not None:
         return
     provisional = finger.rtcore_config(control, kp_kpa_per_deg=0.0, ki_kpa_per_deg_s=0.0)
-    gains = margin_gains(provisional, control["rate_hz"])
+    gains = margin_gains(provisional, control.rate_hz)
     finger.gains_from_model = True
     if finger.kp_kpa_per_deg is None:
         finger.kp_kpa_per_deg = gains.kp_kpa_per_deg
@@ -374,4 +345,4 @@ def all_sections() -> list[Section]:
 
 
 __all__ = ["DEFAULT_PROFILE", "MODEL_KEYS", "MODEL_SECTION", "PROFILE_DIR", "FingerProfile",
-           "Profile", "all_sections", "cutoff_problem", "load_model", "load_profile", "where"]
+           "Profile", "all_sections", "load_model", "load_profile", "where"]

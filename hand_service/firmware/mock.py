@@ -64,7 +64,7 @@ class MockFirmware:
         self.firmware_version = firmware_version
         self.n = len(profile.fingers)
         self.sim = hand_simulator(profile, seed=seed)
-        self.period_s = 1.0 / profile.control["rate_hz"]
+        self.period_s = 1.0 / profile.control.rate_hz
         self.watchdog_s = profile.safety["firmware_watchdog_ms"] / 1e3
         transport = profile.transport
         self.adc_range_mv = (transport.get("sensor_min_mv", -np.inf), transport.get("sensor_max_mv", np.inf))

@@ -198,7 +198,7 @@ def markdown(result: Result) -> str:
     return "\n\n".join([
         f"### Table 1: LDM stiffness and damping ({o.trials_per_finger} simulated releases a finger, "
         f"{result.truth.simulation['sensor_noise_deg']:g} deg noise, "
-        f"{result.truth.control['rate_hz']:g} Hz). "
+        f"{result.truth.control.rate_hz:g} Hz). "
         "Errors are against the simulator's truth (the paper's values); k and B by the default "
         "damped-sine fit, then by the paper's two-peak recipe on the same trials.",
         ldm_table(result),

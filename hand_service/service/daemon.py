@@ -15,7 +15,8 @@ import numpy as np
 
 from hand_service.api.requests import Api
 from hand_service.api.server import ApiServer
-from hand_service.config.profile import Profile, cutoff_problem
+from hand_service.config.control import cutoff_problem
+from hand_service.config.profile import Profile
 from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
 from hand_service.errors import UserError
 from hand_service.service.recorder import Recorder
@@ -51,7 +52,7 @@ def with_rate(profile: Profile, rate_hz: float | None) -> Profile:
     must lie in the supported range and above twice the filter cutoff. A board
     on a bus samples on its own clock at the rate its profile states, and the control step,
     its filters and its safety counts must run at that rate: another is refused."""
-    if rate_hz is None or rate_hz == profile.control["rate_hz"]:
+    if rate_hz is None or rate_hz == profile.control.rate_hz:
         return profile
     if not RATE_MIN_HZ <= rate_hz <= RATE_MAX_HZ:
         raise UserError(f"--rate must be between {RATE_MIN_HZ:g} and {RATE_MAX_HZ:g} Hz, not {rate_hz:g}")
@@ -62,12 +63,12 @@ def with_rate(profile: Profile, rate_hz: float | None) -> Profile:
     if profile.transport["kind"] != "sim":
         raise UserError(
             f"--rate {rate_hz:g} Hz: the firmware behind profile '{profile.name}' samples at "
-            f"{profile.control['rate_hz']:g} Hz on its own clock (control.rate_hz, {profile.path}); "
+            f"{profile.control.rate_hz:g} Hz on its own clock (control.rate_hz, {profile.path}); "
             f"the rate a firmware samples at is a property of the firmware, and the control tick "
             f"must match it. --rate is for the simulated hand (transport sim); for a board that "
             f"samples at another rate, set control.rate_hz in its profile")
     changed = copy.copy(profile)
-    changed.control = {**profile.control, "rate_hz": float(rate_hz)}
+    changed.control = profile.control.with_rate(float(rate_hz))
     return changed
 
 
@@ -76,7 +77,7 @@ class Daemon:
                  out: TextIO | None = None) -> None:
         self.profile, self.options = profile, options
         self.out = out or sys.stdout
-        recorder = Recorder(profile.finger_names, profile.control["rate_hz"], options.recorder,
+        recorder = Recorder(profile.finger_names, profile.control.rate_hz, options.recorder,
                             options.record_sync_s)
         self.sup = Supervisor(profile, transport, recorder, spin_us=options.spin_us)
         self.api = Api(self.sup, self.metadata)

@@ -110,7 +110,7 @@ def figures(path: str, profile: Profile, truth_angle_deg: np.ndarray, truth_forc
     rmse, worst, true_rmse = [], [], []
     force_est, force_true, force_mean = [], [], []
     pinch = [n for n in names if n in PINCH_FINGERS]
-    rate = profile.control["rate_hz"]
+    rate = profile.control.rate_hz
     for i, name in enumerate(names):
         rec = read_recording(path, finger=name)
         traj_t = rec.t_s - start_tick / rate

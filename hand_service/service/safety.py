@@ -85,7 +85,7 @@ class SafetyGate:
     def __init__(self, profile: Profile) -> None:
         safety = profile.safety
         self.names = profile.finger_names
-        rate_hz = profile.control["rate_hz"]
+        rate_hz = profile.control.rate_hz
         stale_sensor_ticks = int(safety["stale_sensor_ticks"])
         self.core = Gate(GateConfig(
             angle_min_deg=float(safety["angle_min_deg"]),

@@ -41,7 +41,7 @@ class Supervisor:
         self.transport = transport
         self.names = profile.finger_names
         n = len(self.names)
-        self.rate_hz = float(profile.control["rate_hz"])
+        self.rate_hz = float(profile.control.rate_hz)
         self.period_ns = round(1e9 / self.rate_hz)
         self.spin_ns = int(spin_us * 1000)
         self.hand = rtcore.Hand(profile.hand_config())

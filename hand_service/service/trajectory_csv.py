@@ -99,7 +99,7 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
     allocation or deallocation would hold the GIL away from the tick for 100 ms or more
     (and feed the young generations the loop's slack collects)."""
     path = Path(path)
-    rate_hz = rate_hz or profile.control["rate_hz"]
+    rate_hz = rate_hz or profile.control.rate_hz
     n_fingers = len(profile.fingers)
     t_s, cells_flat, modes_flat = array("d"), array("d"), array("i")
     header: list[str] | None = None

@@ -87,7 +87,7 @@ class LinkTransport(Transport):
         self._command_range_kpa = self.codec.command_range_kpa()
         self.link = self._make_link()
         self.monitor = SampleMonitor(profile.finger_names, self.settings,
-                                     profile.safety["stale_sensor_ticks"] / profile.control["rate_hz"],
+                                     profile.safety["stale_sensor_ticks"] / profile.control.rate_hz,
                                      self._health)
         self._lock = threading.Lock()
         self._link_lock = threading.Lock()

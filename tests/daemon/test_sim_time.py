@@ -25,7 +25,7 @@ def _tick(sim: SimTransport, index: int) -> None:
 
 
 def test_skipped_deadlines_pass_for_the_hand(transport: SimTransport) -> None:
-    period_s = 1.0 / transport.profile.control["rate_hz"]
+    period_s = 1.0 / transport.profile.control.rate_hz
     for i in range(3):
         _tick(transport, i)
     _tick(transport, 10)  # deadlines 3..9 skipped: the hand lived through them
@@ -33,7 +33,7 @@ def test_skipped_deadlines_pass_for_the_hand(transport: SimTransport) -> None:
 
 
 def test_resume_at_lets_the_schedule_jump_without_the_hand(transport: SimTransport) -> None:
-    period_s = 1.0 / transport.profile.control["rate_hz"]
+    period_s = 1.0 / transport.profile.control.rate_hz
     for i in range(3):
         _tick(transport, i)
     transport.resume_at(10)

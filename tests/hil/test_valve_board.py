@@ -208,7 +208,7 @@ class TestValveBoard:
         angles = []
         # 2.5 s of control at the firmware's pace: 250 steps, each on a fresh sample. A loaded
         # host takes the newest sample after a wait, so it may need longer: 5x that, at most.
-        steps = round(2.5 * rig.profile.control["rate_hz"])
+        steps = round(2.5 * rig.profile.control.rate_hz)
         end = time.monotonic() + 5 * 2.5
         while len(angles) < steps and time.monotonic() < end:
             sample = transport.latest()

@@ -75,7 +75,7 @@ def test_included_sections_are_the_included_profiles(tmp_path: Path) -> None:
     assert Path(profile.transport["dbc"]).is_absolute()
     # a section given in the including file wins over the included one
     path = _write(tmp_path, CAN + "\ncontrol:\n  rate_hz: 200\n")
-    assert load_profile(path).control["rate_hz"] == 200
+    assert load_profile(path).control.rate_hz == 200
 
 
 def test_an_error_in_the_included_profile_names_that_file(tmp_path: Path) -> None:

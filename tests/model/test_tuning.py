@@ -38,7 +38,7 @@ def hold(profile: Profile, i: int, kp: float, ki: float, noise: bool, seconds: f
 def test_critical_gain_is_where_the_loop_starts_to_oscillate(finger: str) -> None:
     profile = load_profile()
     i = profile.finger_names.index(finger)
-    gains = margin_gains(profile.fingers[i].rtcore_config(profile.control), profile.control["rate_hz"])
+    gains = margin_gains(profile.fingers[i].rtcore_config(profile.control), profile.control.rate_hz)
     # below the critical gain the loop settles; above it, it oscillates until the pressure
     # limits hold the swing (a limit cycle), so judge the last quarter's spread
     for factor, oscillates in ((0.8, False), (1.3, True)):
