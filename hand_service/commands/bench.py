@@ -1,4 +1,4 @@
-"""`hand-service bench`: latency figures, as JSON for the README and for CI trends."""
+"""`hand-service bench`: latency figures, as JSON for docs/results.md and for CI trends."""
 
 from __future__ import annotations
 

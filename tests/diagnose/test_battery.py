@@ -2,8 +2,8 @@
 
 Every library effect x {steps, sweep} x 3 seeds, plus 12 clean recordings: fingers, noise
 (0.3-1.0 deg), concealment (0.4-1.5 x noise) and ±10 % parameter errors drawn per seed.
-The README's figures come from `python -m hand_service.diagnose.concealed.battery`, which runs the
-same plan.
+The figures of docs/results.md §10 come from
+`python -m hand_service.diagnose.concealed.battery`, which runs the same plan.
 """
 
 from __future__ import annotations

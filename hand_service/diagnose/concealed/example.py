@@ -1,4 +1,4 @@
-"""The README's worked example: one concealed recording per effect, diagnosed, in a table,
+"""The worked example of docs/results.md §10: one concealed recording per effect, diagnosed, in a table,
 and the plots of one of them.
 
     python -m hand_service.diagnose.concealed.example --out docs/img

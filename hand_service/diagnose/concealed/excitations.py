@@ -70,7 +70,7 @@ def sine(full_kpa: float, duration_s: float, rate_hz: float, rng: np.random.Gene
 Excitation = Callable[[float, float, float, np.random.Generator], np.ndarray]
 EXCITATIONS: dict[str, Excitation] = {"steps": steps, "sweep": sweep, "sine": sine}
 
-# One excitation per effect for the quick tests and the README table (the battery runs
+# One excitation per effect for the quick tests and the table in docs/results.md §10 (the battery runs
 # both steps and sweep for every effect): both reveal every effect.
 REPRESENTATIVE: dict[str, str] = {
     "valve_lag": "sweep", "dead_time": "steps", "coulomb_friction": "steps", "cubic_stiffness": "sweep",
