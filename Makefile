@@ -3,7 +3,8 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
-INSTALL_INPUTS := pyproject.toml setup.py rtcore/_build.py $(wildcard csrc/*.c csrc/*.h)
+INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
+                  $(wildcard csrc/*.c csrc/*.h)
 
 .PHONY: run test bench lint clean
 

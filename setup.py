@@ -1,5 +1,19 @@
-"""Shim for cffi_modules, which setuptools only takes here; metadata is in pyproject.toml."""
+"""What pyproject.toml cannot say (the metadata is there): cffi_modules, and the package list.
 
-from setuptools import setup
+firmware_profiles/ stays at the repository root (docs and users name firmware_profiles/sim.yaml)
+and installs as the package hand_service.firmware_profiles with its YAML profiles and DBC, so
+hand_service.config.profile finds it through importlib.resources in a wheel and in the editable
+install alike (setuptools' editable finder maps the package to the folder). A package mapped to
+another folder cannot be found by [tool.setuptools.packages.find], hence the list here.
+"""
 
-setup(cffi_modules=["rtcore/_build.py:ffibuilder"])
+from setuptools import find_packages, setup
+
+PROFILES = "hand_service.firmware_profiles"
+
+setup(
+    cffi_modules=["rtcore/_build.py:ffibuilder"],
+    packages=[*find_packages(include=["rtcore", "rtcore.*", "hand_service", "hand_service.*"]), PROFILES],
+    package_dir={PROFILES: "firmware_profiles"},
+    package_data={PROFILES: ["*.yaml", "*.dbc"]},
+)
