@@ -13,7 +13,10 @@ ROOT = Path(__file__).resolve().parent.parent
 
 @functools.cache
 def software_version() -> str:
-    """`0.1.0+g<hash>[-dirty]` inside a git checkout, else the package version."""
+    """`0.1.0+g<hash>[-dirty]` run from this project's git checkout, else the package
+    version (an installed copy may sit inside some other checkout: not ours to describe)."""
+    if not (ROOT / ".git").exists():
+        return __version__
     try:
         described = subprocess.run(
             ["git", "-C", str(ROOT), "describe", "--always", "--dirty", "--abbrev=10"],
