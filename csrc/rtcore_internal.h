@@ -22,14 +22,11 @@ int32_t rtcore_butter_sections(rtcore_biquad *sections, int32_t max_sections, in
 
 /* model.c: the torque model is shared by the controller and the simulator */
 int rtcore_effects_valid(const rtcore_effects *e);
-double rtcore_model_torque_nm(const rtcore_effects *e, double stiffness_nm_per_rad,
-                              double angle_rad, double velocity_rad_per_s);
-double rtcore_model_stiffness_nm_per_rad(const rtcore_effects *e, double stiffness_nm_per_rad,
-                                         double angle_rad);
-double rtcore_model_torque_rate_nm_per_s(const rtcore_effects *e, double stiffness_nm_per_rad,
-                                         double angle_rad, double velocity_rad_per_s,
-                                         double accel_rad_per_s2);
-double rtcore_deadzone_invert_kpa(const rtcore_finger_config *c, double pressure_kpa);
+double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s);
+double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad);
+double rtcore_model_torque_rate_nm_per_s(const rtcore_prbm *m, double angle_rad,
+                                         double velocity_rad_per_s, double accel_rad_per_s2);
+double rtcore_deadzone_invert_kpa(const rtcore_effects *e, double pressure_kpa);
 double rtcore_effective_pressure_kpa(const rtcore_effects *e, double pressure_kpa);
 double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtcore_finger_state *s);
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,

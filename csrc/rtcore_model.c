@@ -18,21 +18,20 @@ int rtcore_effects_valid(const rtcore_effects *e)
 }
 
 /* k, or k * ratio when bending backwards (asymmetric_stiffness). */
-static double linear_stiffness_nm_per_rad(const rtcore_effects *e, double stiffness_nm_per_rad,
-                                          double angle_rad)
+static double linear_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad)
 {
     if (angle_rad < 0.0) {
-        return stiffness_nm_per_rad * e->asymmetric_stiffness_ratio;
+        return m->stiffness_nm_per_rad * m->effects.asymmetric_stiffness_ratio;
     }
-    return stiffness_nm_per_rad;
+    return m->stiffness_nm_per_rad;
 }
 
 /* Torque the finger's structure resists with at (angle, velocity), beyond A*th'':
  * B is not included (the callers add B*th' where the dynamics call for it). */
-double rtcore_model_torque_nm(const rtcore_effects *e, double stiffness_nm_per_rad,
-                              double angle_rad, double velocity_rad_per_s)
+double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s)
 {
-    double torque = linear_stiffness_nm_per_rad(e, stiffness_nm_per_rad, angle_rad) * angle_rad;
+    const rtcore_effects *e = &m->effects;
+    double torque = linear_stiffness_nm_per_rad(m, angle_rad) * angle_rad;
 
     torque += e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad;
     torque += e->quadratic_damping_nms2_per_rad2 * fabs(velocity_rad_per_s) * velocity_rad_per_s;
@@ -47,10 +46,10 @@ double rtcore_model_torque_nm(const rtcore_effects *e, double stiffness_nm_per_r
 }
 
 /* d tau / d theta: the local stiffness, with velocity held fixed. */
-double rtcore_model_stiffness_nm_per_rad(const rtcore_effects *e, double stiffness_nm_per_rad,
-                                         double angle_rad)
+double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad)
 {
-    double stiffness = linear_stiffness_nm_per_rad(e, stiffness_nm_per_rad, angle_rad)
+    const rtcore_effects *e = &m->effects;
+    double stiffness = linear_stiffness_nm_per_rad(m, angle_rad)
                        + 3.0 * e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad;
     if (e->gravity_torque_nm != 0.0) {
         stiffness += e->gravity_torque_nm * sin(angle_rad);
@@ -59,25 +58,25 @@ double rtcore_model_stiffness_nm_per_rad(const rtcore_effects *e, double stiffne
 }
 
 /* d/dt of rtcore_model_torque_nm along a trajectory. */
-double rtcore_model_torque_rate_nm_per_s(const rtcore_effects *e, double stiffness_nm_per_rad,
-                                         double angle_rad, double velocity_rad_per_s,
-                                         double accel_rad_per_s2)
+double rtcore_model_torque_rate_nm_per_s(const rtcore_prbm *m, double angle_rad,
+                                         double velocity_rad_per_s, double accel_rad_per_s2)
 {
+    const rtcore_effects *e = &m->effects;
     double d_velocity = 2.0 * e->quadratic_damping_nms2_per_rad2 * fabs(velocity_rad_per_s);
     if (e->coulomb_torque_nm != 0.0) {
         const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
         const double th = tanh(velocity_rad_per_s / smoothing_rad_per_s);
         d_velocity += e->coulomb_torque_nm * (1.0 - th * th) / smoothing_rad_per_s;
     }
-    return rtcore_model_stiffness_nm_per_rad(e, stiffness_nm_per_rad, angle_rad) * velocity_rad_per_s
+    return rtcore_model_stiffness_nm_per_rad(m, angle_rad) * velocity_rad_per_s
            + d_velocity * accel_rad_per_s2;
 }
 
 /* Pressure that produces a wanted effective pressure through the dead zone. */
-double rtcore_deadzone_invert_kpa(const rtcore_finger_config *c, double pressure_kpa)
+double rtcore_deadzone_invert_kpa(const rtcore_effects *e, double pressure_kpa)
 {
-    if (c->effects.pressure_deadzone_kpa > 0.0 && pressure_kpa > 0.0) {
-        return pressure_kpa + c->effects.pressure_deadzone_kpa;
+    if (e->pressure_deadzone_kpa > 0.0 && pressure_kpa > 0.0) {
+        return pressure_kpa + e->pressure_deadzone_kpa;
     }
     return pressure_kpa;
 }
@@ -101,35 +100,34 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     const double velocity = s->velocity_ref_deg_per_s * RTCORE_RAD_PER_DEG;
     const double accel = s->accel_ref_deg_per_s2 * RTCORE_RAD_PER_DEG;
     const double jerk = s->jerk_ref_deg_per_s3 * RTCORE_RAD_PER_DEG;
-    const double lead_s = c->effects.valve_lag_tau_s + c->effects.dead_time_s;
-    const double gain = c->pressure_gain_nm_per_kpa;
-    const rtcore_effects *e = &c->effects;
-    const double k = c->stiffness_nm_per_rad;
+    const rtcore_prbm *m = &c->prbm;
+    const double lead_s = m->effects.valve_lag_tau_s + m->effects.dead_time_s;
+    const double gain = m->pressure_gain_nm_per_kpa;
     double torque;
     double torque_rate;
 
     if (c->feedforward == RTCORE_FF_DYNAMIC) {
-        torque = c->inertia_kgm2 * accel + c->damping_nms_per_rad * velocity
-                 + rtcore_model_torque_nm(e, k, angle, velocity);
-        torque_rate = c->inertia_kgm2 * jerk + c->damping_nms_per_rad * accel
-                      + rtcore_model_torque_rate_nm_per_s(e, k, angle, velocity, accel);
+        torque = m->inertia_kgm2 * accel + m->damping_nms_per_rad * velocity
+                 + rtcore_model_torque_nm(m, angle, velocity);
+        torque_rate = m->inertia_kgm2 * jerk + m->damping_nms_per_rad * accel
+                      + rtcore_model_torque_rate_nm_per_s(m, angle, velocity, accel);
     } else if (c->feedforward == RTCORE_FF_QUASI_STATIC) {
         /* the quasi-static torque depends on th only: d/dt = (d tau / d th) th' */
-        torque = rtcore_model_torque_nm(e, k, angle, 0.0);
-        torque_rate = rtcore_model_stiffness_nm_per_rad(e, k, angle) * velocity;
+        torque = rtcore_model_torque_nm(m, angle, 0.0);
+        torque_rate = rtcore_model_stiffness_nm_per_rad(m, angle) * velocity;
     } else {
         return 0.0;
     }
-    return rtcore_deadzone_invert_kpa(c, torque / gain) + lead_s * torque_rate / gain;
+    return rtcore_deadzone_invert_kpa(&m->effects, torque / gain) + lead_s * torque_rate / gain;
 }
 
 /* Force feedforward (paper Eq. 4): N p = tau(th, 0) + r F_n, since J^T F = r F_n. */
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
                                     double force_ref_n)
 {
-    const double torque = rtcore_model_torque_nm(&c->effects, c->stiffness_nm_per_rad, angle_rad, 0.0)
-                          + c->lever_arm_m * force_ref_n;
-    return rtcore_deadzone_invert_kpa(c, torque / c->pressure_gain_nm_per_kpa);
+    const rtcore_prbm *m = &c->prbm;
+    const double torque = rtcore_model_torque_nm(m, angle_rad, 0.0) + m->lever_arm_m * force_ref_n;
+    return rtcore_deadzone_invert_kpa(&m->effects, torque / m->pressure_gain_nm_per_kpa);
 }
 
 /* Signed normal force at the force point (paper Eq. 5 with (J^T)+ = J / r^2):
@@ -138,14 +136,14 @@ double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_press
                              double angle_rad, double velocity_rad_per_s,
                              double accel_rad_per_s2)
 {
-    double torque = c->pressure_gain_nm_per_kpa
-                    * rtcore_effective_pressure_kpa(&c->effects, chamber_pressure_kpa);
+    const rtcore_prbm *m = &c->prbm;
+    double torque = m->pressure_gain_nm_per_kpa
+                    * rtcore_effective_pressure_kpa(&m->effects, chamber_pressure_kpa);
     if (c->force_estimate_dynamic) {
-        torque -= c->inertia_kgm2 * accel_rad_per_s2 + c->damping_nms_per_rad * velocity_rad_per_s
-                  + rtcore_model_torque_nm(&c->effects, c->stiffness_nm_per_rad, angle_rad,
-                                           velocity_rad_per_s);
+        torque -= m->inertia_kgm2 * accel_rad_per_s2 + m->damping_nms_per_rad * velocity_rad_per_s
+                  + rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);
     } else {
-        torque -= rtcore_model_torque_nm(&c->effects, c->stiffness_nm_per_rad, angle_rad, 0.0);
+        torque -= rtcore_model_torque_nm(m, angle_rad, 0.0);
     }
-    return torque / c->lever_arm_m;
+    return torque / m->lever_arm_m;
 }

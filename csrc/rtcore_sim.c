@@ -49,12 +49,12 @@ static double contact_force_n(const rtcore_sim_finger *f, double angle_rad, doub
     if (f->contact_stiffness_n_per_m <= 0.0) {
         return 0.0;
     }
-    depth_m = f->lever_arm_m * (angle_rad - f->contact_angle_deg * RTCORE_RAD_PER_DEG);
+    depth_m = f->prbm.lever_arm_m * (angle_rad - f->contact_angle_deg * RTCORE_RAD_PER_DEG);
     if (depth_m <= 0.0) {
         return 0.0;
     }
     force_n = f->contact_stiffness_n_per_m * depth_m
-              + f->contact_damping_ns_per_m * f->lever_arm_m * velocity_rad_per_s;
+              + f->contact_damping_ns_per_m * f->prbm.lever_arm_m * velocity_rad_per_s;
     return force_n > 0.0 ? force_n : 0.0;
 }
 
@@ -62,13 +62,13 @@ static double contact_force_n(const rtcore_sim_finger *f, double angle_rad, doub
 static double acceleration(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s,
                            double chamber_kpa)
 {
-    const double torque = f->pressure_gain_nm_per_kpa
-                              * rtcore_effective_pressure_kpa(&f->effects, chamber_kpa)
-                          - f->damping_nms_per_rad * velocity_rad_per_s
-                          - rtcore_model_torque_nm(&f->effects, f->stiffness_nm_per_rad, angle_rad,
-                                                   velocity_rad_per_s)
-                          - f->lever_arm_m * contact_force_n(f, angle_rad, velocity_rad_per_s);
-    return torque / f->inertia_kgm2;
+    const rtcore_prbm *m = &f->prbm;
+    const double torque = m->pressure_gain_nm_per_kpa
+                              * rtcore_effective_pressure_kpa(&m->effects, chamber_kpa)
+                          - m->damping_nms_per_rad * velocity_rad_per_s
+                          - rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s)
+                          - m->lever_arm_m * contact_force_n(f, angle_rad, velocity_rad_per_s);
+    return torque / m->inertia_kgm2;
 }
 
 /* Integrate over duration_s with the valve input held at input_kpa: the chamber follows
@@ -77,7 +77,7 @@ static void integrate_segment(const rtcore_sim_finger *f, rtcore_sim_finger_stat
                               double input_kpa, double duration_s, int32_t n_steps)
 {
     const double h = duration_s / (double)n_steps;
-    const double tau_s = f->effects.valve_lag_tau_s;
+    const double tau_s = f->prbm.effects.valve_lag_tau_s;
     const double decay_half = tau_s > 0.0 ? exp(-0.5 * h / tau_s) : 0.0;
     int32_t k;
 
@@ -148,13 +148,14 @@ static void advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *
 
 static int32_t validate_sim_finger(const rtcore_sim_finger *f)
 {
-    if (!(isfinite(f->inertia_kgm2) && f->inertia_kgm2 > 0.0) || !(isfinite(f->damping_nms_per_rad)
-        && f->damping_nms_per_rad >= 0.0) || !(isfinite(f->stiffness_nm_per_rad)
-        && f->stiffness_nm_per_rad > 0.0) || !(isfinite(f->pressure_gain_nm_per_kpa)
-        && f->pressure_gain_nm_per_kpa >= 0.0) || !(isfinite(f->lever_arm_m) && f->lever_arm_m > 0.0)) {
+    const rtcore_prbm *m = &f->prbm;
+    if (!(isfinite(m->inertia_kgm2) && m->inertia_kgm2 > 0.0) || !(isfinite(m->damping_nms_per_rad)
+        && m->damping_nms_per_rad >= 0.0) || !(isfinite(m->stiffness_nm_per_rad)
+        && m->stiffness_nm_per_rad > 0.0) || !(isfinite(m->pressure_gain_nm_per_kpa)
+        && m->pressure_gain_nm_per_kpa >= 0.0) || !(isfinite(m->lever_arm_m) && m->lever_arm_m > 0.0)) {
         return RTCORE_ERR_MODEL;
     }
-    if (!rtcore_effects_valid(&f->effects)) {
+    if (!rtcore_effects_valid(&m->effects)) {
         return RTCORE_ERR_EFFECTS;
     }
     if (!isfinite(f->supply_min_kpa) || !isfinite(f->supply_max_kpa)
@@ -182,21 +183,22 @@ static int32_t validate_sim_finger(const rtcore_sim_finger *f)
  * 0.368); with the 2 deg/s friction smoothing a large Tc needs steps well under 1 ms. */
 static double accurate_step_s(const rtcore_sim_finger *f)
 {
-    const double r2 = f->lever_arm_m * f->lever_arm_m;
-    const double ratio = f->effects.asymmetric_stiffness_ratio > 1.0 ? f->effects.asymmetric_stiffness_ratio
+    const rtcore_prbm *m = &f->prbm;
+    const double r2 = m->lever_arm_m * m->lever_arm_m;
+    const double ratio = m->effects.asymmetric_stiffness_ratio > 1.0 ? m->effects.asymmetric_stiffness_ratio
                                                                      : 1.0;
-    double damping = f->damping_nms_per_rad + f->contact_damping_ns_per_m * r2;
-    const double stiffness = f->stiffness_nm_per_rad * ratio + f->contact_stiffness_n_per_m * r2;
-    if (f->effects.coulomb_torque_nm > 0.0) {
-        damping += f->effects.coulomb_torque_nm
-                   / (f->effects.coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG);
+    double damping = m->damping_nms_per_rad + f->contact_damping_ns_per_m * r2;
+    const double stiffness = m->stiffness_nm_per_rad * ratio + f->contact_stiffness_n_per_m * r2;
+    if (m->effects.coulomb_torque_nm > 0.0) {
+        damping += m->effects.coulomb_torque_nm
+                   / (m->effects.coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG);
     }
-    return 1.0 / (damping / f->inertia_kgm2 + sqrt(stiffness / f->inertia_kgm2));
+    return 1.0 / (damping / m->inertia_kgm2 + sqrt(stiffness / m->inertia_kgm2));
 }
 
 static int32_t prepare_state(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, double dt_s)
 {
-    const double delay = f->effects.dead_time_s / dt_s;
+    const double delay = f->prbm.effects.dead_time_s / dt_s;
     s->max_step_s = accurate_step_s(f);
     s->delay_samples = (int32_t)floor(delay);
     s->delay_fraction = delay - floor(delay);

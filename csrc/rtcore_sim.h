@@ -29,12 +29,7 @@ extern "C" {
 #define RTCORE_ERR_SIM_HISTORY -13
 
 typedef struct {
-    double inertia_kgm2;
-    double damping_nms_per_rad;
-    double stiffness_nm_per_rad;
-    double pressure_gain_nm_per_kpa;
-    double lever_arm_m;
-    rtcore_effects effects;
+    rtcore_prbm prbm; /* the truth: the controller's PRBM struct (rtcore_step.h) */
     /* the valve regulates within what the supply allows */
     double supply_min_kpa;
     double supply_max_kpa;

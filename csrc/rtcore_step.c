@@ -32,12 +32,13 @@ static int32_t validate_finger(const rtcore_finger_config *c, double sample_rate
     if (!finite_above(c->velocity_cutoff_hz, 0.0)) {
         return RTCORE_ERR_VELOCITY_CUTOFF;
     }
-    if (!finite_at_least(c->inertia_kgm2, 0.0) || !finite_at_least(c->damping_nms_per_rad, 0.0)
-        || !finite_above(c->stiffness_nm_per_rad, 0.0)
-        || !finite_above(c->pressure_gain_nm_per_kpa, 0.0) || !finite_above(c->lever_arm_m, 0.0)) {
+    if (!finite_at_least(c->prbm.inertia_kgm2, 0.0) || !finite_at_least(c->prbm.damping_nms_per_rad, 0.0)
+        || !finite_above(c->prbm.stiffness_nm_per_rad, 0.0)
+        || !finite_above(c->prbm.pressure_gain_nm_per_kpa, 0.0)
+        || !finite_above(c->prbm.lever_arm_m, 0.0)) {
         return RTCORE_ERR_MODEL;
     }
-    if (!rtcore_effects_valid(&c->effects)) {
+    if (!rtcore_effects_valid(&c->prbm.effects)) {
         return RTCORE_ERR_EFFECTS;
     }
     if (c->feedforward < RTCORE_FF_NONE || c->feedforward > RTCORE_FF_DYNAMIC
@@ -139,8 +140,8 @@ int32_t rtcore_hand_configure(rtcore_hand *hand, const rtcore_hand_config *confi
                                                c->filter_cutoff_hz, config->sample_rate_hz);
         s->velocity_alpha = rtcore_first_order_alpha(c->velocity_cutoff_hz, dt_s);
         s->derivative_alpha = rtcore_first_order_alpha(c->derivative_cutoff_hz, dt_s);
-        s->chamber_alpha = c->effects.valve_lag_tau_s > 0.0
-                               ? exp(-dt_s / c->effects.valve_lag_tau_s) : 0.0;
+        s->chamber_alpha = c->prbm.effects.valve_lag_tau_s > 0.0
+                               ? exp(-dt_s / c->prbm.effects.valve_lag_tau_s) : 0.0;
         s->rest_mv = -c->sensor_offset_deg / c->sensor_gain_deg_per_mv;
     }
     rtcore_hand_reset(hand);

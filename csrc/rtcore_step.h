@@ -91,6 +91,23 @@ typedef struct {
     double pressure_deadzone_kpa;
 } rtcore_effects;
 
+/*
+ * The PRBM of one finger (physics.md section 1), shared by the controller's finger
+ * (rtcore_finger_config.prbm) and the simulated finger (rtcore_sim_finger.prbm):
+ *   A th'' + B th' + k th = N p - J^T F,   |J| = r
+ * with th the bending angle (rad), p the chamber pressure (kPa) and F the force at the
+ * force point (N); effects (above) turns k th into tau(theta, omega) and N p into
+ * N*max(p - p0, 0).
+ */
+typedef struct {
+    double inertia_kgm2;             /* A, kg m^2 */
+    double damping_nms_per_rad;      /* B, N m s/rad */
+    double stiffness_nm_per_rad;     /* k, N m/rad */
+    double pressure_gain_nm_per_kpa; /* N, N m/kPa */
+    double lever_arm_m;              /* r, pivot to force point, m */
+    rtcore_effects effects;
+} rtcore_prbm;
+
 typedef struct {
     /* sensor: angle_deg = sensor_gain_deg_per_mv * mv + sensor_offset_deg */
     double sensor_gain_deg_per_mv;
@@ -100,13 +117,7 @@ typedef struct {
     double filter_cutoff_hz;
     /* first-order low-pass on the differences that give velocity and acceleration */
     double velocity_cutoff_hz;
-    /* PRBM: A th'' + B th' + k th = N p - J^T F */
-    double inertia_kgm2;
-    double damping_nms_per_rad;
-    double stiffness_nm_per_rad;
-    double pressure_gain_nm_per_kpa;
-    double lever_arm_m;
-    rtcore_effects effects;
+    rtcore_prbm prbm;
     int32_t feedforward;
     int32_t force_estimate_dynamic;
     /* position PID on the filtered angle (error in deg, output in kPa) */

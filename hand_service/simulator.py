@@ -30,16 +30,8 @@ def sim_finger(model: FingerModel, sensor_gain_deg_per_mv: float = 1.0, sensor_o
                contact: Contact | None = None,
                extra_effects: fx.EffectParams | None = None) -> SimFinger:
     """A simulated finger whose truth is `model` (plus `extra_effects`, hidden from the model)."""
-    model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa",
-                  "lever_arm_m", purpose="simulation")
-    effects = {**model.effects, **(extra_effects or {})}
     return SimFinger(
-        inertia_kgm2=model.inertia_kgm2,
-        damping_nms_per_rad=model.damping_nms_per_rad,  # type: ignore[arg-type]
-        stiffness_nm_per_rad=model.stiffness_nm_per_rad,  # type: ignore[arg-type]
-        pressure_gain_nm_per_kpa=model.pressure_gain_nm_per_kpa,  # type: ignore[arg-type]
-        lever_arm_m=model.lever_arm_m,  # type: ignore[arg-type]
-        effects=fx.to_rtcore(effects),
+        prbm=model.prbm("simulation", extra_effects),
         supply_min_kpa=0.0,
         supply_max_kpa=SUPPLY_MAX_KPA,
         contact_angle_deg=contact.angle_deg if contact else 0.0,

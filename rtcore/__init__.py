@@ -23,6 +23,7 @@ from rtcore.config import (
     Effects,
     FingerConfig,
     HandConfig,
+    Prbm,
     flag_names,
 )
 from rtcore.hand import Hand, butter_design
@@ -33,6 +34,6 @@ __all__ = [
     "FLAG_MODE_REJECTED", "FLAG_NOT_CONFIGURED", "FLAG_OUTPUT_REJECTED", "FLAG_RATE_LIMITED",
     "FLAG_REFERENCE_REJECTED", "FLAG_SATURATED", "FLAG_SENSOR_REJECTED", "MAX_FINGERS",
     "MODE_FORCE", "MODE_POSITION", "MODE_PRESSURE", "MODE_VENT", "ConfigError", "Effects",
-    "FingerConfig", "Hand", "HandConfig", "Inputs", "Outputs", "ReferenceHand",
+    "FingerConfig", "Hand", "HandConfig", "Inputs", "Outputs", "Prbm", "ReferenceHand",
     "butter_design", "flag_names",
 ]

@@ -1,13 +1,16 @@
 """Typed configuration of the control step, field for field the C structs of csrc/rtcore.h.
 
 The field names are the C names, so the wrapper copies them by name and a test checks
-that the two sets stay equal.
+that the two sets stay equal. `Prbm` (the C rtcore_prbm) is the one declaration of a
+finger's model parameters: the controller's `FingerConfig` and the simulator's
+`SimFinger` (rtcore/sim.py) both hold one as their field `prbm`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
 MAX_FINGERS = 8
 
@@ -67,20 +70,49 @@ class Effects:
 
 
 @dataclass
-class FingerConfig:
-    """One finger: sensor calibration, filters, PRBM, controller and pressure limits."""
+class Prbm:
+    """A finger's PRBM, A θ'' + B θ' + k θ = N p − Jᵀ F (physics.md §1), with its effects.
+
+    A in kg·m², B in N·m·s/rad, k in N·m/rad, N in N·m/kPa, r (|J|, pivot to force
+    point) in m; θ in rad, p in kPa, F in N.
+    """
 
     inertia_kgm2: float
     damping_nms_per_rad: float
     stiffness_nm_per_rad: float
     pressure_gain_nm_per_kpa: float
     lever_arm_m: float
+    effects: Effects = field(default_factory=Effects)
+
+
+PRBM_FIELDS = frozenset(f.name for f in dataclasses.fields(Prbm))
+
+_Finger = TypeVar("_Finger", bound="HasPrbm")
+
+
+class HasPrbm:
+    """A finger dataclass with a field `prbm`: `replace` takes the PRBM's field names too."""
+
+    prbm: Prbm
+
+    def replace(self: _Finger, **changes: Any) -> _Finger:
+        """A copy with `changes`; the names of Prbm fields (effects too) change `prbm`."""
+        inner = {name: changes.pop(name) for name in list(changes) if name in PRBM_FIELDS}
+        if inner:
+            changes["prbm"] = dataclasses.replace(changes.get("prbm", self.prbm), **inner)
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+
+@dataclass
+class FingerConfig(HasPrbm):
+    """One finger: its PRBM, sensor calibration, filters, controller and pressure limits."""
+
+    prbm: Prbm
     sensor_gain_deg_per_mv: float = 1.0
     sensor_offset_deg: float = 0.0
     filter_order: int = 2
     filter_cutoff_hz: float = 25.0
     velocity_cutoff_hz: float = 25.0
-    effects: Effects = field(default_factory=Effects)
     feedforward: int = FF_DYNAMIC
     force_estimate_dynamic: int = 0
     kp_kpa_per_deg: float = 0.2
@@ -93,9 +125,6 @@ class FingerConfig:
     pressure_min_kpa: float = 0.0
     pressure_max_kpa: float = 200.0
     pressure_rate_max_kpa_per_s: float = 2000.0
-
-    def replace(self, **changes: object) -> FingerConfig:
-        return dataclasses.replace(self, **changes)
 
 
 @dataclass

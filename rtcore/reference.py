@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from rtcore import config as cfg
 from rtcore.arrays import Inputs, Outputs, allocate
-from rtcore.config import ConfigError, Effects, FingerConfig, HandConfig
+from rtcore.config import ConfigError, Effects, FingerConfig, HandConfig, Prbm
 
 RAD_PER_DEG = math.pi / 180.0
 SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT
@@ -77,16 +77,16 @@ def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
 
 # --- the PRBM with its effects -------------------------------------------------------
 
-def linear_stiffness(c: FingerConfig, angle_rad: float) -> float:
+def linear_stiffness(m: Prbm, angle_rad: float) -> float:
     if angle_rad < 0.0:
-        return c.stiffness_nm_per_rad * c.effects.asymmetric_stiffness_ratio
-    return c.stiffness_nm_per_rad
+        return m.stiffness_nm_per_rad * m.effects.asymmetric_stiffness_ratio
+    return m.stiffness_nm_per_rad
 
 
-def model_torque(c: FingerConfig, angle_rad: float, velocity: float) -> float:
+def model_torque(m: Prbm, angle_rad: float, velocity: float) -> float:
     """k th + k3 th^3 + c2 |th'| th' + Tc tanh(th'/w) + G (1 - cos th)."""
-    e = c.effects
-    torque = linear_stiffness(c, angle_rad) * angle_rad
+    e = m.effects
+    torque = linear_stiffness(m, angle_rad) * angle_rad
     torque += e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad
     torque += e.quadratic_damping_nms2_per_rad2 * abs(velocity) * velocity
     if e.coulomb_torque_nm != 0.0:
@@ -97,22 +97,22 @@ def model_torque(c: FingerConfig, angle_rad: float, velocity: float) -> float:
     return torque
 
 
-def model_stiffness(c: FingerConfig, angle_rad: float) -> float:
-    e = c.effects
-    stiffness = linear_stiffness(c, angle_rad) + 3.0 * e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad
+def model_stiffness(m: Prbm, angle_rad: float) -> float:
+    e = m.effects
+    stiffness = linear_stiffness(m, angle_rad) + 3.0 * e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad
     if e.gravity_torque_nm != 0.0:
         stiffness += e.gravity_torque_nm * math.sin(angle_rad)
     return stiffness
 
 
-def model_torque_rate(c: FingerConfig, angle_rad: float, velocity: float, accel: float) -> float:
-    e = c.effects
+def model_torque_rate(m: Prbm, angle_rad: float, velocity: float, accel: float) -> float:
+    e = m.effects
     d_velocity = 2.0 * e.quadratic_damping_nms2_per_rad2 * abs(velocity)
     if e.coulomb_torque_nm != 0.0:
         smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
         th = math.tanh(velocity / smoothing)
         d_velocity += e.coulomb_torque_nm * (1.0 - th * th) / smoothing
-    return model_stiffness(c, angle_rad) * velocity + d_velocity * accel
+    return model_stiffness(m, angle_rad) * velocity + d_velocity * accel
 
 
 def deadzone_invert(e: Effects, pressure_kpa: float) -> float:
@@ -133,36 +133,39 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     velocity = s.velocity_ref_deg_per_s * RAD_PER_DEG
     accel = s.accel_ref_deg_per_s2 * RAD_PER_DEG
     jerk = s.jerk_ref_deg_per_s3 * RAD_PER_DEG
-    lead_s = c.effects.valve_lag_tau_s + c.effects.dead_time_s
-    gain = c.pressure_gain_nm_per_kpa
+    m = c.prbm
+    lead_s = m.effects.valve_lag_tau_s + m.effects.dead_time_s
+    gain = m.pressure_gain_nm_per_kpa
     if c.feedforward == cfg.FF_DYNAMIC:
-        torque = (c.inertia_kgm2 * accel + c.damping_nms_per_rad * velocity
-                  + model_torque(c, angle, velocity))
-        torque_rate = (c.inertia_kgm2 * jerk + c.damping_nms_per_rad * accel
-                       + model_torque_rate(c, angle, velocity, accel))
+        torque = (m.inertia_kgm2 * accel + m.damping_nms_per_rad * velocity
+                  + model_torque(m, angle, velocity))
+        torque_rate = (m.inertia_kgm2 * jerk + m.damping_nms_per_rad * accel
+                       + model_torque_rate(m, angle, velocity, accel))
     elif c.feedforward == cfg.FF_QUASI_STATIC:
-        torque = model_torque(c, angle, 0.0)
-        torque_rate = model_stiffness(c, angle) * velocity
+        torque = model_torque(m, angle, 0.0)
+        torque_rate = model_stiffness(m, angle) * velocity
     else:
         return 0.0
-    return deadzone_invert(c.effects, torque / gain) + lead_s * torque_rate / gain
+    return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate / gain
 
 
 def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float) -> float:
-    torque = model_torque(c, angle_rad, 0.0) + c.lever_arm_m * force_ref_n
-    return deadzone_invert(c.effects, torque / c.pressure_gain_nm_per_kpa)
+    m = c.prbm
+    torque = model_torque(m, angle_rad, 0.0) + m.lever_arm_m * force_ref_n
+    return deadzone_invert(m.effects, torque / m.pressure_gain_nm_per_kpa)
 
 
 def force_normal(c: FingerConfig, chamber_kpa: float, angle_rad: float, velocity: float,
                  accel: float) -> float:
     """Signed normal force (J^T)+ (N p - tau): F_n = (N p_eff - tau) / r."""
-    torque = c.pressure_gain_nm_per_kpa * effective_pressure(c.effects, chamber_kpa)
+    m = c.prbm
+    torque = m.pressure_gain_nm_per_kpa * effective_pressure(m.effects, chamber_kpa)
     if c.force_estimate_dynamic:
-        torque -= (c.inertia_kgm2 * accel + c.damping_nms_per_rad * velocity
-                   + model_torque(c, angle_rad, velocity))
+        torque -= (m.inertia_kgm2 * accel + m.damping_nms_per_rad * velocity
+                   + model_torque(m, angle_rad, velocity))
     else:
-        torque -= model_torque(c, angle_rad, 0.0)
-    return torque / c.lever_arm_m
+        torque -= model_torque(m, angle_rad, 0.0)
+    return torque / m.lever_arm_m
 
 
 # --- limits and anti-windup ----------------------------------------------------------
@@ -231,7 +234,7 @@ class ReferenceHand:
         self.states = [self._new_state(c) for c in config.fingers]
 
     def _new_state(self, c: FingerConfig) -> FingerState:
-        lag = c.effects.valve_lag_tau_s
+        lag = c.prbm.effects.valve_lag_tau_s
         rest_mv = -c.sensor_offset_deg / c.sensor_gain_deg_per_mv
         return FingerState(
             sections=butter_sections(c.filter_order, c.filter_cutoff_hz, self.config.sample_rate_hz),

@@ -12,25 +12,21 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from rtcore._rtcore import ffi, lib
-from rtcore.config import ConfigError, Effects
+from rtcore.config import ConfigError, HasPrbm, Prbm
 from rtcore.hand import _fill, error_message, struct_view
 
 
 @dataclass
-class SimFinger:
-    """The truth for one simulated finger. Field names are the C names."""
+class SimFinger(HasPrbm):
+    """The truth for one simulated finger: its PRBM (the controller's `Prbm`), the valve's
+    supply, an optional object and the sensor. Field names are the C names."""
 
-    inertia_kgm2: float
-    damping_nms_per_rad: float
-    stiffness_nm_per_rad: float
-    pressure_gain_nm_per_kpa: float
-    lever_arm_m: float
-    effects: Effects = field(default_factory=Effects)
+    prbm: Prbm
     supply_min_kpa: float = 0.0
     supply_max_kpa: float = 300.0
     contact_angle_deg: float = 0.0
@@ -41,9 +37,6 @@ class SimFinger:
     sensor_noise_deg: float = 0.0
     adc_step_mv: float = 0.0
     pressure_noise_kpa: float = 0.0
-
-    def replace(self, **changes: object) -> SimFinger:
-        return dataclasses.replace(self, **changes)
 
 
 @dataclass

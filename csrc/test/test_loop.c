@@ -13,14 +13,14 @@ static void plant_deriv(const rtcore_finger_config *c, double p_kpa, double cont
                         double contact_stiffness, const plant_state *x, plant_state *dx)
 {
     const double contact_damping = 0.02 * contact_stiffness;
-    double torque = c->pressure_gain_nm_per_kpa * p_kpa - c->stiffness_nm_per_rad * x->angle_rad
-                    - c->damping_nms_per_rad * x->velocity_rad_per_s;
+    double torque = c->prbm.pressure_gain_nm_per_kpa * p_kpa - c->prbm.stiffness_nm_per_rad * x->angle_rad
+                    - c->prbm.damping_nms_per_rad * x->velocity_rad_per_s;
     if (x->angle_rad > contact_rad) {
         torque -= contact_stiffness * (x->angle_rad - contact_rad)
                   + contact_damping * x->velocity_rad_per_s;
     }
     dx->angle_rad = x->velocity_rad_per_s;
-    dx->velocity_rad_per_s = torque / c->inertia_kgm2;
+    dx->velocity_rad_per_s = torque / c->prbm.inertia_kgm2;
 }
 
 static void plant_advance(const rtcore_finger_config *c, double p_kpa, double contact_rad,
@@ -94,7 +94,7 @@ static void test_closed_loop_force(void)
         rtcore_hand_step(&hand, &in, &out);
         plant_advance(&h.finger[0], out.pressure_cmd_kpa[0], contact_rad, contact_stiffness, &x, 0.01);
     }
-    true_force_n = contact_stiffness * (x.angle_rad - contact_rad) / h.finger[0].lever_arm_m;
+    true_force_n = contact_stiffness * (x.angle_rad - contact_rad) / h.finger[0].prbm.lever_arm_m;
     CHECK(fabs(true_force_n - 1.0) < 0.02, "presses with %g N", true_force_n);
 }
 
@@ -117,10 +117,10 @@ static void test_fuzz(void)
     for (i = 0; i < RTCORE_MAX_FINGERS; ++i) {
         h.finger[i] = index_finger();
         h.finger[i].filter_order = (i % 2) ? 4 : 2;
-        h.finger[i].effects.coulomb_torque_nm = 0.002 * (i % 3);
-        h.finger[i].effects.cubic_stiffness_nm_per_rad3 = 0.01 * (i % 2);
-        h.finger[i].effects.pressure_deadzone_kpa = 3.0 * (i % 2);
-        h.finger[i].effects.valve_lag_tau_s = 0.03 * (i % 2);
+        h.finger[i].prbm.effects.coulomb_torque_nm = 0.002 * (i % 3);
+        h.finger[i].prbm.effects.cubic_stiffness_nm_per_rad3 = 0.01 * (i % 2);
+        h.finger[i].prbm.effects.pressure_deadzone_kpa = 3.0 * (i % 2);
+        h.finger[i].prbm.effects.valve_lag_tau_s = 0.03 * (i % 2);
         h.finger[i].force_estimate_dynamic = i % 2;
     }
     CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_OK, "configure");

@@ -40,7 +40,7 @@ static void test_configure_rejects(void)
     CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_ERR_SENSOR, "zero gain");
     CHECK(hand.error_finger == 0, "error finger %d", (int)hand.error_finger);
     h = one_finger();
-    h.finger[0].pressure_gain_nm_per_kpa = 0.0;
+    h.finger[0].prbm.pressure_gain_nm_per_kpa = 0.0;
     CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_ERR_MODEL, "zero N");
     h = one_finger();
     h.finger[0].kp_kpa_per_deg = NAN;
@@ -50,7 +50,7 @@ static void test_configure_rejects(void)
     h.finger[0].pressure_max_kpa = 5.0;
     CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_ERR_PRESSURE_LIMITS, "min > max");
     h = one_finger();
-    h.finger[0].effects.asymmetric_stiffness_ratio = 0.0;
+    h.finger[0].prbm.effects.asymmetric_stiffness_ratio = 0.0;
     CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_ERR_EFFECTS, "ratio 0");
     h = one_finger();
     h.finger[0].feedforward = 7;
@@ -180,8 +180,8 @@ static void test_force_estimate(void)
         rtcore_hand_step(&hand, &in, &out);
     }
     /* (J^T)+ (N p - k th) with J = r [-sin, cos]: F = n (N p - k th) / r */
-    expected_n = (c->pressure_gain_nm_per_kpa * pressure_kpa
-                  - c->stiffness_nm_per_rad * angle_deg * PI / 180.0) / c->lever_arm_m;
+    expected_n = (c->prbm.pressure_gain_nm_per_kpa * pressure_kpa
+                  - c->prbm.stiffness_nm_per_rad * angle_deg * PI / 180.0) / c->prbm.lever_arm_m;
     CHECK(fabs(out.force_normal_n[0] - expected_n) < 1e-9, "F_n %g vs %g", out.force_normal_n[0],
           expected_n);
     CHECK(fabs(out.force_est_x_n[0] + expected_n * sin(angle_deg * PI / 180.0)) < 1e-9, "F_x");

@@ -196,13 +196,8 @@ static rtcore_sim_config sim_config(void)
     c.substeps = 10;
     c.seed = 7;
     for (int i = 0; i < 2; ++i) {
-        c.finger[i].inertia_kgm2 = f.inertia_kgm2;
-        c.finger[i].damping_nms_per_rad = f.damping_nms_per_rad;
-        c.finger[i].stiffness_nm_per_rad = f.stiffness_nm_per_rad;
-        c.finger[i].pressure_gain_nm_per_kpa = f.pressure_gain_nm_per_kpa;
-        c.finger[i].lever_arm_m = f.lever_arm_m;
-        c.finger[i].effects.asymmetric_stiffness_ratio = 1.0;
-        c.finger[i].effects.valve_lag_tau_s = 0.02;
+        c.finger[i].prbm = f.prbm; /* the controller's PRBM is the truth */
+        c.finger[i].prbm.effects.valve_lag_tau_s = 0.02;
         c.finger[i].supply_max_kpa = 300.0;
         c.finger[i].sensor_gain_deg_per_mv = f.sensor_gain_deg_per_mv;
         c.finger[i].sensor_offset_deg = f.sensor_offset_deg;

@@ -61,8 +61,7 @@ def main(args: argparse.Namespace) -> int:
             check_writable(path)  # before minutes of fitting, not after
     recording = read_recording(args.recording, args.finger)
     model = load_model(args.model, args.finger or recording.finger)
-    model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m",
-                  purpose="diagnose")
+    model.require_prbm(purpose="diagnose")
     grid = regular_grid(recording.t_s, recording.pressure_kpa, recording.angle_deg, args.recording)
     rate_hz = grid.rate_hz
     if grid.n_missing:

@@ -97,8 +97,7 @@ def main(args: argparse.Namespace) -> int:
         profile = load_profile(args.profile)
         model = profile.finger(args.finger).model
         source = str(profile.path)
-    model.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m",
-                  purpose="simulation")
+    model.require_prbm(purpose="simulation")
     numbers = (args.duration, args.rate, args.noise, args.perturb, args.adc_step_deg, args.conceal)
     if not (all(math.isfinite(x) for x in numbers) and args.duration >= 1.0
             and 10.0 <= args.rate <= 10000.0 and args.noise > 0.0 and 0.0 <= args.perturb < 1.0

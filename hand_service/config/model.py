@@ -16,6 +16,7 @@ from hand_service.config import effects as fx
 from hand_service.config.schema import Key, Section, expect_mapping, validate
 from hand_service.config.yamlio import LineDict, dump_yaml
 from hand_service.errors import UserError
+from rtcore import Prbm
 
 GRAVITY_M_PER_S2 = 9.81
 
@@ -46,6 +47,8 @@ MODEL_SECTION = Section(
     ),
 )
 MODEL_KEYS = tuple(k.name for k in MODEL_SECTION.keys)
+# what a model needs beyond A to be a PRBM the controller or the simulator can run
+PRBM_KEYS = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m")
 
 
 def inertia_from_geometry(mass_kg: float, length_m: float, gamma: float) -> float:
@@ -73,6 +76,25 @@ class FingerModel:
             if getattr(self, name) is None:
                 why = f" for {purpose}" if purpose else ""
                 raise UserError(f"{self.source}: the model has no '{name}', needed{why}")
+
+    def require_prbm(self, purpose: str) -> None:
+        """UserError unless the model is a whole PRBM (k, B, N and r beside A)."""
+        self.require(*PRBM_KEYS, purpose=purpose)
+
+    def prbm(self, purpose: str, extra_effects: fx.EffectParams | None = None) -> Prbm:
+        """The rtcore PRBM of this model, for the controller and the simulator alike: the one
+        place a model's parameters are copied into rtcore. `extra_effects` join the model's
+        own (a simulated truth the model does not know); `purpose` is for the UserError
+        when a parameter is absent."""
+        self.require_prbm(purpose)
+        return Prbm(
+            inertia_kgm2=self.inertia_kgm2,
+            damping_nms_per_rad=self.damping_nms_per_rad,  # type: ignore[arg-type]
+            stiffness_nm_per_rad=self.stiffness_nm_per_rad,  # type: ignore[arg-type]
+            pressure_gain_nm_per_kpa=self.pressure_gain_nm_per_kpa,  # type: ignore[arg-type]
+            lever_arm_m=self.lever_arm_m,  # type: ignore[arg-type]
+            effects=fx.to_rtcore({**self.effects, **(extra_effects or {})}),
+        )
 
     @property
     def natural_freq_rad_per_s(self) -> float:
@@ -138,5 +160,5 @@ def gravity_torque_nm(model: FingerModel) -> float:
     return model.mass_kg * GRAVITY_M_PER_S2 * model.gamma * model.length_m / 2.0  # type: ignore[operator]
 
 
-__all__ = ["MODEL_KEYS", "MODEL_SECTION", "FingerModel", "expect_mapping", "gravity_torque_nm",
+__all__ = ["MODEL_KEYS", "MODEL_SECTION", "PRBM_KEYS", "FingerModel", "expect_mapping", "gravity_torque_nm",
            "inertia_from_geometry", "model_from_mapping", "save_model"]

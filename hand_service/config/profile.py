@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any
 
 import rtcore
-from hand_service.config import effects as fx
 from hand_service.config.control import CONTROL_SECTION, ControlSettings, cutoff_problem
 from hand_service.config.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
 from hand_service.config.schema import Key, Section, expect_mapping, fail, validate
@@ -25,8 +24,20 @@ from hand_service.config.tuning import INTEGRAL_RATE_PER_S, margin_gains
 from hand_service.config.yamlio import LineDict, load_yaml
 from hand_service.errors import UserError, where
 
-ROOT = Path(__file__).resolve().parents[2]
-PROFILE_DIR = ROOT / "firmware_profiles"
+ROOT = Path(__file__).resolve().parents[2]  # the checkout (docs/); site-packages once installed
+
+
+def _shipped_profiles() -> Path:
+    """firmware_profiles/ of the repository, installed as hand_service.firmware_profiles (setup.py)."""
+    from importlib.resources import files
+
+    try:
+        return Path(str(files("hand_service.firmware_profiles")))
+    except ModuleNotFoundError:  # a checkout on sys.path without an install
+        return ROOT / "firmware_profiles"
+
+
+PROFILE_DIR = _shipped_profiles()
 DEFAULT_PROFILE = PROFILE_DIR / "sim.yaml"
 
 TOP_SECTION = Section("Profile", "The top level of a profile.", (
@@ -125,21 +136,13 @@ class FingerProfile:
     lines: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
 
     def rtcore_config(self, control: ControlSettings, **overrides: float) -> rtcore.FingerConfig:
-        m = self.model
-        m.require("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa",
-                  "lever_arm_m", purpose=f"controlling finger '{self.name}'")
         return rtcore.FingerConfig(
-            inertia_kgm2=m.inertia_kgm2,
-            damping_nms_per_rad=m.damping_nms_per_rad,  # type: ignore[arg-type]
-            stiffness_nm_per_rad=m.stiffness_nm_per_rad,  # type: ignore[arg-type]
-            pressure_gain_nm_per_kpa=m.pressure_gain_nm_per_kpa,  # type: ignore[arg-type]
-            lever_arm_m=m.lever_arm_m,  # type: ignore[arg-type]
+            prbm=self.model.prbm(f"controlling finger '{self.name}'"),
             sensor_gain_deg_per_mv=self.sensor_gain_deg_per_mv,
             sensor_offset_deg=self.sensor_offset_deg,
             filter_order=control.filter_order,
             filter_cutoff_hz=control.filter_cutoff_hz,
             velocity_cutoff_hz=control.velocity_cutoff_hz,
-            effects=fx.to_rtcore(m.effects),
             feedforward=rtcore.config.FEEDFORWARD_BY_NAME[control.feedforward],
             force_estimate_dynamic=int(control.force_estimate == "dynamic"),
             kp_kpa_per_deg=self.kp_kpa_per_deg,

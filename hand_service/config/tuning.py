@@ -42,9 +42,10 @@ def loop_per_kp(finger: rtcore.FingerConfig, sample_rate_hz: float, freqs_hz: np
     dt_s = 1.0 / sample_rate_hz
     s = 2j * np.pi * freqs_hz
     z = np.exp(s * dt_s)
-    prbm = math.degrees(1.0) * finger.pressure_gain_nm_per_kpa / (
-        finger.inertia_kgm2 * s**2 + finger.damping_nms_per_rad * s + finger.stiffness_nm_per_rad)
-    valve = np.exp(-s * finger.effects.dead_time_s) / (finger.effects.valve_lag_tau_s * s + 1.0)
+    m = finger.prbm
+    prbm = math.degrees(1.0) * m.pressure_gain_nm_per_kpa / (
+        m.inertia_kgm2 * s**2 + m.damping_nms_per_rad * s + m.stiffness_nm_per_rad)
+    valve = np.exp(-s * m.effects.dead_time_s) / (m.effects.valve_lag_tau_s * s + 1.0)
     hold = np.exp(-s * dt_s / 2.0) * np.sinc(freqs_hz * dt_s)
     sos = rtcore.butter_design(finger.filter_order, finger.filter_cutoff_hz, sample_rate_hz)
     _, butter = signal.sosfreqz(sos, worN=freqs_hz, fs=sample_rate_hz)

@@ -71,7 +71,7 @@ class Diagnosis:
     def refit_model(self, with_effects: bool = True) -> FingerModel:
         """The refitted model; with the found effects added to its `effects` block."""
         source = self.final if with_effects and self.effects else self.refit
-        changes = {name: float(getattr(source.finger, name)) for name in PLAIN}
+        changes = {name: float(getattr(source.finger.prbm, name)) for name in PLAIN}
         effects = dict(self.model.effects)
         if with_effects:
             for found in self.effects:
@@ -81,7 +81,7 @@ class Diagnosis:
     def to_json(self) -> dict:
         source = self.final if self.effects else self.refit
         refit = {"inertia_kgm2": self.model.inertia_kgm2,
-                 **{name: float(getattr(source.finger, name)) for name in
+                 **{name: float(getattr(source.finger.prbm, name)) for name in
                     ("damping_nms_per_rad", "stiffness_nm_per_rad", "pressure_gain_nm_per_kpa")}}
         stds = dict(zip([p.label for p in source.params], source.std(), strict=True))
         round1 = self.selection.rounds[0].candidates if self.selection.rounds else []

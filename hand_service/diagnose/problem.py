@@ -30,10 +30,10 @@ PLAIN = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kp
 
 @dataclass(frozen=True)
 class Param:
-    """One free parameter: a SimFinger field, or a library effect's rtcore field."""
+    """One free parameter: a PRBM field, or a library effect's rtcore field."""
 
     label: str  # plain field name, or the effect's name
-    field: str  # SimFinger field, or rtcore Effects field
+    field: str  # rtcore Prbm field, or rtcore Effects field
     is_effect: bool
     scale: float  # typical magnitude: the optimiser works in value/scale
     lower: float
@@ -82,11 +82,14 @@ class Problem:
                base: SimFinger | None = None) -> SimFinger:
         """The base finger with `params` set to `values`."""
         finger = base or self.base
-        plain = {p.field: float(v) for p, v in zip(params, values, strict=True) if not p.is_effect}
+        plain: dict[str, object] = {p.field: float(v) for p, v in zip(params, values, strict=True)
+                                    if not p.is_effect}
         effect = {p.field: float(v) for p, v in zip(params, values, strict=True) if p.is_effect}
         if effect:
-            plain["effects"] = dataclasses.replace(finger.effects, **effect)
-        return finger.replace(**plain) if plain else finger
+            plain["effects"] = dataclasses.replace(finger.prbm.effects, **effect)
+        if not plain:
+            return finger
+        return dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, **plain))
 
     def simulate(self, finger: SimFinger) -> np.ndarray:
         angle, _ = simulate(finger, self.pressure_kpa, self.rate_hz, self.substeps, self.angle0_deg,
@@ -94,14 +97,13 @@ class Problem:
         return angle
 
     def values(self, params: Sequence[Param], finger: SimFinger | None = None) -> np.ndarray:
-        finger = finger or self.base
-        return np.array([getattr(finger.effects, p.field) if p.is_effect else getattr(finger, p.field)
-                         for p in params])
+        prbm = (finger or self.base).prbm
+        return np.array([getattr(prbm.effects if p.is_effect else prbm, p.field) for p in params])
 
 
 def settle_time_s(finger: SimFinger) -> float:
     """Three decay time constants of the finger's ringing, 1/(ζ·ωn) each."""
-    decay_per_s = finger.damping_nms_per_rad / (2.0 * finger.inertia_kgm2)
+    decay_per_s = finger.prbm.damping_nms_per_rad / (2.0 * finger.prbm.inertia_kgm2)
     return 3.0 / max(decay_per_s, 1.0)
 
 

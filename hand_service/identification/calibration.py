@@ -23,7 +23,7 @@ from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.errors import UserError
 from hand_service.recording import Recording
-from rtcore import Effects, FingerConfig
+from rtcore import Effects, Prbm
 from rtcore.reference import effective_pressure, model_torque
 from rtcore.sim import SimFinger, simulate
 
@@ -56,10 +56,10 @@ class GainFit:
 def static_torque_nm(model: FingerModel, angle_rad: np.ndarray) -> np.ndarray:
     """τ(θ) at rest: k·θ plus the model's static effects (the C model's own formula)."""
     model.require("stiffness_nm_per_rad", purpose="calibrate gain (N = k·θ/p)")
-    config = FingerConfig(inertia_kgm2=model.inertia_kgm2, damping_nms_per_rad=0.0,
-                          stiffness_nm_per_rad=model.stiffness_nm_per_rad,  # type: ignore[arg-type]
-                          pressure_gain_nm_per_kpa=1.0, lever_arm_m=1.0, effects=fx.to_rtcore(model.effects))
-    return np.array([model_torque(config, float(a), 0.0) for a in angle_rad])
+    prbm = Prbm(inertia_kgm2=model.inertia_kgm2, damping_nms_per_rad=0.0,
+                stiffness_nm_per_rad=model.stiffness_nm_per_rad,  # type: ignore[arg-type]
+                pressure_gain_nm_per_kpa=1.0, lever_arm_m=1.0, effects=fx.to_rtcore(model.effects))
+    return np.array([model_torque(prbm, float(a), 0.0) for a in angle_rad])
 
 
 def _pressure(recording: Recording, which: str) -> tuple[str, np.ndarray]:
@@ -170,9 +170,9 @@ class ValveFit:
 
 # A finger that never moves (no pressure gain), only there to carry the valve through the
 # simulator: the chamber then follows exactly the valve model the simulated truth uses.
-_VALVE_PROBE = SimFinger(inertia_kgm2=1.0, damping_nms_per_rad=1.0, stiffness_nm_per_rad=1.0,
-                         pressure_gain_nm_per_kpa=0.0, lever_arm_m=1.0, supply_min_kpa=-1e6,
-                         supply_max_kpa=1e6)
+_VALVE_PROBE = SimFinger(Prbm(inertia_kgm2=1.0, damping_nms_per_rad=1.0, stiffness_nm_per_rad=1.0,
+                              pressure_gain_nm_per_kpa=0.0, lever_arm_m=1.0),
+                         supply_min_kpa=-1e6, supply_max_kpa=1e6)
 
 
 def valve_response_kpa(command_kpa: np.ndarray, dt_s: float, tau_s: float, delay_s: float) -> np.ndarray:

@@ -7,19 +7,20 @@ import math
 import numpy as np
 import pytest
 
-from rtcore import Effects
+from rtcore import Effects, Prbm
 from rtcore.sim import SimFinger, Simulator, simulate
 
-INDEX = SimFinger(inertia_kgm2=1.6166e-4, damping_nms_per_rad=0.0031, stiffness_nm_per_rad=0.570,
-                  pressure_gain_nm_per_kpa=8.9535e-3, lever_arm_m=0.040375)
+INDEX = SimFinger(Prbm(inertia_kgm2=1.6166e-4, damping_nms_per_rad=0.0031, stiffness_nm_per_rad=0.570,
+                       pressure_gain_nm_per_kpa=8.9535e-3, lever_arm_m=0.040375))
 
 
 def step_response_deg(f: SimFinger, pressure_kpa: float, t: np.ndarray) -> np.ndarray:
     """Underdamped second order: θ = θss·(1 − e^(−ζωt)(cos ωd t + ζ/√(1−ζ²) sin ωd t))."""
-    wn = math.sqrt(f.stiffness_nm_per_rad / f.inertia_kgm2)
-    zeta = f.damping_nms_per_rad / (2 * math.sqrt(f.stiffness_nm_per_rad * f.inertia_kgm2))
+    m = f.prbm
+    wn = math.sqrt(m.stiffness_nm_per_rad / m.inertia_kgm2)
+    zeta = m.damping_nms_per_rad / (2 * math.sqrt(m.stiffness_nm_per_rad * m.inertia_kgm2))
     wd = wn * math.sqrt(1 - zeta**2)
-    ss = f.pressure_gain_nm_per_kpa * pressure_kpa / f.stiffness_nm_per_rad
+    ss = m.pressure_gain_nm_per_kpa * pressure_kpa / m.stiffness_nm_per_rad
     return np.degrees(ss * (1 - np.exp(-zeta * wn * t) * (np.cos(wd * t) + zeta / math.sqrt(1 - zeta**2)
                                                            * np.sin(wd * t))))
 
@@ -34,8 +35,9 @@ def test_pressure_step_matches_the_analytic_response(rate_hz: float) -> None:
 
 def test_free_decay_matches_the_analytic_response() -> None:
     angle, _ = simulate(INDEX, np.zeros(200), 100.0, angle0_deg=30.0)
-    wn = math.sqrt(INDEX.stiffness_nm_per_rad / INDEX.inertia_kgm2)
-    zeta = INDEX.damping_nms_per_rad / (2 * math.sqrt(INDEX.stiffness_nm_per_rad * INDEX.inertia_kgm2))
+    m = INDEX.prbm
+    wn = math.sqrt(m.stiffness_nm_per_rad / m.inertia_kgm2)
+    zeta = m.damping_nms_per_rad / (2 * math.sqrt(m.stiffness_nm_per_rad * m.inertia_kgm2))
     wd, t = wn * math.sqrt(1 - zeta**2), np.arange(200) / 100.0
     exact = 30.0 * np.exp(-zeta * wn * t) * (np.cos(wd * t) + zeta / math.sqrt(1 - zeta**2) * np.sin(wd * t))
     assert np.max(np.abs(angle - exact)) < 1e-4
@@ -60,7 +62,8 @@ def test_contact_gives_the_true_force_at_the_force_point() -> None:
         sim.step()
     theta = math.radians(sim.outputs.angle_deg[0])
     # at rest: N p = k θ + r F
-    expected = (f.pressure_gain_nm_per_kpa * 150.0 - f.stiffness_nm_per_rad * theta) / f.lever_arm_m
+    m = f.prbm
+    expected = (m.pressure_gain_nm_per_kpa * 150.0 - m.stiffness_nm_per_rad * theta) / m.lever_arm_m
     assert sim.outputs.contact_force_n[0] == pytest.approx(expected, rel=1e-6)
     assert sim.outputs.angle_deg[0] > 40.0
 
@@ -103,8 +106,9 @@ def test_stiff_dry_friction_is_integrated_accurately(torque_nm: float) -> None:
     """Dry friction's tanh slope (Tc/ω_s) is stiff: the simulator takes shorter steps where
     it must, so 10 nominal sub-steps agree with 1000 (at 0.034 N·m on the thumb, plain 1 ms
     RK4 steps are unstable and invent a sticking the physics does not have)."""
-    thumb = SimFinger(9.068e-5, 0.0011, 0.6541, 8.2197e-3, 0.031875,
-                      effects=Effects(coulomb_torque_nm=torque_nm, valve_lag_tau_s=0.03, dead_time_s=0.005))
+    thumb = SimFinger(Prbm(9.068e-5, 0.0011, 0.6541, 8.2197e-3, 0.031875,
+                           effects=Effects(coulomb_torque_nm=torque_nm, valve_lag_tau_s=0.03,
+                                           dead_time_s=0.005)))
     t = np.arange(2000) / 100.0
     pressure = 60.0 + 40.0 * np.sign(np.sin(2 * np.pi * 0.5 * t))
     coarse, _ = simulate(thumb, pressure, 100.0, substeps=10)

@@ -2,18 +2,20 @@ from __future__ import annotations
 
 import pytest
 
-from rtcore import FingerConfig
+from rtcore import FingerConfig, Prbm
 
 
 @pytest.fixture
 def index_finger() -> FingerConfig:
     """The index finger of physics.md, with a linear sensor: angle = 0.1 * mV - 5."""
     return FingerConfig(
-        inertia_kgm2=1.617e-4,
-        damping_nms_per_rad=0.0031,
-        stiffness_nm_per_rad=0.570,
-        pressure_gain_nm_per_kpa=8.954e-3,
-        lever_arm_m=0.040375,
+        Prbm(
+            inertia_kgm2=1.617e-4,
+            damping_nms_per_rad=0.0031,
+            stiffness_nm_per_rad=0.570,
+            pressure_gain_nm_per_kpa=8.954e-3,
+            lever_arm_m=0.040375,
+        ),
         sensor_gain_deg_per_mv=0.1,
         sensor_offset_deg=-5.0,
     )

@@ -6,15 +6,17 @@ import dataclasses
 import re
 import shutil
 import subprocess
+import typing
 from pathlib import Path
 
 import pytest
 
 import rtcore
-from rtcore import Effects, FingerConfig, config
+from rtcore import Effects, FingerConfig, Prbm, config
 from rtcore._build import HEADER, HEADERS, cdef_from_header, cdef_from_headers, check_headers
 from rtcore._rtcore import ffi, lib
 from rtcore.arrays import Inputs, Outputs, field_names
+from rtcore.sim import SimFinger
 
 ROOT = Path(__file__).resolve().parents[2]
 ALL_HEADERS = "".join(path.read_text() for path in HEADERS)
@@ -24,15 +26,40 @@ def c_fields(struct: str) -> list[str]:
     return [name for name, _ in ffi.typeof(struct).fields]
 
 
+def c_tree(ctype: object) -> dict[str, object]:
+    """A struct's member names, each with its own tree if it is a struct (else None)."""
+    return {name: c_tree(f.type) if f.type.kind == "struct" else None
+            for name, f in ctype.fields}  # type: ignore[attr-defined]
+
+
+def py_tree(cls: type) -> dict[str, object]:
+    """A dataclass's field names, each with its own tree if it is a dataclass (else None)."""
+    hints = typing.get_type_hints(cls)
+    return {f.name: py_tree(hints[f.name]) if dataclasses.is_dataclass(hints[f.name]) else None
+            for f in dataclasses.fields(cls)}
+
+
 @pytest.mark.parametrize(("struct", "cls"), [("rtcore_inputs", Inputs), ("rtcore_outputs", Outputs),
-                                              ("rtcore_effects", Effects)])
+                                              ("rtcore_effects", Effects), ("rtcore_prbm", Prbm)])
 def test_dataclass_fields_equal_c_fields(struct: str, cls: type) -> None:
     assert field_names(cls) == c_fields(struct)
 
 
-def test_finger_config_fields_equal_c_fields() -> None:
-    ours = sorted(f.name for f in dataclasses.fields(FingerConfig))
-    assert ours == sorted(c_fields("rtcore_finger_config"))
+@pytest.mark.parametrize(("struct", "cls"), [("rtcore_finger_config", FingerConfig),
+                                              ("rtcore_sim_finger", SimFinger)])
+def test_finger_fields_equal_c_fields_at_every_level(struct: str, cls: type) -> None:
+    """The same names at every level (in any order: Python puts prbm, without a default, first),
+    and a nested dataclass where the C struct nests one."""
+    assert py_tree(cls) == c_tree(ffi.typeof(struct))
+
+
+def test_controller_and_simulator_share_one_prbm() -> None:
+    """One PRBM declaration per language: both finger structs hold rtcore_prbm, both
+    dataclasses Prbm."""
+    for struct in ("rtcore_finger_config", "rtcore_sim_finger"):
+        assert dict(ffi.typeof(struct).fields)["prbm"].type is ffi.typeof("rtcore_prbm")
+    for cls in (FingerConfig, SimFinger):
+        assert typing.get_type_hints(cls)["prbm"] is Prbm
 
 
 def test_python_constants_equal_header_constants() -> None:

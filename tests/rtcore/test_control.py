@@ -45,9 +45,10 @@ class ExactPlant:
     """The linear PRBM under a zero-order-hold pressure, discretised exactly."""
 
     def __init__(self, f: FingerConfig, dt_s: float) -> None:
-        a = np.array([[0.0, 1.0], [-f.stiffness_nm_per_rad / f.inertia_kgm2,
-                                    -f.damping_nms_per_rad / f.inertia_kgm2]])
-        b = np.array([[0.0], [f.pressure_gain_nm_per_kpa / f.inertia_kgm2]])
+        p = f.prbm
+        a = np.array([[0.0, 1.0], [-p.stiffness_nm_per_rad / p.inertia_kgm2,
+                                    -p.damping_nms_per_rad / p.inertia_kgm2]])
+        b = np.array([[0.0], [p.pressure_gain_nm_per_kpa / p.inertia_kgm2]])
         m = expm(np.block([[a, b], [np.zeros((1, 3))]]) * dt_s)
         self.phi, self.gamma = m[:2, :2], m[:2, 2]
         self.x = np.zeros(2)
@@ -108,13 +109,13 @@ def test_force_estimate_is_the_moore_penrose_solution(index_finger: FingerConfig
     hand.inputs.pressure_meas_kpa[:] = pressure_kpa
     hold(hand, 300)  # at rest: velocity and acceleration estimates settle to 0
     theta = math.radians(angle_deg)
-    jacobian = f.lever_arm_m * np.array([-math.sin(theta), math.cos(theta)])
-    torque = f.pressure_gain_nm_per_kpa * pressure_kpa - f.stiffness_nm_per_rad * theta
+    jacobian = f.prbm.lever_arm_m * np.array([-math.sin(theta), math.cos(theta)])
+    torque = f.prbm.pressure_gain_nm_per_kpa * pressure_kpa - f.prbm.stiffness_nm_per_rad * theta
     expected = np.linalg.pinv(jacobian.reshape(1, 2)) @ np.array([torque])  # (J^T)+ tau
     out = hand.outputs
     np.testing.assert_allclose([out.force_est_x_n[0], out.force_est_y_n[0]], expected, atol=1e-9)
     assert out.force_magnitude_n[0] == pytest.approx(np.linalg.norm(expected), abs=1e-9)
-    assert out.force_normal_n[0] == pytest.approx(torque / f.lever_arm_m, abs=1e-9)
+    assert out.force_normal_n[0] == pytest.approx(torque / f.prbm.lever_arm_m, abs=1e-9)
 
 
 def test_force_estimate_without_measured_pressure_uses_the_valve_model(index_finger: FingerConfig) -> None:
@@ -239,10 +240,11 @@ def test_closed_loop_force_control_presses_as_asked(index_finger: FingerConfig) 
     hand.inputs.force_ref_n[:] = 1.2
 
     def accel(th: float, om: float, p: float) -> float:
-        torque = f.pressure_gain_nm_per_kpa * p - f.stiffness_nm_per_rad * th - f.damping_nms_per_rad * om
+        m = f.prbm
+        torque = m.pressure_gain_nm_per_kpa * p - m.stiffness_nm_per_rad * th - m.damping_nms_per_rad * om
         if th > contact_rad:
             torque -= contact_k * (th - contact_rad) + contact_c * om
-        return torque / f.inertia_kgm2
+        return torque / m.inertia_kgm2
 
     for _ in range(800):
         hand.inputs.sensor_mv[:] = mv_for_deg(f, math.degrees(theta))
@@ -251,7 +253,7 @@ def test_closed_loop_force_control_presses_as_asked(index_finger: FingerConfig) 
         for _ in range(20):  # semi-implicit Euler at 0.5 ms is ample for this check
             omega += accel(theta, omega, p) * dt / 20
             theta += omega * dt / 20
-    true_force = contact_k * (theta - contact_rad) / f.lever_arm_m
+    true_force = contact_k * (theta - contact_rad) / f.prbm.lever_arm_m
     assert true_force == pytest.approx(1.2, abs=0.01)
     assert hand.outputs.force_normal_n[0] == pytest.approx(1.2, abs=0.01)
 

@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from rtcore import Effects, FingerConfig, Hand, HandConfig, ReferenceHand
+from rtcore import Effects, FingerConfig, Hand, HandConfig, Prbm, ReferenceHand
 from rtcore.arrays import Outputs, field_names
 
 TICKS_PER_EXAMPLE = 200
@@ -40,18 +40,24 @@ effects_strategy = st.builds(
 @st.composite
 def finger_strategy(draw: st.DrawFn) -> FingerConfig:
     pressure_min = draw(st.one_of(st.just(0.0), positive(-20.0, 20.0)))
-    return FingerConfig(
+    prbm = Prbm(
         inertia_kgm2=draw(positive(5e-5, 3e-4)),
         damping_nms_per_rad=draw(positive(0.0, 0.01)),
         stiffness_nm_per_rad=draw(positive(0.2, 1.0)),
         pressure_gain_nm_per_kpa=draw(positive(4e-3, 2e-2)),
         lever_arm_m=draw(positive(0.02, 0.06)),
+    )
+    sensor_and_filters = dict(
         sensor_gain_deg_per_mv=draw(st.one_of(positive(0.02, 0.5), positive(-0.5, -0.02))),
         sensor_offset_deg=draw(positive(-50.0, 50.0)),
         filter_order=draw(st.sampled_from([2, 4])),
         filter_cutoff_hz=draw(positive(1.0, 45.0)),
         velocity_cutoff_hz=draw(positive(1.0, 60.0)),
-        effects=draw(effects_strategy),
+    )
+    prbm.effects = draw(effects_strategy)  # drawn in its old place: the same derandomized examples
+    return FingerConfig(
+        prbm=prbm,
+        **sensor_and_filters,
         feedforward=draw(st.sampled_from([0, 1, 2])),
         force_estimate_dynamic=draw(st.sampled_from([0, 1])),
         kp_kpa_per_deg=draw(positive(0.0, 2.0)),
