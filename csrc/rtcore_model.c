@@ -1,5 +1,5 @@
 /* The PRBM and its effects: torque model, feedforward by model inversion, and the
- * Moore-Penrose force estimate (physics.md sections 1, 3 and 4). */
+ * Moore-Penrose force estimate (docs/physics.md sections 1, 3 and 4). */
 #include <math.h>
 
 #include "rtcore_internal.h"

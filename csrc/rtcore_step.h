@@ -70,7 +70,7 @@ extern "C" {
 #define RTCORE_ERR_FEEDFORWARD -12
 
 /*
- * Physics the model includes beyond the plain PRBM (physics.md, formats.md
+ * Physics the model includes beyond the plain PRBM (docs/physics.md, docs/formats.md
  * "effects"). A zero leaves an effect out; asymmetric_stiffness_ratio = 1 is symmetric.
  * The extra torque is
  *   tau(theta, omega) = k_eff(theta)*theta + k3*theta^3 + c2*|omega|*omega
@@ -92,7 +92,7 @@ typedef struct {
 } rtcore_effects;
 
 /*
- * The PRBM of one finger (physics.md section 1), shared by the controller's finger
+ * The PRBM of one finger (docs/physics.md section 1), shared by the controller's finger
  * (rtcore_finger_config.prbm) and the simulated finger (rtcore_sim_finger.prbm):
  *   A th'' + B th' + k th = N p - J^T F,   |J| = r
  * with th the bending angle (rad), p the chamber pressure (kPa) and F the force at the
@@ -212,7 +212,7 @@ typedef struct {
     double feedforward_kpa[RTCORE_MAX_FINGERS];
     double pid_kpa[RTCORE_MAX_FINGERS];
     double chamber_pressure_kpa[RTCORE_MAX_FINGERS];
-    /* the Moore-Penrose force estimate (physics.md section 3): the signed normal force
+    /* the Moore-Penrose force estimate (docs/physics.md section 3): the signed normal force
      * F_n = tau / r, positive pressing in the bending direction (what force control tracks,
      * and what a recording's force_est_n column holds), its x and y components, and |F_n| */
     double force_normal_n[RTCORE_MAX_FINGERS];

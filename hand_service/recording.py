@@ -1,4 +1,4 @@
-"""Recordings: the CSV of formats.md, read and written.
+"""Recordings: the CSV of docs/formats.md, read and written.
 
     # finger: index
     # sample_rate_hz: 100

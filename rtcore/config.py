@@ -56,7 +56,7 @@ def flag_names(flags: int) -> list[str]:
 
 @dataclass
 class Effects:
-    """Physics beyond the plain PRBM that the controller compensates (formats.md effects)."""
+    """Physics beyond the plain PRBM that the controller compensates (docs/formats.md effects)."""
 
     valve_lag_tau_s: float = 0.0
     dead_time_s: float = 0.0
@@ -71,7 +71,7 @@ class Effects:
 
 @dataclass
 class Prbm:
-    """A finger's PRBM, A θ'' + B θ' + k θ = N p − Jᵀ F (physics.md §1), with its effects.
+    """A finger's PRBM, A θ'' + B θ' + k θ = N p − Jᵀ F (docs/physics.md §1), with its effects.
 
     A in kg·m², B in N·m·s/rad, k in N·m/rad, N in N·m/kPa, r (|J|, pivot to force
     point) in m; θ in rad, p in kPa, F in N.

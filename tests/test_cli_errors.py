@@ -208,7 +208,7 @@ def test_diagnose_json_writes_inf_std_as_null(tmp_path: Path, capsys: pytest.Cap
     assert cli.main([*argv, "--json", str(out)]) == 0
     result = strict_json(out.read_text())
     assert result["refit_std"] == {"stiffness_nm_per_rad": None, "damping_nms_per_rad": None}
-    for key in ("verdict", "refit", "effects", "windows", "rmse_deg", "warnings"):  # formats.md
+    for key in ("verdict", "refit", "effects", "windows", "rmse_deg", "warnings"):  # docs/formats.md
         assert key in result
     capsys.readouterr()
     assert cli.main([*argv, "--json", "-"]) == 0

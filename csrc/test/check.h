@@ -1,5 +1,5 @@
 /* Shared by the plain-C tests of rtcore (csrc/test/): the CHECK counter, a seeded
- * random source, and the index finger of physics.md with a linear sensor. */
+ * random source, and the index finger of docs/physics.md with a linear sensor. */
 #ifndef RTCORE_TEST_CHECK_H
 #define RTCORE_TEST_CHECK_H
 

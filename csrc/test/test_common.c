@@ -13,7 +13,7 @@ double uniform(uint64_t *s)
     return (double)((*s * 2685821657736338717ULL) >> 11) / 9007199254740992.0;
 }
 
-/* the index finger of physics.md */
+/* the index finger of docs/physics.md */
 rtcore_finger_config index_finger(void)
 {
     rtcore_finger_config c;

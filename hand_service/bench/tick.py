@@ -4,7 +4,7 @@ Blocks of one second alternate on ONE absolute schedule: the supervisor (trackin
 sweep on the simulated hand, recording every tick) and the bare C loop
 (rtcore_floor_loop: clock_nanosleep to the same deadlines, nothing else). Both see the
 same machine at nearly the same moments, so the supervisor is judged as a ratio to the
-floor (formats.md, `bench`). Over a bus (a transport to a mock firmware) the blocks are
+floor (docs/formats.md, `bench`). Over a bus (a transport to a mock firmware) the blocks are
 a few ticks long, so that the firmware's watchdog and the stale-sample check never see
 the bare loop's silence (block_ticks).
 """

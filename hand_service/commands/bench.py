@@ -30,7 +30,7 @@ A deadline miss is a tick that ends after its period; deadline_misses_woke_late 
 those that woke after their period had ended already, a stall no tick could make up
 (every miss of the bare loop is of that kind).
 
-JSON keys (formats.md): c_step_ns_p50, c_step_ns_p99, python_step_ns_p50, fingers,
+JSON keys (docs/formats.md): c_step_ns_p50, c_step_ns_p99, python_step_ns_p50, fingers,
 tick_ns_p50, tick_ns_p99, jitter_us_p50, jitter_us_p99, jitter_us_max, rate_hz,
 jitter_floor_us_p50, jitter_floor_us_p99, jitter_floor_us_max, deadline_misses,
 deadline_misses_floor, ticks, ...

@@ -143,8 +143,8 @@ def _sensor(args: argparse.Namespace) -> dict[str, Any]:
     from hand_service.recording import read_recording
 
     if args.write_model is not None:
-        raise UserError("the sensor map is not part of a model file (formats.md): write it into a profile "
-                        "with --update-profile")
+        raise UserError("the sensor map is not part of a model file (docs/formats.md): write it "
+                        "into a profile with --update-profile")
     recording = read_recording(args.recording, None, required=("sensor_mv", "angle_deg"), min_duration_s=0.0)
     fits = fit_sensor_map(recording, args.finger)
     print(f"calibrate sensor: {args.recording.name}, angle_deg = gain·mV + offset\n")

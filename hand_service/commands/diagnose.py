@@ -9,7 +9,7 @@ from typing import Any
 
 HELP = "find where a model and a recording disagree, and name the missing physics"
 DESCRIPTION = """\
-Compare a finger model with a recording (t, pressure_kpa, angle_deg; formats.md), find
+Compare a finger model with a recording (t, pressure_kpa, angle_deg; docs/formats.md), find
 where and why they differ, and name the physics the model leaves out.
 
 It simulates the model on the recorded command, refits k, B and N (A held) by
@@ -31,7 +31,7 @@ examples:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("recording", help="recording CSV (formats.md)")
+    parser.add_argument("recording", help="recording CSV (docs/formats.md)")
     parser.add_argument("--model", required=True, help="model YAML, or a profile with --finger")
     parser.add_argument("--finger", default=None,
                         help="finger to pick from a profile or a multi-finger recording")

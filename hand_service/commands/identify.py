@@ -8,7 +8,7 @@ from pathlib import Path
 HELP = "stiffness k and damping B of a finger from push-and-release trials (LDM)"
 DESCRIPTION = """\
 Fit free-oscillation recordings (push the fingertip, hold, release; the pressure column
-may be all zero) with the logarithmic decrement method (physics.md §2). In each trial
+may be all zero) with the logarithmic decrement method (docs/physics.md §2). In each trial
 the release is found and the free decay after it is read; the results are listed per
 trial and as mean ± std. The inertia A is held at the model's value (given, or from the
 geometry), so k = A·ω_n² and B = 2·ζ·ω_n·A.
@@ -21,7 +21,7 @@ Methods:
             for comparison (it is off by several % per trial at 100 Hz)
 
 A warning says when the decrement drifts with the amplitude: the damping is then not
-viscous (a constant loss per cycle is dry friction; physics.md §4, `diagnose`).
+viscous (a constant loss per cycle is dry friction; docs/physics.md §4, `diagnose`).
 
 Example:
   hand-service identify trials/index_*.csv --model firmware_profiles/sim.yaml \\
@@ -31,7 +31,7 @@ Example:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("trials", nargs="+", type=Path, metavar="TRIAL.csv",
-                        help="free-oscillation recordings (formats.md), one release each")
+                        help="free-oscillation recordings (docs/formats.md), one release each")
     parser.add_argument("--model", required=True, type=Path, metavar="MODEL.yaml",
                         help="finger model or firmware profile (needs the inertia or the geometry)")
     parser.add_argument("--finger", help="finger name: picks the block of a profile and the columns "

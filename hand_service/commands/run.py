@@ -27,7 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--profile", default=None, help="firmware profile (default: sim.yaml)")
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument("--record", type=Path, metavar="FILE.csv",
-                        help="record every tick to this new CSV (formats.md, per-finger columns)")
+                        help="record every tick to this new CSV (docs/formats.md, per-finger columns)")
     parser.add_argument("--demo", action="store_true",
                         help="run the demo on the simulated hand, print figures, exit")
     parser.add_argument("--socket", type=Path, metavar="PATH",

@@ -6,7 +6,7 @@ import argparse
 
 HELP = "write a simulated recording, optionally with an effect concealed from the model"
 DESCRIPTION = """\
-Simulate one finger on a pressure excitation and write the recording (formats.md), the
+Simulate one finger on a pressure excitation and write the recording (docs/formats.md), the
 nominal model a lab would have (k, B, N off by up to --perturb) and the hidden truth.
 
 With --effect NAME=VALUE the truth includes that effect at that value. With --effect NAME

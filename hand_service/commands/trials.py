@@ -7,7 +7,7 @@ from pathlib import Path
 
 HELP = "simulate lab trials (releases, pressure sweeps, valve steps, sensor pairs) as CSV"
 DESCRIPTION = """\
-Write simulated recordings (formats.md) of the profile's simulated hand, deterministic for
+Write simulated recordings (docs/formats.md) of the profile's simulated hand, deterministic for
 a seed, with the profile's sensor noise and ADC:
 
   release  push the tip to an offset (25-40 deg), hold 1 s, release at a random instant

@@ -1,4 +1,4 @@
-"""The library of physics a plain PRBM leaves out (formats.md, `effects`).
+"""The library of physics a plain PRBM leaves out (docs/formats.md, `effects`).
 
 Each effect is one small definition here plus its term in the C model
 (csrc/rtcore_model.c: the torque; csrc/rtcore_sim.c: the valve). The simulator, the

@@ -1,4 +1,4 @@
-"""The finger model of formats.md: PRBM parameters, geometry and effects, in YAML.
+"""The finger model of docs/formats.md: PRBM parameters, geometry and effects, in YAML.
 
 A model file holds one finger. A firmware profile holds five under `hand:`; wherever a
 model is asked for, `--model PROFILE.yaml --finger NAME` works too.
@@ -22,7 +22,7 @@ GRAVITY_M_PER_S2 = 9.81
 
 MODEL_SECTION = Section(
     "Finger model",
-    "A finger's PRBM (physics.md §1). Model files hold these keys at the top level; a "
+    "A finger's PRBM (docs/physics.md §1). Model files hold these keys at the top level; a "
     "profile's finger blocks hold them too.",
     (
         Key("finger", "finger name (optional in a model file)", "str", default=None),
@@ -42,7 +42,7 @@ MODEL_SECTION = Section(
             max=1.0, min_exclusive=True),
         Key("lever_arm_m", "r, pivot to force point; default γ·l/2", unit="m", default=None,
             min=0.0, min_exclusive=True),
-        Key("effects", "physics the model already includes (formats.md effect table)",
+        Key("effects", "physics the model already includes (docs/formats.md effect table)",
             "mapping", default=None),
     ),
 )
@@ -52,7 +52,7 @@ PRBM_KEYS = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_pe
 
 
 def inertia_from_geometry(mass_kg: float, length_m: float, gamma: float) -> float:
-    """The paper's Lagrangian inertia A = (7/12)·m·γ³·l² (physics.md §1)."""
+    """The paper's Lagrangian inertia A = (7/12)·m·γ³·l² (docs/physics.md §1)."""
     return 7.0 / 12.0 * mass_kg * gamma**3 * length_m**2
 
 
@@ -111,7 +111,7 @@ class FingerModel:
         return dataclasses.replace(self, **changes)
 
     def to_dict(self) -> dict[str, Any]:
-        """The formats.md keys in a stable order, absent ones left out."""
+        """The docs/formats.md keys in a stable order, absent ones left out."""
         data: dict[str, Any] = {}
         for name in MODEL_KEYS:
             value = getattr(self, name)
@@ -146,7 +146,7 @@ def model_from_mapping(data: LineDict, source: str | Path, context: str = "",
 
 
 def save_model(model: FingerModel, path: str | Path, header: str = "") -> None:
-    """Write a model file in the formats.md format (readable by load_model)."""
+    """Write a model file in the docs/formats.md format (readable by load_model)."""
     text = "".join(f"# {line}\n" for line in header.splitlines()) + dump_yaml(model.to_dict())
     try:
         Path(path).write_text(text)

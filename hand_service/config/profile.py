@@ -2,7 +2,7 @@
 
 A profile names the transport and its settings, the wire-protocol version the firmware
 must report, control settings, safety limits, the simulated truth (for `sim` and the
-mock firmware) and the hand: one block per finger with the model keys of formats.md
+mock firmware) and the hand: one block per finger with the model keys of docs/formats.md
 plus the sensor calibration, pressure limits and gains. Unknown keys are refused with
 the file, line and nearest known key; every key is documented in docs/profiles.md,
 which is generated from the sections below.
@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
@@ -29,8 +30,6 @@ ROOT = Path(__file__).resolve().parents[2]  # the checkout (docs/); site-package
 
 def _shipped_profiles() -> Path:
     """firmware_profiles/ of the repository, installed as hand_service.firmware_profiles (setup.py)."""
-    from importlib.resources import files
-
     try:
         return Path(str(files("hand_service.firmware_profiles")))
     except ModuleNotFoundError:  # a checkout on sys.path without an install
@@ -94,7 +93,7 @@ SIMULATION_SECTION = Section(
     ))
 
 FINGER_EXTRA_SECTION = Section(
-    "Finger", "`hand.<name>:` — the model keys of formats.md (below) plus these.", (
+    "Finger", "`hand.<name>:` — the model keys of docs/formats.md (below) plus these.", (
         Key("sensor_gain_deg_per_mv", "flex sensor calibration: deg = gain·mV + offset", "float",
             "deg/mV", 0.1),
         Key("sensor_offset_deg", "flex sensor calibration offset", "float", "deg", 0.0),
@@ -331,7 +330,8 @@ def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
     """A model file, or one finger of a profile (`hand:` block) chosen by `finger`."""
     data = load_yaml(path)
     if not isinstance(data, dict):
-        raise UserError(f"{path}: a model file is a mapping of keys (formats.md), not {type(data).__name__}")
+        raise UserError(f"{path}: a model file is a mapping of keys (docs/formats.md), "
+                        f"not {type(data).__name__}")
     if "hand" in data:
         return load_profile(path).finger(finger).model
     model, _ = model_from_mapping(data, path)

@@ -1,4 +1,4 @@
-"""`diagnose` end to end: nominal, refit, locate, name, judge (formats.md contract).
+"""`diagnose` end to end: nominal, refit, locate, name, judge (docs/formats.md contract).
 
     a. simulate the nominal model on the recorded command, from the recorded state;
     b. refit k, B, N (A and the model's own effects held) by output-error least squares;

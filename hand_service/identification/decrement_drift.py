@@ -1,10 +1,10 @@
 """Does the decrement drift with amplitude? A viscous finger says no; anything else is a
-clue for `diagnose` (physics.md §4).
+clue for `diagnose` (docs/physics.md §4).
 
 Each cycle of a fitted decay gets its own amplitude R, from a least-squares sinusoid over
 that one cycle. Between consecutive cycles the amplitude falls by ΔR. Viscous damping
 loses a fixed fraction: ΔR = α·R. Dry friction (Coulomb) loses a fixed amount on top,
-4·T_c/k a cycle (physics.md §4): ΔR = α·R + β with β > 0. Damping that grows with speed
+4·T_c/k a cycle (docs/physics.md §4): ΔR = α·R + β with β > 0. Damping that grows with speed
 (air drag) makes β < 0. So the pooled regression ΔR = α·R̄ + β over every trial says
 which, and β in degrees is the dry-friction loss per cycle.
 """
@@ -56,7 +56,7 @@ class Drift:
         return "dry_friction" if self.amplitude_loss_deg_per_cycle > 0 else "amplitude_dependent"
 
     def friction_torque_nm(self, stiffness_nm_per_rad: float) -> float:
-        """T_c from the loss per cycle, 4·T_c/k (physics.md §4)."""
+        """T_c from the loss per cycle, 4·T_c/k (docs/physics.md §4)."""
         return math.radians(self.amplitude_loss_deg_per_cycle) * stiffness_nm_per_rad / 4.0
 
     def warning(self, stiffness_nm_per_rad: float) -> str | None:
@@ -70,7 +70,7 @@ class Drift:
             loss = self.amplitude_loss_deg_per_cycle
             return (f"{head}: the amplitude also falls by a constant {loss:.2f} deg "
                     f"per cycle, the signature of dry friction (coulomb_friction torque_nm ~ {torque:.2g}, "
-                    "physics.md §4); k and B are averages over the decay: run `hand-service diagnose`")
+                    "docs/physics.md §4); k and B are averages over the decay: run `hand-service diagnose`")
         return (f"{head}: the decay is relatively faster at large amplitudes, like air drag "
                 "(quadratic_damping); k and B are averages over the decay: run `hand-service diagnose`")
 

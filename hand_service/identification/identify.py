@@ -1,7 +1,7 @@
 """`identify`: k and B of one finger from free-oscillation trials, by the LDM.
 
 Each trial is read, its release found and its free decay read by the chosen method
-(hand_service.identification.ldm). The inertia A is held at the model's value (physics.md §1), so
+(hand_service.identification.ldm). The inertia A is held at the model's value (docs/physics.md §1), so
 k = A·ω_n² and B = 2·ζ·ω_n·A. The damped-sine fit runs on every trial whatever the
 method, because the decrement-drift check (hand_service.identification.decrement_drift) needs it.
 """
@@ -99,7 +99,7 @@ class IdentifyResult:
         return self.mean("damping_nms_per_rad")
 
     def to_json(self) -> dict[str, Any]:
-        """formats.md's keys (means over the trials, sample standard deviations), then extras."""
+        """docs/formats.md's keys (means over the trials, sample standard deviations), then extras."""
         data: dict[str, Any] = {name: self.mean(name) for name in (
             "stiffness_nm_per_rad", "damping_nms_per_rad", "damping_ratio", "natural_freq_hz",
             "damped_freq_hz", "log_decrement")}

@@ -1,4 +1,4 @@
-"""The logarithmic decrement method on one free-oscillation trial (physics.md §2).
+"""The logarithmic decrement method on one free-oscillation trial (docs/physics.md §2).
 
 A trial: the tip is pushed, held and released; the finger rings down. `extract_decay`
 finds the release and cuts out the free decay. Three ways to read it:

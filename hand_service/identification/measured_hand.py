@@ -13,7 +13,7 @@ Per finger, in the order a lab would go:
 4. `calibrate gain` on a slow pressure sweep, with the identified k → N.
 
 What the lab takes as known are the weighed and measured mass, length and γ (hence A and
-the lever arm r, physics.md §1), and the controller settings of the profile (gains,
+the lever arm r, docs/physics.md §1), and the controller settings of the profile (gains,
 filters, limits).
 """
 

@@ -1,7 +1,7 @@
-"""Simulated lab trials, recorded as formats.md CSVs: what `identify` and `calibrate` read.
+"""Simulated lab trials, recorded as docs/formats.md CSVs: what `identify` and `calibrate` read.
 
 - `release_trial`: push the tip to an offset, hold it, release it at a random instant
-  between two samples, record the free oscillation (the LDM experiment, physics.md §2).
+  between two samples, record the free oscillation (the LDM experiment, docs/physics.md §2).
 - `pressure_sweep`: a slow, smooth pressure sweep 0 → p_max → 0 with the measured
   chamber pressure (for `calibrate gain`).
 - `valve_steps`: pressure steps with the measured chamber pressure (for `calibrate valve`:
@@ -46,7 +46,7 @@ class SensorMap:
 
 @dataclass
 class Trial:
-    """One simulated recording: its columns (formats.md names) and its provenance."""
+    """One simulated recording: its columns (docs/formats.md names) and its provenance."""
 
     kind: str
     finger: str

@@ -15,7 +15,7 @@ from hand_service.replicate.tracking import TrackingRun, Tuning
 from hand_service.version import software_version
 
 # The paper's Table 1 (k in N·m/rad, B in N·m·s/rad; averages of 10 trials) and Table 2
-# (RMSE and max error in deg), as printed (physics.md §2 and §5).
+# (RMSE and max error in deg), as printed (docs/physics.md §2 and §5).
 PAPER_LDM = {"thumb": (0.6541, 0.0011), "index": (0.570, 0.0031), "middle": (0.5778, 0.00127),
              "ring": (0.5069, 0.00178), "little": (0.5886, 0.0011224)}
 PAPER_POSITION = {"ff_pid_rmse_deg_mean": 2.37, "ff_pid_max_error_deg_mean": 4.37,

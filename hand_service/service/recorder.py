@@ -2,7 +2,7 @@
 drained into the CSV by a writer process (hand_service.service.recorder_writer), so the tick never
 waits on the disk and never shares the GIL with text formatting.
 
-The CSV is formats.md's multi-finger recording: `t`, `state`, then per finger the
+The CSV is docs/formats.md's multi-finger recording: `t`, `state`, then per finger the
 suffixed columns angle_ref_deg, pressure_kpa (commanded), pressure_meas_kpa, angle_deg
 (calibrated, unfiltered), angle_filt_deg, velocity_deg_per_s, force_est_n (the signed
 normal force estimate), force_ref_n, mode and flags, after `#` provenance lines.

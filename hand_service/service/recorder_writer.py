@@ -1,4 +1,4 @@
-"""The recording writer: drains the ring (rtcore.ring) into the CSV of formats.md.
+"""The recording writer: drains the ring (rtcore.ring) into the CSV of docs/formats.md.
 
 It runs as its own process by default (`python -m hand_service.service.recorder_writer`), so that
 formatting text never holds the daemon's GIL; the same Drainer can run as a thread in

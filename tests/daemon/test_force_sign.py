@@ -1,4 +1,4 @@
-"""A negative force target: the loop tracks the signed normal force (physics.md §3), and
+"""A negative force target: the loop tracks the signed normal force (docs/physics.md §3), and
 the recording's force_est_n and the status's force_est_n are that signed force, in the
 same convention as force_ref_n, never its magnitude."""
 

@@ -1,4 +1,4 @@
-"""Recordings: formats.md's CSV, every kind of bad input a clear error."""
+"""Recordings: docs/formats.md's CSV, every kind of bad input a clear error."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ from rtcore import FingerConfig, Prbm
 
 @pytest.fixture
 def index_finger() -> FingerConfig:
-    """The index finger of physics.md, with a linear sensor: angle = 0.1 * mV - 5."""
+    """The index finger of docs/physics.md, with a linear sensor: angle = 0.1 * mV - 5."""
     return FingerConfig(
         Prbm(
             inertia_kgm2=1.617e-4,

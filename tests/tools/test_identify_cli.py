@@ -1,4 +1,4 @@
-"""`hand-service identify` end to end: formats.md's JSON keys, --plot, --write-model."""
+"""`hand-service identify` end to end: docs/formats.md's JSON keys, --plot, --write-model."""
 
 from __future__ import annotations
 

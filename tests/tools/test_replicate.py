@@ -1,4 +1,4 @@
-"""replicate: formats.md's JSON from a quick run, the controller's parameters measured
+"""replicate: docs/formats.md's JSON from a quick run, the controller's parameters measured
 (never the truth's), and the full acceptance (slow)."""
 
 from __future__ import annotations
