@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
                   $(wildcard csrc/*.c csrc/*.h)
 
-.PHONY: run test bench lint clean
+.PHONY: run test test-install bench lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -19,7 +19,11 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow and not install"
+
+# a wheel of the checkout, installed in a fresh venv outside it, runs (about 10 s)
+test-install: $(STAMP)
+	$(PY) -m pytest -q -m install
 
 bench: $(STAMP)
 	$(VENV)/bin/hand-service bench --json bench.json

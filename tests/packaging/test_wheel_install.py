@@ -158,6 +158,7 @@ print(json.dumps({"prefix": sys.prefix, "path": sys.path, "hand_service": hand_s
 """
 
 
+@pytest.mark.install
 def test_wheel_runs_in_a_fresh_venv_outside_the_checkout(tmp_path: Path) -> None:
     assert not tmp_path.resolve().is_relative_to(ROOT), "the fresh venv must live outside the checkout"
     wheel = build_wheel(tmp_path)
