@@ -152,7 +152,7 @@ static int32_t validate_sim_finger(const rtcore_sim_finger *f)
     if (!(isfinite(m->inertia_kgm2) && m->inertia_kgm2 > 0.0) || !(isfinite(m->damping_nms_per_rad)
         && m->damping_nms_per_rad >= 0.0) || !(isfinite(m->stiffness_nm_per_rad)
         && m->stiffness_nm_per_rad > 0.0) || !(isfinite(m->pressure_gain_nm_per_kpa)
-        && m->pressure_gain_nm_per_kpa >= 0.0) || !(isfinite(m->lever_arm_m) && m->lever_arm_m > 0.0)) {
+        && m->pressure_gain_nm_per_kpa >= 0.0) || !(isfinite(m->lever_arm_m) && m->lever_arm_m >= 0.0)) {
         return RTCORE_ERR_MODEL;
     }
     if (!rtcore_effects_valid(&m->effects)) {
@@ -165,6 +165,11 @@ static int32_t validate_sim_finger(const rtcore_sim_finger *f)
     if (!isfinite(f->contact_angle_deg) || !(isfinite(f->contact_stiffness_n_per_m)
         && f->contact_stiffness_n_per_m >= 0.0) || !(isfinite(f->contact_damping_ns_per_m)
         && f->contact_damping_ns_per_m >= 0.0)) {
+        return RTCORE_ERR_MODEL;
+    }
+    /* a lever arm of 0 is a free finger with no force point: it can meet no object */
+    if ((f->contact_stiffness_n_per_m > 0.0 || f->contact_damping_ns_per_m > 0.0)
+        && !(m->lever_arm_m > 0.0)) {
         return RTCORE_ERR_MODEL;
     }
     if (!isfinite(f->sensor_gain_deg_per_mv) || f->sensor_gain_deg_per_mv == 0.0

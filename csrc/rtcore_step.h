@@ -104,7 +104,7 @@ typedef struct {
     double damping_nms_per_rad;      /* B, N m s/rad */
     double stiffness_nm_per_rad;     /* k, N m/rad */
     double pressure_gain_nm_per_kpa; /* N, N m/kPa */
-    double lever_arm_m;              /* r, pivot to force point, m */
+    double lever_arm_m;              /* r, pivot to force point, m (simulator: 0, no force point) */
     rtcore_effects effects;
 } rtcore_prbm;
 

@@ -29,9 +29,11 @@ def sim_finger(model: FingerModel, sensor_gain_deg_per_mv: float = 1.0, sensor_o
                sensor_noise_deg: float = 0.0, adc_step_mv: float = 0.0, pressure_noise_kpa: float = 0.0,
                contact: Contact | None = None,
                extra_effects: fx.EffectParams | None = None) -> SimFinger:
-    """A simulated finger whose truth is `model` (plus `extra_effects`, hidden from the model)."""
+    """A simulated finger whose truth is `model` (plus `extra_effects`, hidden from the model).
+    The model's lever arm is needed only where the finger meets an object (`contact`)."""
     return SimFinger(
-        prbm=model.prbm("simulation", extra_effects),
+        prbm=model.prbm("simulation" if contact is None else "simulating a contact", extra_effects,
+                        force_point=contact is not None),
         supply_min_kpa=0.0,
         supply_max_kpa=SUPPLY_MAX_KPA,
         contact_angle_deg=contact.angle_deg if contact else 0.0,

@@ -42,6 +42,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--write-model", default=None, metavar="OUT.yaml",
                         help="write the refitted model with the found effects in its effects block "
                              "(not written when the verdict is insufficient_excitation)")
+    parser.add_argument("--input-hold", choices=("zoh", "point"), default="zoh",
+                        help="how the recorded command acted between samples: zoh, held until the "
+                             "next sample (the daemon's and a DAQ output's own record; default); "
+                             "point, samples of a command that changed continuously, taken as "
+                             "linear between them")
+    parser.add_argument("--noise-model", choices=("white", "ar"), default="white",
+                        help="the sensor noise the tests assume: white, independent samples (default); "
+                             "ar, correlated in time on an offset that drifts, estimated from the "
+                             "recording (an analog sensor chain's noise: a clean recording then comes "
+                             "out clean, but a slow mismatch outside the library can be absorbed; "
+                             "see docs/diagnose.md)")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
@@ -61,7 +72,7 @@ def main(args: argparse.Namespace) -> int:
             check_writable(path)  # before minutes of fitting, not after
     recording = read_recording(args.recording, args.finger)
     model = load_model(args.model, args.finger or recording.finger)
-    model.require_prbm(purpose="diagnose")
+    model.require_prbm(purpose="diagnose", force_point=False)  # a free finger: no force
     grid = regular_grid(recording.t_s, recording.pressure_kpa, recording.angle_deg, args.recording)
     rate_hz = grid.rate_hz
     if grid.n_missing:
@@ -79,7 +90,8 @@ def main(args: argparse.Namespace) -> int:
             print(f"\r[{time.perf_counter() - started:5.1f} s] {message:<70}", end="", file=sys.stderr,
                   flush=True)
 
-    result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress, grid.missing)
+    result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress, grid.missing,
+                      args.input_hold, args.noise_model)
     if not args.quiet:
         print(file=sys.stderr)
     with tables_out(args.json):  # `--json -`: the JSON alone on stdout

@@ -75,8 +75,33 @@ def parse_effects(items: list[str]) -> dict[str, float | None]:
     return hidden
 
 
-def main(args: argparse.Namespace) -> int:
+# what a recording of a finger can be: an hour at most, a sensor no worse than ±45 deg
+MAX_DURATION_S = 3600.0
+MAX_NOISE_DEG = 45.0
+
+
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Each number in its range, or one line naming the flag."""
     import math
+
+    from hand_service.errors import UserError
+
+    rules = (("--duration", args.duration, 1.0 <= args.duration <= MAX_DURATION_S,
+              f"1 to {MAX_DURATION_S:g} s"),
+             ("--rate", args.rate, 10.0 <= args.rate <= 10000.0, "10 to 10000 Hz"),
+             ("--noise", args.noise, 0.0 < args.noise <= MAX_NOISE_DEG,
+              f"above 0 and at most {MAX_NOISE_DEG:g} deg"),
+             ("--perturb", args.perturb, 0.0 <= args.perturb < 1.0, "in [0, 1)"),
+             ("--adc-step-deg", args.adc_step_deg, 0.0 <= args.adc_step_deg <= MAX_NOISE_DEG,
+              f"0 to {MAX_NOISE_DEG:g} deg"),
+             ("--conceal", args.conceal, args.conceal != 0.0 and abs(args.conceal) <= 1e3,
+              "non-zero, at most 1000 in size"))
+    for flag, value, ok, allowed in rules:
+        if not (math.isfinite(value) and ok):
+            raise UserError(f"{flag} must be {allowed}, not {value:g}")
+
+
+def main(args: argparse.Namespace) -> int:
 
     import numpy as np
 
@@ -84,7 +109,6 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.config.model import save_model
     from hand_service.config.profile import load_model, load_profile
     from hand_service.diagnose.concealed.generator import generate
-    from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
     from hand_service.outputs import check_writable
     from hand_service.recording import write_recording
@@ -97,13 +121,8 @@ def main(args: argparse.Namespace) -> int:
         profile = load_profile(args.profile)
         model = profile.finger(args.finger).model
         source = str(profile.path)
-    model.require_prbm(purpose="simulation")
-    numbers = (args.duration, args.rate, args.noise, args.perturb, args.adc_step_deg, args.conceal)
-    if not (all(math.isfinite(x) for x in numbers) and args.duration >= 1.0
-            and 10.0 <= args.rate <= 10000.0 and args.noise > 0.0 and 0.0 <= args.perturb < 1.0
-            and args.adc_step_deg >= 0.0 and args.conceal != 0.0):
-        raise UserError("need finite numbers: --duration >= 1 s, --rate 10-10000 Hz, --noise > 0, "
-                        "--perturb in [0, 1), --adc-step-deg >= 0 and a non-zero --conceal")
+    model.require_prbm(purpose="simulation", force_point=False)  # a free finger: no force
+    _check_numbers(args)
     checks.seed(args.seed)
     for path in (args.output, args.nominal_model, args.truth):
         if path is not None:

@@ -48,7 +48,10 @@ MODEL_SECTION = Section(
 )
 MODEL_KEYS = tuple(k.name for k in MODEL_SECTION.keys)
 # what a model needs beyond A to be a PRBM the controller or the simulator can run
-PRBM_KEYS = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa", "lever_arm_m")
+# beside the inertia A: what every use of the model needs, and the force point, which only
+# a force (estimated, controlled or met at a contact) needs
+PRBM_KEYS = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa")
+FORCE_POINT_KEY = "lever_arm_m"
 
 
 def inertia_from_geometry(mass_kg: float, length_m: float, gamma: float) -> float:
@@ -77,22 +80,25 @@ class FingerModel:
                 why = f" for {purpose}" if purpose else ""
                 raise UserError(f"{self.source}: the model has no '{name}', needed{why}")
 
-    def require_prbm(self, purpose: str) -> None:
-        """UserError unless the model is a whole PRBM (k, B, N and r beside A)."""
-        self.require(*PRBM_KEYS, purpose=purpose)
+    def require_prbm(self, purpose: str, force_point: bool = True) -> None:
+        """UserError unless the model is a PRBM (k, B, N beside A) and, when `force_point`,
+        has the lever arm r a force needs."""
+        self.require(*PRBM_KEYS, *((FORCE_POINT_KEY,) if force_point else ()), purpose=purpose)
 
-    def prbm(self, purpose: str, extra_effects: fx.EffectParams | None = None) -> Prbm:
+    def prbm(self, purpose: str, extra_effects: fx.EffectParams | None = None,
+             force_point: bool = True) -> Prbm:
         """The rtcore PRBM of this model, for the controller and the simulator alike: the one
         place a model's parameters are copied into rtcore. `extra_effects` join the model's
         own (a simulated truth the model does not know); `purpose` is for the UserError
-        when a parameter is absent."""
-        self.require_prbm(purpose)
+        when a parameter is absent. Without `force_point`, a model with no lever arm is
+        enough (a free finger: no force is computed), and its lever arm is 0: no force point."""
+        self.require_prbm(purpose, force_point)
         return Prbm(
             inertia_kgm2=self.inertia_kgm2,
             damping_nms_per_rad=self.damping_nms_per_rad,  # type: ignore[arg-type]
             stiffness_nm_per_rad=self.stiffness_nm_per_rad,  # type: ignore[arg-type]
             pressure_gain_nm_per_kpa=self.pressure_gain_nm_per_kpa,  # type: ignore[arg-type]
-            lever_arm_m=self.lever_arm_m,  # type: ignore[arg-type]
+            lever_arm_m=0.0 if self.lever_arm_m is None else self.lever_arm_m,
             effects=fx.to_rtcore({**self.effects, **(extra_effects or {})}),
         )
 
@@ -160,5 +166,5 @@ def gravity_torque_nm(model: FingerModel) -> float:
     return model.mass_kg * GRAVITY_M_PER_S2 * model.gamma * model.length_m / 2.0  # type: ignore[operator]
 
 
-__all__ = ["MODEL_KEYS", "MODEL_SECTION", "PRBM_KEYS", "FingerModel", "expect_mapping", "gravity_torque_nm",
-           "inertia_from_geometry", "model_from_mapping", "save_model"]
+__all__ = ["FORCE_POINT_KEY", "MODEL_KEYS", "MODEL_SECTION", "PRBM_KEYS", "FingerModel", "expect_mapping",
+           "gravity_torque_nm", "inertia_from_geometry", "model_from_mapping", "save_model"]

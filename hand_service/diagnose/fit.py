@@ -82,11 +82,11 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
     scales = np.array([p.scale for p in params])
     lower, upper = _scaled_bounds(params)
     mask = problem.fit_mask
-    measured = problem.measured_deg[mask]
 
     def residual(x: np.ndarray) -> np.ndarray:
         angle = problem.simulate(problem.finger(params, x * scales, base))
-        error = angle[mask] - measured
+        with np.errstate(invalid="ignore"):
+            error = -problem.misfit(angle)[mask]
         # a finger driven unstable (strong softening, say) is a very bad fit, not a crash
         return np.where(np.isfinite(error), np.clip(error, -DIVERGED_DEG, DIVERGED_DEG), DIVERGED_DEG)
 

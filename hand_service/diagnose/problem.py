@@ -18,6 +18,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
+from hand_service.diagnose.noise import WHITE, NoiseModel
 from hand_service.simulator import sim_finger
 from rtcore.sim import SimFinger, simulate
 
@@ -26,6 +27,12 @@ MAX_STEP_S = 1e-3
 HOLDOUT_EVERY = 4  # every 4th block is held out from fitting
 BLOCKS_WANTED = 16
 PLAIN = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa")
+# How the recorded command acted between samples: "zoh", held from its sample to the next
+# (what the daemon and a DAQ's analog output do: the command it records is the one it
+# held); "point", samples of a command that changed continuously (a measured pressure),
+# taken as linear between samples.
+INPUT_HOLDS = ("zoh", "point")
+HISTORY_SAMPLES = 1000  # the simulator's command history (RTCORE_SIM_HISTORY) with a margin
 
 
 @dataclass(frozen=True)
@@ -45,7 +52,7 @@ class Param:
         unit = {"stiffness_nm_per_rad": "N·m/rad", "damping_nms_per_rad": "N·m·s/rad",
                 "pressure_gain_nm_per_kpa": "N·m/kPa"}[name]
         scale = abs(nominal) if nominal > 0 else 1e-3
-        # B may vanish; k and N are positive and stay within a factor of 5 of the nominal
+        # B may vanish; k and N are positive, from a fifth of the nominal to 15 times it
         lower = 0.0 if name == "damping_nms_per_rad" else nominal / 5.0
         return Param(name, name, False, scale, lower, nominal * 5.0 + 10 * scale, unit)
 
@@ -73,6 +80,8 @@ class Problem:
     fit_mask: np.ndarray  # samples the fits use
     held_mask: np.ndarray  # samples held out from every fit
     blocks: list[tuple[int, int]]  # (start, stop) index of every block, for the report
+    input_hold: str = "zoh"
+    noise: NoiseModel = WHITE  # set once the plain model's residual is known (engine)
 
     @property
     def n_fit(self) -> int:
@@ -92,9 +101,43 @@ class Problem:
         return dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, **plain))
 
     def simulate(self, finger: SimFinger) -> np.ndarray:
+        if self.input_hold == "point":
+            return self._simulate_between_points(finger)
         angle, _ = simulate(finger, self.pressure_kpa, self.rate_hz, self.substeps, self.angle0_deg,
                             0.0, self.chamber0_kpa)
         return angle
+
+    def _simulate_between_points(self, finger: SimFinger) -> np.ndarray:
+        """The command linear between its samples: each sub-step holds the command at its
+        middle, so the run is the same size as a held one."""
+        steps = max(2, self.substeps)
+        while steps > 1 and finger.prbm.effects.dead_time_s * self.rate_hz * steps >= HISTORY_SAMPLES:
+            steps -= 1  # the dead time must fit the simulator's history at the finer rate
+        n = self.pressure_kpa.size
+        middles = (np.arange(n * steps) + 0.5) / steps
+        command = np.interp(middles, np.arange(n), self.pressure_kpa)
+        angle, _ = simulate(finger, command, self.rate_hz * steps, max(1, self.substeps // steps),
+                            self.angle0_deg, 0.0, self.chamber0_kpa)
+        return np.ascontiguousarray(angle[::steps])
+
+    def misfit(self, angle_deg: np.ndarray) -> np.ndarray:
+        """measured − simulated, every sample, with the sensor's offset and slow drift taken
+        out when the noise model has them (nuisance terms, fitted with every model)."""
+        return self.noise.detrend(self.measured_deg - angle_deg)
+
+    def innovations(self, angle_deg: np.ndarray) -> np.ndarray:
+        """The residual of a simulated angle through the noise model, every sample: what
+        the tests take for white noise."""
+        return self.noise.whiten(self.measured_deg - angle_deg, self.fit_mask)
+
+    def innovation_rss(self, angle_deg: np.ndarray) -> float:
+        """Sum of squared innovations on the fitting samples (deg²)."""
+        e = self.innovations(angle_deg)[self.fit_mask]
+        return float(e @ e)
+
+    def innovation_sigma(self, angle_deg: np.ndarray, n_params: int) -> float:
+        """The innovations' std on the fitting samples, the fitted parameters taken off."""
+        return float(np.sqrt(self.innovation_rss(angle_deg) / max(self.n_fit - n_params, 1)))
 
     def values(self, params: Sequence[Param], finger: SimFinger | None = None) -> np.ndarray:
         prbm = (finger or self.base).prbm
@@ -127,7 +170,7 @@ def split_blocks(n: int, rate_hz: float, start: int) -> tuple[np.ndarray, np.nda
 
 
 def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
-                  rate_hz: float, missing: np.ndarray | None = None) -> Problem:
+                  rate_hz: float, missing: np.ndarray | None = None, input_hold: str = "zoh") -> Problem:
     """The model driven by the recorded command, starting from the recorded state.
 
     The finger is taken to start at rest at its first angle (the median of the first
@@ -135,6 +178,10 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     first three decay times are left out of every fit and score, so that a start that is
     not quite at rest does not count; so are `missing` samples (see regular_grid)."""
     base = sim_finger(model)
+    # the valves as recorded: a signed command (vacuum, a bipolar drive) or one above the
+    # usual supply is simulated as it is, never clamped
+    base = dataclasses.replace(base, supply_min_kpa=min(base.supply_min_kpa, float(np.min(pressure_kpa))),
+                               supply_max_kpa=max(base.supply_max_kpa, float(np.max(pressure_kpa))))
     substeps = substeps_for(rate_hz)
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
@@ -144,4 +191,4 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
         held &= ~missing
     return Problem(base, np.ascontiguousarray(pressure_kpa, dtype=float),
                    np.ascontiguousarray(angle_deg, dtype=float), np.asarray(t_s, dtype=float), rate_hz,
-                   substeps, angle0, float(pressure_kpa[0]), fit, held, blocks)
+                   substeps, angle0, float(pressure_kpa[0]), fit, held, blocks, input_hold)

@@ -122,14 +122,13 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
     absorbs part of it)."""
     mask = problem.fit_mask
     basis, _ = np.linalg.qr(base.jacobian)
-    measured = problem.measured_deg[mask]
     best, best_cost = neutral, np.inf
     for deviation in np.concatenate((SCAN_SPAN, -SCAN_SPAN)) * param.scale:
         value = neutral + deviation
         if not param.lower < value < param.upper:
             continue
         angle = problem.simulate(problem.finger([param], [value], base.finger))
-        r = measured - angle[mask]
+        r = problem.misfit(angle)[mask]
         r -= basis @ (basis.T @ r)
         cost = float(r @ r)
         if cost < best_cost:
@@ -142,8 +141,9 @@ def screen(problem: Problem, base: Fit, name: str) -> Screen:
     spec = fx.BY_NAME[name]
     param = Param.effect(name)
     mask = problem.fit_mask
-    residual = base.residual(problem)[mask]
-    signature = sensitivity(problem, param, base.finger, base.angle_deg)[mask]
+    residual = problem.misfit(base.angle_deg)[mask]
+    # what the sensor's offset and drift would absorb of the signature does not count
+    signature = problem.noise.detrend(sensitivity(problem, param, base.finger, base.angle_deg))[mask]
     projected = project_out(base.jacobian, signature)
     norm = float(np.sqrt(projected @ projected))
     raw = float(np.sqrt(signature @ signature))
@@ -186,10 +186,12 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candid
     joint = min((fit(problem, params, start, base=base.finger) for start in starts), key=lambda f: f.rss_deg2)
     held = problem.held_mask
     measured = problem.measured_deg[held]
+    before, after = problem.innovations(base.angle_deg), problem.innovations(joint.angle_deg)
+    bic = stats.delta_bic(problem.innovation_rss(base.angle_deg), problem.innovation_rss(joint.angle_deg),
+                          problem.n_fit)
+    z = stats.heldout_z_innovations(before[held], after[held], sigma)
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
-                     screened.starts[0], joint, stats.delta_bic(base.rss_deg2, joint.rss_deg2, problem.n_fit),
-                     stats.heldout_z(measured, base.angle_deg[held], joint.angle_deg[held], sigma),
-                     stats.rmse(measured - joint.angle_deg[held]))
+                     screened.starts[0], joint, bic, z, stats.rmse(measured - joint.angle_deg[held]))
 
 
 def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None,
@@ -197,7 +199,7 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     """Screen every effect; fit jointly all of them (`fit_all`, the first round, whose
     table the report shows) or, in later rounds, the two most promising and any whose
     screen predicts ΔBIC above half the threshold."""
-    sigma = base.sigma_deg
+    sigma = problem.innovation_sigma(base.angle_deg, len(base.params))
     screens = []
     for i, name in enumerate(names):
         if progress:
@@ -231,7 +233,8 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
             # better than the best alone, they are two names for one signature.
             if progress:
                 progress(f"{best.name} or {runner.name}? fitting both together")
-            both = score(problem, best.fit, screen(problem, best.fit, runner.name), best.fit.sigma_deg)
+            both = score(problem, best.fit, screen(problem, best.fit, runner.name),
+                         problem.innovation_sigma(best.fit.angle_deg, len(best.fit.params)))
             if not both.significant:
                 selection.ambiguous = (best, runner)
                 break

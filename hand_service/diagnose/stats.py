@@ -82,6 +82,32 @@ def cross_correlation(residual: np.ndarray, signal: np.ndarray, lags: int,
     return CrossCorrelation(np.arange(lags + 1) / rate_hz, rho, Z99 / np.sqrt(n))
 
 
+def input_independence(innovations: np.ndarray, signal: np.ndarray, lags: int) -> Whiteness:
+    """Do the innovations follow the past input? The input is prewhitened by its own AR
+    filter, so that under a right model (innovations white and independent of the input)
+    each cross-correlation ρ(τ), τ = 0..lags, is about N(0, 1/n) on its own and
+    Q = n·Σρ² is χ² with lags + 1 degrees of freedom. A model that leaves out how the output
+    answers the input (an object in the way, a missing effect) fails it even when an AR
+    noise filter has made its innovations look white."""
+    from hand_service.diagnose.noise import choose_order, yule_walker
+
+    u = signal - signal.mean()
+    order = choose_order(u)
+    if order:
+        a, _ = yule_walker(u, order)
+        from scipy.signal import lfilter
+
+        u = lfilter(np.concatenate(([1.0], -a)), [1.0], u)[order:]
+        e = innovations[order:]
+    else:
+        e = innovations
+    rho = cross_correlation(e, u, lags, 1.0).rho
+    n = e.size
+    q = float(n * np.sum(rho**2))
+    return Whiteness(q, lags + 1, float(stats.chi2.sf(q, lags + 1)), float(np.max(np.abs(rho))),
+                     Z99 / np.sqrt(n))
+
+
 def delta_bic(rss_small: float, rss_large: float, n: int, extra_params: int = 1) -> float:
     """BIC(small) − BIC(large) for Gaussian output error: positive favours the larger model."""
     return float(n * np.log(rss_small / rss_large) - extra_params * np.log(n))
@@ -99,6 +125,16 @@ def heldout_z(measured: np.ndarray, before: np.ndarray, after: np.ndarray, sigma
         return 0.0
     gain = float(np.sum((measured - before) ** 2) - np.sum((measured - after) ** 2))
     return gain / (2.0 * sigma * norm)
+
+
+def heldout_z_innovations(before: np.ndarray, after: np.ndarray, sigma: float) -> float:
+    """heldout_z on innovations: `before` and `after` are the two models' innovations on the
+    held-out samples (a linear filter of measured − simulated), `sigma` the innovations' std."""
+    delta = before - after
+    norm = float(np.sqrt(delta @ delta))
+    if norm <= 0.0:
+        return 0.0
+    return float(before @ before - after @ after) / (2.0 * sigma * norm)
 
 
 def rmse(x: np.ndarray) -> float:

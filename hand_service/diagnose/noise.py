@@ -1,0 +1,120 @@
+"""The sensor's noise as a lab's recording has it: correlated in time, on an offset that drifts.
+
+An analog chain and its anti-alias filter make the noise of a flex sensor correlated over
+tens to hundreds of milliseconds, and the sensor's zero wanders slowly. A statistic that
+takes such a residual for white noise lies: the Ljung-Box test fails on the noise alone,
+and ΔBIC computed as if every sample were independent is inflated by the correlation.
+
+So the tests run on innovations, as the prediction-error method has it: the residual
+with its offset and slow drift projected out (nuisance terms, not physics), then passed
+through the autoregressive filter e_t = r_t − Σ a_i·r_{t−i} estimated on the plain
+model's residual. Under the right model the innovations are white, and ΔBIC, the held-out
+score and the whiteness test computed on them mean what they say.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg, signal
+
+MAX_ORDER = 12  # AR orders tried: enough for a filtered, partly correlated sensor
+DRIFT_PERIOD_S = 20.0  # slower than this is sensor drift (a few terms over a recording)
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """The noise's structure: an AR order and the nuisance basis (offset, slow drift).
+
+    The AR coefficients are estimated again on each model's own residual (the prediction
+    error method with the noise model fitted jointly): a filter fixed on the plain model's
+    residual would be tuned to that model's misfit too, and would hide the very effect a
+    richer model explains. The order is chosen once, on the plain model's residual."""
+
+    order: int
+    basis: np.ndarray | None  # n × m: offset and slow drift, orthonormal columns
+    ar: np.ndarray  # the coefficients on the plain model's residual (reported)
+    innovation_std_deg: float
+
+    def detrend(self, residual: np.ndarray) -> np.ndarray:
+        """The residual with its offset and slow drift taken out."""
+        if self.basis is None:
+            return residual
+        return residual - self.basis @ (self.basis.T @ residual)
+
+    def whiten(self, residual: np.ndarray, valid: np.ndarray | None = None) -> np.ndarray:
+        """Innovations of a residual on every sample, with AR coefficients of this order
+        estimated on its `valid` samples (the first `order` carry the filter's start)."""
+        r = self.detrend(residual)
+        if self.order == 0:
+            return r
+        a, _ = yule_walker(r if valid is None else r[valid], self.order)
+        return signal.lfilter(np.concatenate(([1.0], -a)), [1.0], r)
+
+
+def autocovariance(x: np.ndarray, lags: int) -> np.ndarray:
+    """γ(0..lags), biased, in O(n·lags)."""
+    x = x - x.mean()
+    n = x.size
+    return np.array([float(x[: n - k] @ x[k:]) / n for k in range(lags + 1)])
+
+
+def yule_walker(x: np.ndarray, order: int) -> tuple[np.ndarray, float]:
+    """AR(order) coefficients and innovation variance by Yule-Walker."""
+    gamma = autocovariance(x, order)
+    if gamma[0] <= 0.0:
+        return np.zeros(order), 0.0
+    a = linalg.solve_toeplitz(gamma[:order], gamma[1: order + 1])
+    return a, float(max(gamma[0] - a @ gamma[1: order + 1], 0.0))
+
+
+def drift_basis(n: int, rate_hz: float) -> np.ndarray:
+    """Orthonormal columns spanning a constant and the drifts slower than DRIFT_PERIOD_S:
+    a cosine series with periods down to about that, at least the constant and a slope."""
+    duration_s = n / rate_hz
+    terms = max(1, int(2.0 * duration_s / DRIFT_PERIOD_S))
+    x = (np.arange(n) + 0.5) / n
+    columns = [np.ones(n)] + [np.cos(np.pi * k * x) for k in range(1, terms + 1)]
+    q, _ = np.linalg.qr(np.column_stack(columns))
+    return q
+
+
+def choose_order(x: np.ndarray, max_order: int = MAX_ORDER) -> int:
+    """The AR order by BIC, 0 for white noise."""
+    n = x.size
+    gamma = autocovariance(x, max_order)
+    if gamma[0] <= 0.0:
+        return 0
+    best_order, best_bic = 0, n * np.log(gamma[0])
+    for p in range(1, max_order + 1):
+        a = linalg.solve_toeplitz(gamma[:p], gamma[1: p + 1])
+        variance = float(gamma[0] - a @ gamma[1: p + 1])
+        if variance <= 0.0:
+            break
+        bic = n * np.log(variance) + p * np.log(n)
+        if bic < best_bic:
+            best_order, best_bic = p, bic
+    return best_order
+
+
+def estimate(residual: np.ndarray, valid: np.ndarray, rate_hz: float, with_drift: bool = True) -> NoiseModel:
+    """The noise model from the plain model's residual (every sample; `valid` marks those
+    that are data): nuisance offset and drift first, then the AR order of what is left."""
+    basis = drift_basis(residual.size, rate_hz) if with_drift else None
+    left = NoiseModel(0, basis, np.zeros(0), 0.0).detrend(residual)[valid]
+    order = choose_order(left)
+    a, variance = yule_walker(left, order) if order else (np.zeros(0), float(np.var(left)))
+    return NoiseModel(order, basis, a, float(np.sqrt(variance)))
+
+
+def nuisance_only(n: int, rate_hz: float) -> NoiseModel:
+    """Offset and slow drift, no AR filter yet (for the plain refit, before its residual
+    tells the order)."""
+    return NoiseModel(0, drift_basis(n, rate_hz), np.zeros(0), 0.0)
+
+
+WHITE = NoiseModel(0, None, np.zeros(0), 0.0)
+
+__all__ = ["WHITE", "NoiseModel", "autocovariance", "choose_order", "drift_basis", "estimate",
+           "nuisance_only", "yule_walker"]
