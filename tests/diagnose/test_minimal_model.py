@@ -21,7 +21,7 @@ RATE_HZ = 100.0
 def _recording(tmp_path: Path, low_kpa: float, seed: int) -> tuple[Path, Path]:
     finger = LinearFinger()
     rng = np.random.default_rng(seed)
-    n = int(30 * RATE_HZ)
+    n = int(20 * RATE_HZ)
     pressure = random_steps(rng, n, RATE_HZ, low_kpa, 80.0)
     angle = finger.angle_deg(pressure, RATE_HZ) + rng.normal(0.0, 0.3, n)
     path, model = tmp_path / "r.csv", tmp_path / "paper.yaml"
@@ -98,7 +98,7 @@ def test_a_clean_recording_with_a_lab_sensors_noise_comes_out_clean(
 
     finger = LinearFinger()
     rng = np.random.default_rng(seed)
-    n = int(30 * RATE_HZ)
+    n = int(20 * RATE_HZ)
     pressure = random_steps(rng, n, RATE_HZ, 0.0, 80.0)
     noise, adc = lab_sensor_noise(rng, n, RATE_HZ)
     angle = quantise(finger.angle_deg(pressure, RATE_HZ) + noise, adc)
