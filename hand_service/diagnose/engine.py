@@ -18,7 +18,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
-from hand_service.diagnose import noise, stats
+from hand_service.diagnose import excitation, noise, stats
 from hand_service.diagnose.evidence import Context, sentence
 from hand_service.diagnose.fit import Fit, fit
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
@@ -200,7 +200,10 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative_std, selection, found, (refit_white, refit_cross),
                            (final_white, final_cross),
-                           refit_gain, refit_bic, inseparable, warnings)
+                           refit_gain, refit_bic, inseparable, warnings,
+                           excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
+                                              refit.value("stiffness_nm_per_rad"),
+                                              problem.base.prbm.inertia_kgm2).sentence())
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
         # a name is given only to what explains the mismatch: these do not, so they are
@@ -245,13 +248,13 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
           found: list[FoundEffect], refit_tests: tuple[stats.Whiteness, stats.Whiteness],
           final_tests: tuple[stats.Whiteness, stats.Whiteness],
           refit_gain_z: float, refit_bic: float, inseparable: list[str],
-          warnings: list[str]) -> tuple[str, list[str]]:
+          warnings: list[str], advice: str = "") -> tuple[str, list[str]]:
+    """The verdict. `advice`: what this recording's command holds and lacks, in words."""
     notes: list[str] = []
     if unidentified:
         worst = ", ".join(f"{p.label} ±{100 * r:.0f} %" for p, r in zip(params, relative_std, strict=True)
                           if p.label in unidentified)
-        warnings.append(f"the recording cannot separate the plain parameters ({worst}): excite the finger "
-                        "with steps or a chirp rather than a single slow sine")
+        warnings.append(f"the recording cannot separate the plain parameters ({worst}): {advice}")
         return "insufficient_excitation", notes
     if selection.ambiguous is not None:
         a, b = selection.ambiguous
@@ -276,7 +279,7 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
         warnings.append(f"this recording cannot tell {', '.join(inseparable)} from a change of k, B and N "
                         f"(k, B and N absorb over {100 * (1 - SEPARABLE_MIN):.0f} % of "
                         f"{'its' if len(inseparable) == 1 else 'their'} signature): the refit may be "
-                        "hiding it; excite with steps or a chirp")
+                        f"hiding it; {advice}")
         return "insufficient_excitation", notes
     if refit_bic > 10.0 and refit_gain_z > 3.0:
         notes.append("the refit predicts held-out data better than the nominal model "

@@ -1,0 +1,35 @@
+"""The advice after `insufficient_excitation` is about this recording's command."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import signal
+
+from hand_service.diagnose.excitation import analyse
+
+RATE_HZ = 100.0
+K, A = 0.57, 1.6e-4  # resonance about 9.5 Hz
+T = np.arange(int(30 * RATE_HZ)) / RATE_HZ
+
+
+def test_a_single_slow_sine_is_named_as_such() -> None:
+    e = analyse(40 + 30 * np.sin(2 * np.pi * 1.0 * T), RATE_HZ, K, A)
+    assert e.tone_hz is not None and abs(e.tone_hz - 1.0) < 0.05
+    assert "single sine at 1 Hz" in e.sentence() and "near 9.5 Hz" in e.sentence()
+
+
+def test_a_chirp_through_the_resonance_is_not_called_a_sine() -> None:
+    e = analyse(40 + 30 * signal.chirp(T, 0.1, T[-1], 20.0), RATE_HZ, K, A)
+    assert e.tone_hz is None and e.near > 0.05 and e.slow > 0.05
+    assert "sine" not in e.sentence()
+
+
+def test_slow_steps_lack_the_resonance_band() -> None:
+    steps = np.repeat(np.random.default_rng(0).uniform(0, 80, 20), int(1.5 * RATE_HZ))
+    smooth = signal.lfilter([0.02], [1, -0.98], steps)  # a valve that only ramps slowly
+    e = analyse(smooth, RATE_HZ, K, A)
+    assert e.near < 0.05 and "content near 9.5 Hz" in e.advice() and "slow" not in e.advice()
+
+
+def test_a_constant_command_barely_moves() -> None:
+    assert "barely moves" in analyse(np.full(T.size, 30.0), RATE_HZ, K, A).sentence()
