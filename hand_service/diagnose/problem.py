@@ -32,6 +32,9 @@ PLAIN = ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kp
 # held); "point", samples of a command that changed continuously (a measured pressure),
 # taken as linear between samples.
 INPUT_HOLDS = ("zoh", "point")
+# the library's torque ranges (config/effects.py) were set for the paper's fingers, k from
+# 0.51 to 0.65 N·m/rad, with room to spare: they hold as they are up to 1 N·m/rad
+REFERENCE_STIFFNESS_NM_PER_RAD = 1.0
 HISTORY_SAMPLES = 1000  # the simulator's command history (RTCORE_SIM_HISTORY) with a margin
 
 
@@ -57,9 +60,20 @@ class Param:
         return Param(name, name, False, scale, lower, nominal * 5.0 + 10 * scale, unit)
 
     @staticmethod
-    def effect(name: str) -> Param:
+    def effect(name: str, stiffness_nm_per_rad: float = REFERENCE_STIFFNESS_NM_PER_RAD,
+               command_max_kpa: float = 0.0) -> Param:
+        """The library effect's parameter, its range scaled to this finger: a torque-like
+        effect's scale and bounds grow with the finger's stiffness past the paper's fingers
+        the library was set for (a stiffer rig's friction or gravity is larger in N·m), and
+        the dead zone may reach half the largest command recorded."""
         spec = fx.BY_NAME[name]
-        return Param(name, spec.rtcore_field, True, spec.scale, spec.lower, spec.upper, spec.unit)
+        scale, lower, upper = spec.scale, spec.lower, spec.upper
+        if spec.unit.startswith("N·m"):
+            factor = max(1.0, stiffness_nm_per_rad / REFERENCE_STIFFNESS_NM_PER_RAD)
+            scale, lower, upper = scale * factor, lower * factor, upper * factor
+        elif spec.name == "pressure_deadzone":
+            upper = max(upper, 0.5 * command_max_kpa)
+        return Param(name, spec.rtcore_field, True, scale, lower, upper, spec.unit)
 
 
 def substeps_for(rate_hz: float) -> int:

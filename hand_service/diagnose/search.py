@@ -139,7 +139,8 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
 def screen(problem: Problem, base: Fit, name: str) -> Screen:
     """The effect's signature against the residual (score test) and the grid scan."""
     spec = fx.BY_NAME[name]
-    param = Param.effect(name)
+    param = Param.effect(name, base.value("stiffness_nm_per_rad"),
+                         float(np.max(np.abs(problem.pressure_kpa))))
     mask = problem.fit_mask
     residual = problem.misfit(base.angle_deg)[mask]
     # what the sensor's offset and drift would absorb of the signature does not count

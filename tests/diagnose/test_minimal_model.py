@@ -111,3 +111,24 @@ def test_a_clean_recording_with_a_lab_sensors_noise_comes_out_clean(
         verdicts[kind] = capsys.readouterr().out.splitlines()[0]
     assert verdicts["ar"] in ("verdict: consistent", "verdict: parameters_only"), verdicts
     assert verdicts["white"] not in ("verdict: consistent", "verdict: parameters_only"), verdicts
+
+
+def test_effect_ranges_scale_with_the_finger() -> None:
+    """A rig 50 times stiffer (and heavier, more damped, stronger: the same motion) with 50
+    times the friction: 0.5 N·m, ten times the library's range for the paper's fingers, is
+    found at its size instead of being pinned at that range's edge."""
+    from hand_service.config.model import FingerModel
+    from hand_service.diagnose.concealed.generator import generate
+    from hand_service.diagnose.engine import diagnose
+
+    scale = 50.0
+    finger = LinearFinger()
+    model = FingerModel(inertia_kgm2=finger.inertia_kgm2 * scale,
+                        stiffness_nm_per_rad=finger.stiffness_nm_per_rad * scale,
+                        damping_nms_per_rad=finger.damping_nms_per_rad * scale,
+                        pressure_gain_nm_per_kpa=finger.pressure_gain_nm_per_kpa * scale)
+    c = generate(model, {"coulomb_friction": 0.01 * scale}, "steps", duration_s=20.0, noise_deg=0.3,
+                 seed=4, perturbation=0.0, conceal_ratio=None)
+    d = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0)
+    assert [e.name for e in d.effects][:1] == ["coulomb_friction"], (d.verdict, d.warnings)
+    assert d.effects[0].value == pytest.approx(0.5, rel=0.2)
