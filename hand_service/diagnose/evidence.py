@@ -39,9 +39,41 @@ def _dead_time(c: Context) -> str:
 
 
 def _coulomb(c: Context) -> str:
-    per_cycle_deg = np.degrees(4.0 * c.value / c.stiffness_nm_per_rad)
-    return (f"free swings lose amplitude linearly, about {per_cycle_deg:.2g} deg per cycle "
-            f"(4·Tc/k): dry friction of about {c.value:.2g} N·m")
+    """What this recording shows of dry friction: how much of it the finger spent nearly
+    still (where friction holds it), and, only if it swung freely, the decay per cycle."""
+    still = np.abs(c.velocity_deg_per_s) < SLOW_DEG_PER_S
+    band_deg = np.degrees(c.value / c.stiffness_nm_per_rad)
+    text = (f"dry friction of about {c.value:.2g} N·m: the finger can rest anywhere within "
+            f"±{band_deg:.2g} deg of where its spring alone would put it, and it was nearly still "
+            f"(under {SLOW_DEG_PER_S:g} deg/s) for {100 * still.mean():.0f} % of this recording")
+    if free_swing_s(c) > 0.0:
+        per_cycle_deg = np.degrees(4.0 * c.value / c.stiffness_nm_per_rad)
+        text += f"; its free swings lose about {per_cycle_deg:.2g} deg of amplitude per cycle (4·Tc/k)"
+    return text
+
+
+SLOW_DEG_PER_S = 2.0  # the library's friction smoothing: below it, friction holds the finger
+
+
+def free_swing_s(c: Context) -> float:
+    """Seconds of this recording in which the command held still (within 0.5 kPa for 0.5 s
+    or more) while the finger swung through zero velocity at least twice: free swings."""
+    p = c.problem.pressure_kpa
+    rate = c.problem.rate_hz
+    steady = np.abs(np.diff(p, prepend=p[0])) < 0.5
+    total = 0.0
+    start = None
+    for i, flag in enumerate(np.append(steady, False)):
+        if flag and start is None:
+            start = i
+        elif not flag and start is not None:
+            if i - start >= 0.5 * rate:
+                v = c.velocity_deg_per_s[start:i]
+                crossings = int(np.sum(np.diff(np.sign(v[np.abs(v) > SLOW_DEG_PER_S])) != 0))
+                if crossings >= 2:
+                    total += (i - start) / rate
+            start = None
+    return total
 
 
 def _cubic(c: Context) -> str:
