@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rtcore._rtcore import ffi, lib
+from rtcore.config import MAX_FINGERS
 
 # what a check found (GateResult.cause)
 CAUSE_OK = lib.RTCORE_GATE_OK
@@ -55,8 +56,10 @@ class Gate:
 
     def __init__(self, config: GateConfig) -> None:
         n = config.n_fingers
-        if not (len(config.pressure_min_kpa) == len(config.follow_alpha) == n) or not 1 <= n <= 8:
-            raise ValueError("one pressure limit pair and one follow_alpha per finger, 1 to 8 fingers")
+        per_finger = len(config.pressure_min_kpa) == len(config.follow_alpha) == n
+        if not per_finger or not 1 <= n <= MAX_FINGERS:
+            raise ValueError(f"one pressure limit pair and one follow_alpha per finger, "
+                             f"1 to {MAX_FINGERS} fingers")
         self.config = config
         self.c_gate = ffi.new("rtcore_gate *")
         c = self.c_gate.config

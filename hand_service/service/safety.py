@@ -102,8 +102,11 @@ class SafetyGate:
             # finger's effects), approximated by one first-order lag
             follow_alpha=[1.0 - math.exp(-1.0 / (rate_hz * max(_valve_delay_s(f), 1e-9)))
                           for f in profile.fingers]))
-        self.config = self.core.config
         self.firmware_vents: int | None = None  # FirmwareStatus.vents when last seen
+
+    @property
+    def config(self) -> GateConfig:
+        return self.core.config
 
     @property
     def expected_kpa(self) -> np.ndarray:
@@ -118,7 +121,7 @@ class SafetyGate:
     def first_fault(self, tick: Tick, events: int, hand: Any, transport_fault: Fault | None = None,
                     firmware_fault: Fault | None = None, sequence: int | None = None) -> Fault | None:
         """The fault a tick reports of what its checks found (RTCORE_TICK_* bits in
-        events, the results in c_tick) and the link's own: the first in the order overrun,
+        events, the results in tick) and the link's own: the first in the order overrun,
         the link, the sample, the frame, the firmware, the outputs."""
         if events & FOUND_OVERRUN:
             return self.overrun_fault(tick.overrun)

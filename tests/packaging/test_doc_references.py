@@ -3,7 +3,8 @@
 Scanned: the files git tracks, plus new ones it does not ignore (what the next commit could
 hold; a clean clone has the same set), this file excepted. Text files only.
 
-- nothing refers to the old sibling checkout: `../shared` or `shared/docs`;
+- nothing refers to the sibling folder the project was specified in (OUTSIDE: spelt in
+  parts, so that this file does not hold what it forbids);
 - every `NAME.md` a file mentions (code, help text, profiles, C, docs) exists: a bare name
   in docs/, at the repository root or beside the file; a path from the repository root or
   from the file's folder; a command's output (`--markdown battery.md`, `> out.md`) is no
@@ -24,7 +25,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 SELF = Path(__file__).resolve().relative_to(ROOT).as_posix()
-OUTSIDE = ("../shared", "shared/docs")
+SIBLING = "sha" + "red"
+OUTSIDE = (f"../{SIBLING}", f"{SIBLING}/docs")
 URL = re.compile(r"\b[a-z][a-z0-9+.-]*://\S+", re.I)
 MENTION = re.compile(r"(?<![\w./-])((?:\.{1,2}/|[\w-]+/)*[\w-]+\.md)\b")
 OUTPUT = re.compile(r"(?:--[\w-]+[ =]|>\s*)$")  # `--markdown battery.md`, `> out.md`: a file written
