@@ -169,7 +169,8 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     lags = stats.whiteness_lags(rate_hz)
     if noise_model == "ar":  # every test from here on runs on the innovations
         problem.noise = noise.estimate(refit.residual(problem), fit_mask | held, rate_hz)
-    refit_white = stats.ljung_box(problem.innovations(refit.angle_deg)[fit_mask], lags)
+    refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
+    refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]
     relative_std = refit.std() / np.maximum(np.abs(refit.values), 1e-300)
     unidentified = [p.label for p, r in zip(params, relative_std, strict=True) if not r < MAX_RELATIVE_STD]
@@ -182,20 +183,19 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     residual = refit.residual(problem)
     valid = fit_mask | held
     win = stats.windows(residual, valid, problem.t_s, sigma, rate_hz)
-    final_white = stats.ljung_box(problem.innovations(final.angle_deg)[fit_mask], lags)
+    final_e, nominal_e = problem.innovations(final.angle_deg), problem.innovations(nominal_angle)
+    final_white = stats.ljung_box(final_e[fit_mask], lags)
     u = problem.pressure_kpa[fit_mask]
-    refit_cross = stats.input_independence(problem.innovations(refit.angle_deg)[fit_mask], u, lags)
-    final_cross = stats.input_independence(problem.innovations(final.angle_deg)[fit_mask], u, lags)
-    xcorr = stats.cross_correlation(problem.innovations(refit.angle_deg)[fit_mask],
-                                    problem.pressure_kpa[fit_mask], lags, rate_hz)
+    refit_cross = stats.input_independence(refit_e[fit_mask], u, lags)
+    final_cross = stats.input_independence(final_e[fit_mask], u, lags)
+    xcorr = stats.cross_correlation(refit_e[fit_mask], u, lags, rate_hz)
     rmse = {"nominal": stats.rmse((measured - nominal_angle)[held]),
             "refit": stats.rmse((measured - refit.angle_deg)[held]),
             "augmented": stats.rmse((measured - final.angle_deg)[held])}
-    refit_gain = stats.heldout_z_innovations(problem.innovations(nominal_angle)[held],
-                                             problem.innovations(refit.angle_deg)[held],
-                                             problem.innovation_sigma(refit.angle_deg, len(params)))
-    refit_bic = stats.delta_bic(problem.innovation_rss(nominal_angle),
-                                problem.innovation_rss(refit.angle_deg), problem.n_fit, len(params))
+    refit_gain = stats.heldout_z_innovations(nominal_e[held], refit_e[held],
+                                             problem.innovation_sigma(refit_e, len(params)))
+    refit_bic = stats.delta_bic(problem.fit_rss(nominal_e), problem.fit_rss(refit_e), problem.n_fit,
+                                len(params))
     round1 = selection.rounds[0].candidates if selection.rounds else []
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative_std, selection, found, (refit_white, refit_cross),

@@ -47,10 +47,16 @@ class NoiseModel:
         """Innovations of a residual on every sample, with AR coefficients of this order
         estimated on its `valid` samples (the first `order` carry the filter's start)."""
         r = self.detrend(residual)
-        if self.order == 0:
-            return r
-        a, _ = yule_walker(r if valid is None else r[valid], self.order)
-        return signal.lfilter(np.concatenate(([1.0], -a)), [1.0], r)
+        return prewhiten(r, self.order, r if valid is None else r[valid])
+
+
+def prewhiten(x: np.ndarray, order: int, fit_on: np.ndarray | None = None) -> np.ndarray:
+    """x through the AR(order) filter estimated on `fit_on` (default x itself); x as it is
+    for order 0."""
+    if order == 0:
+        return x
+    a, _ = yule_walker(x if fit_on is None else fit_on, order)
+    return signal.lfilter(np.concatenate(([1.0], -a)), [1.0], x)
 
 
 def autocovariance(x: np.ndarray, lags: int) -> np.ndarray:
@@ -117,4 +123,4 @@ def nuisance_only(n: int, rate_hz: float) -> NoiseModel:
 WHITE = NoiseModel(0, None, np.zeros(0), 0.0)
 
 __all__ = ["WHITE", "NoiseModel", "autocovariance", "choose_order", "drift_basis", "estimate",
-           "nuisance_only", "yule_walker"]
+           "nuisance_only", "prewhiten", "yule_walker"]

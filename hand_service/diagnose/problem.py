@@ -144,14 +144,15 @@ class Problem:
         the tests take for white noise."""
         return self.noise.whiten(self.measured_deg - angle_deg, self.fit_mask)
 
-    def innovation_rss(self, angle_deg: np.ndarray) -> float:
-        """Sum of squared innovations on the fitting samples (deg²)."""
-        e = self.innovations(angle_deg)[self.fit_mask]
+    def fit_rss(self, innovations: np.ndarray) -> float:
+        """Sum of squared innovations (every sample's, from innovations()) on the fitting
+        samples (deg²)."""
+        e = innovations[self.fit_mask]
         return float(e @ e)
 
-    def innovation_sigma(self, angle_deg: np.ndarray, n_params: int) -> float:
+    def innovation_sigma(self, innovations: np.ndarray, n_params: int) -> float:
         """The innovations' std on the fitting samples, the fitted parameters taken off."""
-        return float(np.sqrt(self.innovation_rss(angle_deg) / max(self.n_fit - n_params, 1)))
+        return float(np.sqrt(self.fit_rss(innovations) / max(self.n_fit - n_params, 1)))
 
     def values(self, params: Sequence[Param], finger: SimFinger | None = None) -> np.ndarray:
         prbm = (finger or self.base).prbm

@@ -188,8 +188,7 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candid
     held = problem.held_mask
     measured = problem.measured_deg[held]
     before, after = problem.innovations(base.angle_deg), problem.innovations(joint.angle_deg)
-    bic = stats.delta_bic(problem.innovation_rss(base.angle_deg), problem.innovation_rss(joint.angle_deg),
-                          problem.n_fit)
+    bic = stats.delta_bic(problem.fit_rss(before), problem.fit_rss(after), problem.n_fit)
     z = stats.heldout_z_innovations(before[held], after[held], sigma)
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
                      screened.starts[0], joint, bic, z, stats.rmse(measured - joint.angle_deg[held]))
@@ -200,7 +199,7 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     """Screen every effect; fit jointly all of them (`fit_all`, the first round, whose
     table the report shows) or, in later rounds, the two most promising and any whose
     screen predicts ΔBIC above half the threshold."""
-    sigma = problem.innovation_sigma(base.angle_deg, len(base.params))
+    sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
     screens = []
     for i, name in enumerate(names):
         if progress:
@@ -235,7 +234,8 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
             if progress:
                 progress(f"{best.name} or {runner.name}? fitting both together")
             both = score(problem, best.fit, screen(problem, best.fit, runner.name),
-                         problem.innovation_sigma(best.fit.angle_deg, len(best.fit.params)))
+                         problem.innovation_sigma(problem.innovations(best.fit.angle_deg),
+                                                  len(best.fit.params)))
             if not both.significant:
                 selection.ambiguous = (best, runner)
                 break

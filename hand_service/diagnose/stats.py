@@ -14,6 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
+from hand_service.diagnose.noise import choose_order, prewhiten
+
 Z99 = 2.576  # two-sided 99 % normal quantile
 
 
@@ -89,18 +91,9 @@ def input_independence(innovations: np.ndarray, signal: np.ndarray, lags: int) -
     Q = n·Σρ² is χ² with lags + 1 degrees of freedom. A model that leaves out how the output
     answers the input (an object in the way, a missing effect) fails it even when an AR
     noise filter has made its innovations look white."""
-    from hand_service.diagnose.noise import choose_order, yule_walker
-
     u = signal - signal.mean()
     order = choose_order(u)
-    if order:
-        a, _ = yule_walker(u, order)
-        from scipy.signal import lfilter
-
-        u = lfilter(np.concatenate(([1.0], -a)), [1.0], u)[order:]
-        e = innovations[order:]
-    else:
-        e = innovations
+    u, e = prewhiten(u, order)[order:], innovations[order:]  # past the filter's start
     rho = cross_correlation(e, u, lags, 1.0).rho
     n = e.size
     q = float(n * np.sum(rho**2))
