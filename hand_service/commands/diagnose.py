@@ -47,12 +47,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "next sample (the daemon's and a DAQ output's own record; default); "
                              "point, samples of a command that changed continuously, taken as "
                              "linear between them")
-    parser.add_argument("--noise-model", choices=("white", "ar"), default="white",
-                        help="the sensor noise the tests assume: white, independent samples (default); "
-                             "ar, correlated in time on an offset that drifts, estimated from the "
-                             "recording (an analog sensor chain's noise: a clean recording then comes "
-                             "out clean, but a slow mismatch outside the library can be absorbed; "
-                             "see docs/diagnose.md)")
+    parser.add_argument("--noise-model", choices=("white", "ar"), default="ar",
+                        help="the sensor noise the tests assume: ar (default), correlated in time on "
+                             "an offset that drifts, estimated from the recording (an analog sensor "
+                             "chain's noise: a clean recording then comes out clean); white, "
+                             "independent samples (see docs/diagnose.md)")
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 

@@ -21,7 +21,7 @@ from hand_service.config.model import FingerModel
 from hand_service.diagnose import excitation, noise, stats
 from hand_service.diagnose.evidence import Context, sentence
 from hand_service.diagnose.fit import Fit, fit
-from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
+from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Prior, Problem, build_problem
 from hand_service.diagnose.search import Candidate, Progress, Selection, select
 
 MAX_RELATIVE_STD = 0.1  # a plain parameter known worse than ±10 % is not identified
@@ -67,6 +67,16 @@ class Diagnosis:
     seconds: float = 0.0
     notes: list[str] = field(default_factory=list)
     partial_effects: list[FoundEffect] = field(default_factory=list)  # significant, yet not explaining
+    explained_share: float = 0.0  # of the refitted model's mismatch, by the effects found
+    structure_left: str = ""  # what says the final model still misses something ('' if nothing)
+
+    @property
+    def grade(self) -> str | None:
+        """For missing_physics: "complete" when the augmented model leaves no structure,
+        "dominant" when named over structure that remains outside the library."""
+        if self.verdict != "missing_physics":
+            return None
+        return "dominant" if self.structure_left else "complete"
 
     def refit_model(self, with_effects: bool = True) -> FingerModel:
         """The refitted model; with the found effects added to its `effects` block."""
@@ -108,6 +118,9 @@ class Diagnosis:
                                         "band_99": self.input_xcorr.band},
             "candidates": [candidate_json(c) for c in round1],
             "partial_effects": [e.to_json() for e in self.partial_effects],
+            "grade": self.grade,
+            "explained_share": self.explained_share,
+            "structure_left": self.structure_left,
             "notes": self.notes,
             "seconds": self.seconds,
         }
@@ -132,6 +145,20 @@ def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> l
     return params
 
 
+def refit_with_prior(problem: Problem, params: list[Param], refit: Fit,
+                     progress: Progress | None) -> Fit:
+    """k, B and N refitted with the nominal's uncertainty as a log-normal prior (width
+    PRIOR_RELATIVE_WIDTH, weighted by the plain refit's noise), from the nominal and from
+    the plain refit; the one with the lower cost."""
+    if progress:
+        progress("the recording cannot pin every plain parameter: refitting with the nominal as a prior")
+    nominal = problem.values(params)
+    problem.prior = Prior({p.label: float(v) for p, v in zip(params, nominal, strict=True) if v > 0.0},
+                          {p.label: PRIOR_RELATIVE_WIDTH for p, v in zip(params, nominal, strict=True)
+                           if v > 0.0}, refit.sigma_deg)
+    return min((fit(problem, params, start) for start in (nominal, refit.values)), key=lambda f: f.cost_deg2)
+
+
 def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
     return np.gradient(angle_deg) * rate_hz
 
@@ -139,11 +166,10 @@ def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
 def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
              rate_hz: float, progress: Progress | None = None,
              missing: np.ndarray | None = None, input_hold: str = "zoh",
-             noise_model: str = "white") -> Diagnosis:
-    """`noise_model`: "white", independent samples; or "ar", the sensor noise correlated in
-    time on a drifting offset (noise.py): clean recordings from a lab's sensor then come out
-    clean, but an AR filter also absorbs a slow mismatch the library cannot explain (an
-    object in the way), so it is not yet the default (docs/diagnose.md)."""
+             noise_model: str = "ar") -> Diagnosis:
+    """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
+    offset (noise.py), so that clean recordings from a lab's sensor come out clean; or
+    "white", independent samples."""
     started = time.perf_counter()
     warnings: list[str] = []
     problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold)
@@ -174,9 +200,13 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]
     relative_std = refit.std() / np.maximum(np.abs(refit.values), 1e-300)
     unidentified = [p.label for p, r in zip(params, relative_std, strict=True) if not r < MAX_RELATIVE_STD]
-    selection = Selection(final=refit)
-    if not unidentified:
-        selection = select(problem, refit, missing, progress)
+    if unidentified:
+        # what the recording cannot pin is held near the nominal by its prior, so that the
+        # effects can still be tested (a closed loop pins only k/N; a slow ramp not B)
+        refit = refit_with_prior(problem, params, refit, progress)
+        refit_e = problem.innovations(refit.angle_deg)
+        refit_white = stats.ljung_box(refit_e[fit_mask], lags)
+    selection = select(problem, refit, missing, progress)
     final = selection.final or refit
     found = [found_effect(problem, c, selection) for c in selection.accepted]
     sigma = final.sigma_deg
@@ -196,14 +226,15 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
                                              problem.innovation_sigma(refit_e, len(params)))
     refit_bic = stats.delta_bic(problem.fit_rss(nominal_e), problem.fit_rss(refit_e), problem.n_fit,
                                 len(params))
+    explained = explained_share(problem, refit, final) if found else 0.0
     round1 = selection.rounds[0].candidates if selection.rounds else []
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative_std, selection, found, (refit_white, refit_cross),
                            (final_white, final_cross),
-                           refit_gain, refit_bic, inseparable, warnings,
+                           refit_gain, refit_bic, inseparable, warnings, rmse,
                            excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
                                               refit.value("stiffness_nm_per_rad"),
-                                              problem.base.prbm.inertia_kgm2).sentence())
+                                              problem.base.prbm.inertia_kgm2).sentence(), explained)
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
         # a name is given only to what explains the mismatch: these do not, so they are
@@ -215,7 +246,9 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
                             "the simulated angle here (see the excitation advice in docs/diagnose.md)")
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
-                     time.perf_counter() - started, notes, partial)
+                     time.perf_counter() - started, notes, partial, explained,
+                     structure_left(final_white, final_cross) if found or partial else
+                     structure_left(refit_white, refit_cross))
 
 
 def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundEffect:
@@ -234,6 +267,31 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundE
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)
 
 
+DOMINANT_SHARE = 0.6  # the share of the mismatch an effect must explain to be named over structure
+DOMINANT_RELATIVE_STD = 0.2  # and its estimate must be this well determined
+
+
+def dominant(found: list[FoundEffect], explained: float) -> bool:
+    """The graded verdict for real rigs: the effects explain most of the mismatch and the
+    first is well determined, though structure outside the library remains."""
+    first = found[0]
+    return explained >= DOMINANT_SHARE and abs(first.std) <= DOMINANT_RELATIVE_STD * abs(first.value)
+
+
+def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:
+    """How much of the refitted plain model's mismatch the augmented model explains: the
+    drop of the squared misfit over what lies above the noise floor (the variance a
+    fitted AR filter cannot predict in the augmented model's misfit), 0 to 1."""
+    mask = problem.fit_mask
+    before, after = problem.misfit(refit.angle_deg)[mask], problem.misfit(final.angle_deg)[mask]
+    floor = noise.estimate(after, np.ones(after.size, bool), problem.rate_hz, with_drift=False)
+    floor_deg2 = after.size * floor.innovation_std_deg**2
+    excess = float(before @ before) - floor_deg2
+    if excess <= 0.0:
+        return 0.0
+    return float(np.clip((before @ before - after @ after) / excess, 0.0, 1.0))
+
+
 def structure_left(white: stats.Whiteness, cross: stats.Whiteness) -> str:
     """What in a model's innovations says it misses something, in words; '' if nothing."""
     if white.p_value < STRUCTURE_P:
@@ -248,14 +306,16 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
           found: list[FoundEffect], refit_tests: tuple[stats.Whiteness, stats.Whiteness],
           final_tests: tuple[stats.Whiteness, stats.Whiteness],
           refit_gain_z: float, refit_bic: float, inseparable: list[str],
-          warnings: list[str], advice: str = "") -> tuple[str, list[str]]:
+          warnings: list[str], rmse: dict[str, float], advice: str = "",
+          explained: float = 0.0) -> tuple[str, list[str]]:
     """The verdict. `advice`: what this recording's command holds and lacks, in words."""
     notes: list[str] = []
     if unidentified:
         worst = ", ".join(f"{p.label} ±{100 * r:.0f} %" for p, r in zip(params, relative_std, strict=True)
                           if p.label in unidentified)
-        warnings.append(f"the recording cannot separate the plain parameters ({worst}): {advice}")
-        return "insufficient_excitation", notes
+        warnings.append(f"the recording alone cannot pin the plain parameters ({worst} from the data "
+                        "alone): they are held near the nominal (a prior of "
+                        f"±{100 * PRIOR_RELATIVE_WIDTH:.0f} %) and the effects tested against that; {advice}")
     if selection.ambiguous is not None:
         a, b = selection.ambiguous
         warnings.append(f"{a.name} and {b.name} explain the residual about equally well (ΔBIC "
@@ -263,18 +323,34 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
                         "recording cannot tell them apart")
         if not found:
             return "insufficient_excitation", notes
+    if found and rmse["augmented"] >= rmse["nominal"]:
+        names = ", ".join(e.name for e in found)
+        warnings.append(f"{names} fit the recording, yet the model with them predicts the held-out data "
+                        f"worse than the nominal model does ({rmse['augmented']:.3g} against "
+                        f"{rmse['nominal']:.3g} deg RMS): the refit and the effects are bending to absorb "
+                        "something outside the library, so they are not named (see partial_effects)")
+        return "unexplained", notes
     if found:
         left = structure_left(*final_tests)
+        if left and dominant(found, explained):
+            notes.append(f"{found[0].name} is the dominant missing physics: with "
+                         f"{'it' if len(found) == 1 else 'them'} the model explains "
+                         f"{100 * explained:.0f} % of the mismatch, but {left}: something outside the "
+                         "library remains")
+            return "missing_physics", notes
         if left:
             names = ", ".join(e.name for e in found)
             warnings.append(f"{names} reduce the residual, but {left}: they explain only part of the "
-                            "mismatch, so they are not named (see partial_effects)")
+                            f"mismatch ({100 * explained:.0f} %), so they are not named "
+                            "(see partial_effects)")
             return "unexplained", notes
         return "missing_physics", notes
     left = structure_left(*refit_tests)
     if left:
         warnings.append(f"the refitted model leaves a mismatch that no library effect explains: {left}")
         return "unexplained", notes
+    if unidentified:
+        return "insufficient_excitation", notes
     if inseparable:
         warnings.append(f"this recording cannot tell {', '.join(inseparable)} from a change of k, B and N "
                         f"(k, B and N absorb over {100 * (1 - SEPARABLE_MIN):.0f} % of "

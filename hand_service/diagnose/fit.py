@@ -29,6 +29,15 @@ class Fit:
     rss_deg2: float  # residual sum of squares on the fitting samples (deg²)
     jacobian: np.ndarray  # d angle / d value on the fitting samples, physical units
     n_fit: int
+    # the prior's information on each parameter (deg² per unit², 0 without a prior) and
+    # its share of the cost: the nominal model's uncertainty, when the problem has one
+    prior_information: np.ndarray | None = None
+    prior_cost_deg2: float = 0.0
+
+    @property
+    def cost_deg2(self) -> float:
+        """What the fit minimised: the residual's squares and the prior's."""
+        return self.rss_deg2 + self.prior_cost_deg2
 
     def residual(self, problem: Problem) -> np.ndarray:
         return problem.measured_deg - self.angle_deg
@@ -38,9 +47,12 @@ class Fit:
         """Noise estimate from the fitting residual, with the fitted degrees of freedom removed."""
         return float(np.sqrt(self.rss_deg2 / max(self.n_fit - len(self.params), 1)))
 
-    def covariance(self) -> np.ndarray:
-        """σ²·(JᵀJ)⁻¹, by pseudo-inverse so that a rank-deficient J shows as huge variance."""
+    def covariance(self, with_prior: bool = True) -> np.ndarray:
+        """σ²·(JᵀJ + P)⁻¹, P the prior's information; by pseudo-inverse so that a
+        rank-deficient J shows as huge variance. Without the prior: what the data alone say."""
         jtj = self.jacobian.T @ self.jacobian
+        if with_prior and self.prior_information is not None:
+            jtj = jtj + np.diag(self.prior_information)
         scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
         normalised = jtj / np.outer(scale, scale)
         inverse = np.linalg.pinv(normalised, rcond=1e-12)
@@ -50,8 +62,8 @@ class Fit:
         cov[:, dead] = np.inf
         return cov
 
-    def std(self) -> np.ndarray:
-        return np.sqrt(np.abs(np.diag(self.covariance())))
+    def std(self, with_prior: bool = True) -> np.ndarray:
+        return np.sqrt(np.abs(np.diag(self.covariance(with_prior))))
 
     def correlation(self) -> np.ndarray:
         cov = self.covariance()
@@ -90,13 +102,34 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
         # a finger driven unstable (strong softening, say) is a very bad fit, not a crash
         return np.where(np.isfinite(error), np.clip(error, -DIVERGED_DEG, DIVERGED_DEG), DIVERGED_DEG)
 
+    prior = problem.prior
+    held = [i for i, p in enumerate(params) if p.label in prior.widths]
+    centres = np.array([prior.centres[params[i].label] for i in held])
+    widths = np.array([prior.widths[params[i].label] for i in held])
+
+    def prior_rows(x: np.ndarray) -> np.ndarray:
+        """A log-normal prior about the nominal, in the residual's units: w·ln(v/v0)/s."""
+        values = np.maximum(x[held] * scales[held], 1e-300)
+        return prior.weight_deg * np.log(values / centres) / widths
+
+    def cost_rows(x: np.ndarray) -> np.ndarray:
+        return np.concatenate((residual(x), prior_rows(x))) if held else residual(x)
+
     x0 = _into_bounds(np.asarray(start, dtype=float) / scales, lower, upper)
-    result = least_squares(residual, x0, bounds=(lower, upper), method="trf", x_scale="jac",
+    result = least_squares(cost_rows, x0, bounds=(lower, upper), method="trf", x_scale="jac",
                            diff_step=1e-6, max_nfev=max_nfev, xtol=1e-8, ftol=1e-9, gtol=1e-9)
     values = result.x * scales
     finger = problem.finger(params, values, base)
-    return Fit(params, values, finger, problem.simulate(finger), float(2.0 * result.cost),
-               result.jac / scales, problem.n_fit)
+    n = problem.n_fit
+    data = result.fun[:n]
+    information = None
+    prior_cost = 0.0
+    if held:
+        information = np.zeros(len(params))
+        information[held] = (prior.weight_deg / (widths * values[held])) ** 2
+        prior_cost = float(result.fun[n:] @ result.fun[n:])
+    return Fit(params, values, finger, problem.simulate(finger), float(data @ data),
+               result.jac[:n] / scales, n, information, prior_cost)
 
 
 def sensitivity(problem: Problem, param: Param, finger: SimFinger, angle_deg: np.ndarray) -> np.ndarray:

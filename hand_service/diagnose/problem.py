@@ -35,6 +35,10 @@ INPUT_HOLDS = ("zoh", "point")
 # the library's torque ranges (config/effects.py) were set for the paper's fingers, k from
 # 0.51 to 0.65 N·m/rad, with room to spare: they hold as they are up to 1 N·m/rad
 REFERENCE_STIFFNESS_NM_PER_RAD = 1.0
+PLAIN_RANGE = 1000.0  # k, B and N may go this many times above or below the nominal
+# the nominal model's uncertainty: a log-normal prior of this relative width on k, B and N,
+# used when the recording alone cannot pin them (closed loop: only k/N; a ramp: not B)
+PRIOR_RELATIVE_WIDTH = 0.25
 HISTORY_SAMPLES = 1000  # the simulator's command history (RTCORE_SIM_HISTORY) with a margin
 
 
@@ -55,9 +59,10 @@ class Param:
         unit = {"stiffness_nm_per_rad": "N·m/rad", "damping_nms_per_rad": "N·m·s/rad",
                 "pressure_gain_nm_per_kpa": "N·m/kPa"}[name]
         scale = abs(nominal) if nominal > 0 else 1e-3
-        # B may vanish; k and N are positive, from a fifth of the nominal to 15 times it
-        lower = 0.0 if name == "damping_nms_per_rad" else nominal / 5.0
-        return Param(name, name, False, scale, lower, nominal * 5.0 + 10 * scale, unit)
+        # wide, so that a rig far from its nominal is reported as found, not clipped: a
+        # thousandth to a thousand times the nominal (the nominal's own uncertainty, when
+        # the recording cannot pin a parameter, is the prior's business, not a bound's)
+        return Param(name, name, False, scale, scale / PLAIN_RANGE, scale * PLAIN_RANGE, unit)
 
     @staticmethod
     def effect(name: str, stiffness_nm_per_rad: float = REFERENCE_STIFFNESS_NM_PER_RAD,
@@ -81,6 +86,19 @@ def substeps_for(rate_hz: float) -> int:
     return max(1, math.ceil(1.0 / (rate_hz * MAX_STEP_S) - 1e-9))
 
 
+@dataclass(frozen=True)
+class Prior:
+    """A log-normal prior on some parameters: centre (the nominal) and relative width,
+    weighted by the noise's std so that it sits in the residual's units."""
+
+    centres: dict[str, float] = dataclasses.field(default_factory=dict)
+    widths: dict[str, float] = dataclasses.field(default_factory=dict)
+    weight_deg: float = 0.0
+
+
+NO_PRIOR = Prior()
+
+
 @dataclass
 class Problem:
     base: SimFinger
@@ -96,6 +114,7 @@ class Problem:
     blocks: list[tuple[int, int]]  # (start, stop) index of every block, for the report
     input_hold: str = "zoh"
     noise: NoiseModel = WHITE  # set once the plain model's residual is known (engine)
+    prior: Prior = NO_PRIOR  # set when the recording alone cannot pin k, B, N (engine)
 
     @property
     def n_fit(self) -> int:
