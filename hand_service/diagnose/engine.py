@@ -235,6 +235,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
                            excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
                                               refit.value("stiffness_nm_per_rad"),
                                               problem.base.prbm.inertia_kgm2).sentence(), explained)
+    warnings.extend(trade_offs(final, found))
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
         # a name is given only to what explains the mismatch: these do not, so they are
@@ -292,14 +293,39 @@ def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:
     return float(np.clip((before @ before - after @ after) / excess, 0.0, 1.0))
 
 
+TRADE_OFF_CORR = 0.95  # an effect this correlated with a plain parameter trades off with it
+
+
+def trade_offs(final: Fit, found: list[FoundEffect]) -> list[str]:
+    """Found effects whose estimate this recording ties to k, B or N: said plainly (on an
+    over-damped finger a valve lag and extra damping make nearly the same response)."""
+    labels = [p.label for p in final.params]
+    corr = final.correlation()
+    said = []
+    for effect in found:
+        i = labels.index(effect.name)
+        for j, label in enumerate(labels):
+            if label in PLAIN and abs(corr[i, j]) > TRADE_OFF_CORR:
+                what = {"damping_nms_per_rad": "extra damping B", "stiffness_nm_per_rad": "the stiffness k",
+                        "pressure_gain_nm_per_kpa": "the pressure gain N"}[label]
+                said.append(f"{effect.name} trades off with {what} in this recording (correlation "
+                            f"{corr[i, j]:+.2f}): the data tell them apart only weakly, so read its "
+                            f"estimate with {label}'s")
+    return said
+
+
 def structure_left(white: stats.Whiteness, cross: stats.Whiteness) -> str:
-    """What in a model's innovations says it misses something, in words; '' if nothing."""
-    if white.p_value < STRUCTURE_P:
-        return f"a structured residual remains (Ljung-Box p = {white.p_value:.1g})"
+    """What in a model's innovations says it misses something, in words; '' if nothing.
+    The input test speaks first: an output that answers something other than the modelled
+    input is the plainer reason."""
+    reasons = []
     if cross.p_value < STRUCTURE_P:
-        return (f"the residual still follows the input (cross-correlation with the prewhitened command, "
-                f"p = {cross.p_value:.1g}): the output answers the input in a way the model does not")
-    return ""
+        reasons.append(f"the residual still follows the input (cross-correlation with the prewhitened "
+                       f"command, p = {cross.p_value:.1g}): the output answers the input, or something "
+                       "besides it, in a way the model does not")
+    if white.p_value < STRUCTURE_P:
+        reasons.append(f"a structured residual remains (Ljung-Box p = {white.p_value:.1g})")
+    return "; and ".join(reasons)
 
 
 def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray, selection: Selection,
