@@ -117,7 +117,7 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
 
     x0 = _into_bounds(np.asarray(start, dtype=float) / scales, lower, upper)
     result = least_squares(cost_rows, x0, bounds=(lower, upper), method="trf", x_scale="jac",
-                           diff_step=1e-6, max_nfev=max_nfev, xtol=1e-8, ftol=1e-9, gtol=1e-9)
+                           diff_step=1e-6, max_nfev=max_nfev, xtol=1e-7, ftol=1e-7, gtol=1e-8)
     values = result.x * scales
     finger = problem.finger(params, values, base)
     n = problem.n_fit

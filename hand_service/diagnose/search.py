@@ -31,6 +31,9 @@ SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
 SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
 NAME_MARGIN_BIC = 10.0
 MAX_EFFECTS = 3
+THOROUGH_TOP = 3  # the screen's best three are fitted from every start, the rest from one
+LATER_TOP = 3  # after the first round, only the screen's best three are fitted
+ENTANGLED = 0.99  # an effect this correlated with k, B or N is not told from it
 
 Progress = Callable[[str], None]
 
@@ -65,8 +68,19 @@ class Candidate:
         return any(abs(self.estimate - b) < 1e-6 * span and b != neutral for b in (p.lower, p.upper))
 
     @property
+    def entanglement(self) -> float:
+        """The largest |correlation| of the effect's estimate with a plain parameter (k, B,
+        N) in its joint fit: near 1, the recording cannot tell the effect from that
+        parameter (on an axis with no spring, air drag from viscous damping)."""
+        corr = self.fit.correlation()[-1, :-1]
+        plain = [i for i, p in enumerate(self.fit.params[:-1]) if not p.is_effect]
+        values = np.abs(corr[plain]) if plain else np.zeros(1)
+        return float(np.nan_to_num(values, nan=1.0).max())
+
+    @property
     def significant(self) -> bool:
-        return self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z and not self.at_bound
+        return (self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z and not self.at_bound
+                and self.entanglement < ENTANGLED)
 
 
 @dataclass
@@ -177,13 +191,17 @@ def nominal_start(problem: Problem, base: Fit) -> np.ndarray | None:
     return values
 
 
-def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candidate:
-    """Fit the screened effect jointly with every parameter of `base`, from each start."""
+def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough: bool = True) -> Candidate:
+    """Fit the screened effect jointly with every parameter of `base`, from each start
+    (`thorough`), or from the most promising one only (an effect the screen gives no chance,
+    fitted for the evidence table alone)."""
     params = (*base.params, screened.param)
     starts = [[*base.values, s] for s in screened.starts]
     reset = nominal_start(problem, base)
     if reset is not None:
         starts.append([*reset, screened.starts[-1]])
+    if not thorough:
+        starts = starts[-1:] if len(screened.starts) > 1 else starts[:1]  # the scan's best point
     joint = min((fit(problem, params, start, base=base.finger) for start in starts), key=lambda f: f.rss_deg2)
     held = problem.held_mask
     measured = problem.measured_deg[held]
@@ -197,8 +215,8 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float) -> Candid
 def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None,
               fit_all: bool) -> Round:
     """Screen every effect; fit jointly all of them (`fit_all`, the first round, whose
-    table the report shows) or, in later rounds, the two most promising and any whose
-    screen predicts ΔBIC above half the threshold."""
+    table the report shows; the screen's best three from every start, the others from the
+    scan's best point) or, in later rounds, the screen's best three."""
     sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
     screens = []
     for i, name in enumerate(names):
@@ -206,12 +224,13 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
             progress(f"screening {name} ({i + 1}/{len(names)})")
         screens.append(screen(problem, base, name))
     screens.sort(key=lambda s: -s.predicted_bic)
-    chosen = [s for i, s in enumerate(screens) if fit_all or i < 2 or s.predicted_bic > SIGNIFICANT_BIC / 2]
+    chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
     candidates = []
     for i, screened in enumerate(chosen):
         if progress:
             progress(f"fitting {screened.name} with the model ({i + 1}/{len(chosen)})")
-        candidates.append(score(problem, base, screened, sigma))
+        thorough = i < THOROUGH_TOP
+        candidates.append(score(problem, base, screened, sigma, thorough))
     candidates.sort(key=lambda c: -c.delta_bic)
     return Round(base, candidates)
 
