@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
                   $(wildcard csrc/*.c csrc/*.h)
 
-.PHONY: run test test-install bench lint clean
+.PHONY: run test test-install bench fuzz lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -18,11 +18,12 @@ run: $(STAMP)
 	$(VENV)/bin/hand-service run --demo
 
 # The tests that keep time (daemon, HIL, CLI, bench) run at normal priority; the CPU-bound
-# ones (diagnose, tools, model, rtcore, wire, packaging) beside them at nice 19, in the time
+# ones (diagnose, tools, model, rtcore, wire, packaging, fuzz) beside them at nice 19, in the time
 # the first leave idle waiting on real time, so they cannot delay a deadline.
 CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/wire tests/packaging \
-             tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py
-SELECT := -m "not slow and not install"
+             tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py \
+             tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
+SELECT := -m "not slow and not install and not fuzz"
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
@@ -41,6 +42,10 @@ bench: $(STAMP)
 	$(VENV)/bin/hand-service bench --json bench.json
 	$(PY) -m pytest -q tests/bench --benchmark-enable --benchmark-only
 	$(PY) -m pytest -q -m slow
+
+# every file reader and the control API fed 5 000 fuzzed inputs each (make test runs 500 each)
+fuzz: $(STAMP)
+	$(PY) -m pytest -q -p no:cacheprovider -m fuzz tests/fuzz
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hand_service.config.textfile import cell_text, read_text
 from hand_service.errors import UserError, where
 
 log = logging.getLogger(__name__)
@@ -79,12 +80,12 @@ def _select_finger(header: list[str], finger: str | None, path: Path, header_lin
     if finger is None:
         if "angle_deg" not in header and fingers:
             raise UserError(f"{where(path, header_line)}: this recording holds several fingers "
-                            f"({', '.join(fingers)}); pick one with --finger")
+                            f"({cell_text(', '.join(fingers), 200)}); pick one with --finger")
         return header
     if "angle_deg" in header and not fingers:
         return header  # a one-finger file: --finger only names it
     if finger not in fingers:
-        known = ", ".join(fingers) or "none"
+        known = cell_text(", ".join(fingers), 200) or "none"
         raise UserError(f"{where(path, header_line)}: no columns for finger '{finger}' (fingers: {known})")
     suffix = f"_{finger}"
     renamed = []
@@ -101,12 +102,7 @@ def _select_finger(header: list[str], finger: str | None, path: Path, header_lin
 def read_recording(path: str | Path, finger: str | None = None, required: tuple[str, ...] = REQUIRED,
                    min_duration_s: float = MIN_DURATION_S) -> Recording:
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise UserError(f"{path}: not a text CSV file") from None
+    text = read_text(path)  # UTF-8, a byte-order mark dropped, CRLF and CR line ends made LF
     lines = text.split("\n")
     truncated_last = not text.endswith("\n")
     metadata: dict[str, str] = {}

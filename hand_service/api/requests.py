@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,6 +17,7 @@ import numpy as np
 
 from hand_service.api.server import Deferred
 from hand_service.config.profile import Profile
+from hand_service.config.textfile import show
 from hand_service.errors import UserError
 from hand_service.service.background import Background
 from hand_service.service.safety import finite_or_none
@@ -34,17 +36,74 @@ class RequestError(Exception):
     """A request the daemon refuses; the message is the reply's error."""
 
 
+PATH = "path"  # Param.kind of a file path: text the operating system can take
+
+
 @dataclass(frozen=True)
 class Param:
-    kind: type  # str, float, bool
+    kind: type | str  # str, float, bool or PATH
     required: bool = True
     doc: str = ""
 
 
 def _number(name: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise RequestError(f"'{name}' must be a finite number, not {value!r}")
-    return float(value)
+    """A finite number (an integer too large for a double is not one)."""
+    if not isinstance(value, bool) and isinstance(value, (int, float)):
+        try:
+            number = float(value)
+        except OverflowError:
+            number = math.inf
+        if math.isfinite(number):
+            return number
+    raise RequestError(f"'{name}' must be a finite number, not {show(value)}")
+
+
+def _path(name: str, value: str) -> str:
+    """A path the operating system can take: no NUL, encodable (no lone surrogate)."""
+    try:
+        os.fsencode(value)
+    except UnicodeError:
+        raise RequestError(f"'{name}' is not a usable path: it holds a character that is not text") from None
+    if "\0" in value:
+        raise RequestError(f"'{name}' is not a usable path: it holds a NUL")
+    return value
+
+
+def parse_request(request: Any, table: dict[str, tuple[dict[str, Param], Callable[..., Any]]]
+                  ) -> tuple[str, dict[str, Any]]:
+    """The request's cmd and its arguments, every one of the type its Param says; a
+    RequestError of one line for anything else (docs/api.md)."""
+    if not isinstance(request, dict):
+        raise RequestError("a request is a JSON object with a 'cmd'")
+    cmd = request.get("cmd")
+    if not isinstance(cmd, str) or cmd not in table:
+        raise RequestError(f"unknown cmd {show(cmd)} (known: {', '.join(sorted(table))})")
+    params = table[cmd][0]
+    args: dict[str, Any] = {}
+    for key, value in request.items():
+        if key in ("cmd", "id"):
+            continue
+        if key not in params:
+            known = ", ".join(params) or "none"
+            raise RequestError(f"{cmd}: unknown parameter {_name(key)} (parameters: {known})")
+        spec = params[key]
+        if spec.kind is float:
+            args[key] = _number(key, value)
+            continue
+        kind = str if spec.kind == PATH else spec.kind
+        assert isinstance(kind, type)
+        if not isinstance(value, kind):
+            raise RequestError(f"{cmd}: '{key}' must be {kind.__name__}, not {show(value)}")
+        args[key] = _path(key, value) if spec.kind == PATH else value
+    missing = [k for k, p in params.items() if p.required and k not in args]
+    if missing:
+        raise RequestError(f"{cmd}: missing parameter '{missing[0]}' ({params[missing[0]].doc})")
+    return cmd, args
+
+
+def _name(text: object) -> str:
+    """'text' for a message: quoted if it prints on one line, else its shortened repr."""
+    return f"'{text}'" if isinstance(text, str) and text.isprintable() and len(text) <= 40 else show(text)
 
 
 def _parse_trajectory(path: str, profile: Profile, rate_hz: float) -> tuple[Trajectory, np.ndarray]:
@@ -90,10 +149,10 @@ class Api:
             "target": ({"finger": Param(str, doc="finger name or 'all'"),
                         "angle_deg": Param(float, False), "force_n": Param(float, False),
                         "pressure_kpa": Param(float, False)}, self.target),
-            "load_trajectory": ({"path": Param(str, doc="absolute path of a trajectory CSV"),
+            "load_trajectory": ({"path": Param(PATH, doc="absolute path of a trajectory CSV"),
                                  "loop": Param(bool, False)}, self.load_trajectory),
             "clear_trajectory": ({}, self.clear_trajectory),
-            "record_start": ({"path": Param(str, doc="absolute path of a new CSV")}, self.record_start),
+            "record_start": ({"path": Param(PATH, doc="absolute path of a new CSV")}, self.record_start),
             "record_stop": ({}, self.record_stop),
         }
 
@@ -137,30 +196,8 @@ class Api:
         loading.reply = answer
 
     def _dispatch(self, request: Any) -> Any:
-        if not isinstance(request, dict):
-            raise RequestError("a request is a JSON object with a 'cmd'")
-        cmd = request.get("cmd")
-        if cmd not in self.table:
-            raise RequestError(f"unknown cmd {cmd!r} (known: {', '.join(sorted(self.table))})")
-        params, handler = self.table[cmd]
-        args: dict[str, Any] = {}
-        for key, value in request.items():
-            if key in ("cmd", "id"):
-                continue
-            if key not in params:
-                known = ", ".join(params) or "none"
-                raise RequestError(f"{cmd}: unknown parameter '{key}' (parameters: {known})")
-            spec = params[key]
-            if spec.kind is float:
-                args[key] = _number(key, value)
-            elif not isinstance(value, spec.kind):
-                raise RequestError(f"{cmd}: '{key}' must be {spec.kind.__name__}, not {value!r}")
-            else:
-                args[key] = value
-        missing = [k for k, p in params.items() if p.required and k not in args]
-        if missing:
-            raise RequestError(f"{cmd}: missing parameter '{missing[0]}' ({params[missing[0]].doc})")
-        return handler(**args)
+        cmd, args = parse_request(request, self.table)
+        return self.table[cmd][1](**args)
 
     # -- helpers ------------------------------------------------------------------------
     def _fingers(self, name: str) -> list[int]:
@@ -168,7 +205,7 @@ class Api:
         if name == "all":
             return list(range(len(names)))
         if name not in names:
-            raise RequestError(f"unknown finger '{name}' (fingers: {', '.join(names)}, all)")
+            raise RequestError(f"unknown finger {_name(name)} (fingers: {', '.join(names)}, all)")
         return [names.index(name)]
 
     def _event(self, event: Event) -> dict[str, str]:
@@ -193,7 +230,7 @@ class Api:
     def mode(self, finger: str, mode: str) -> dict[str, Any]:
         fingers = self._fingers(finger)
         if mode not in MODES_BY_NAME:
-            raise RequestError(f"mode must be one of {', '.join(MODES_BY_NAME)}, not {mode!r}")
+            raise RequestError(f"mode must be one of {', '.join(MODES_BY_NAME)}, not {show(mode)}")
         self._not_driven(fingers, "mode")
         self.sup.targets.mode[fingers] = MODES_BY_NAME[mode]
         return {"fingers": [self.sup.names[i] for i in fingers], "mode": mode}
@@ -212,7 +249,7 @@ class Api:
             if key == "angle_deg":
                 low, high = safety["target_angle_min_deg"], safety["target_angle_max_deg"]
             elif key == "force_n":
-                low, high = -safety["target_force_max_n"], safety["target_force_max_n"]
+                low, high = safety["target_force_min_n"], safety["target_force_max_n"]
             else:
                 f = self.sup.profile.fingers[i]
                 low, high = f.pressure_min_kpa, f.pressure_max_kpa

@@ -268,7 +268,9 @@ class ApiServer:
             request = json.loads(line, parse_constant=_not_json, parse_float=_finite)
         except (RecursionError, ValueError):
             return None  # its error reply comes in its turn
-        if isinstance(request, dict) and request.get("cmd") in URGENT_CMDS:
+        # a cmd that is not text ({"estop": 1}, unhashable) gets its error reply in its turn
+        cmd = request.get("cmd") if isinstance(request, dict) else None
+        if isinstance(cmd, str) and cmd in URGENT_CMDS:
             return request
         return None
 

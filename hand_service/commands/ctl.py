@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -107,12 +108,28 @@ def _show_status(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def main(args: argparse.Namespace) -> int:
-    from hand_service.api.client import ApiError, HandClient
+TARGET_FLAGS = {"angle_deg": "--angle-deg", "force_n": "--force-n", "pressure_kpa": "--pressure-kpa"}
+
+
+def check(args: argparse.Namespace) -> None:
+    """What the command line alone can refuse, in one line: a target that is not a finite
+    number (`nan`, `inf`, `1e400`). Its range is the daemon's profile's: the daemon refuses
+    a target outside it (a negative force, say) and ctl prints that reason (exit 2)."""
     from hand_service.commands import checks
     from hand_service.errors import UserError
 
     checks.tcp_port(args.tcp_port)
+    for key, flag in TARGET_FLAGS.items():
+        value = getattr(args, key, None)
+        if value is not None and not math.isfinite(value):
+            raise UserError(f"{flag} must be a finite number, not {value:g}")
+
+
+def main(args: argparse.Namespace) -> int:
+    from hand_service.api.client import ApiError, HandClient
+    from hand_service.errors import UserError
+
+    check(args)
     cmd, params = _request(args)
     try:
         with HandClient(args.socket, args.tcp_port) as client:

@@ -16,7 +16,7 @@ from hand_service.config.schema import Key, Section
 
 CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
     Key("rate_hz", "control rate", "float", "Hz", 100.0, RATE_MIN_HZ, RATE_MAX_HZ),
-    Key("filter_order", "Butterworth order on the angle", "int", "", 2, 2, 4),
+    Key("filter_order", "Butterworth order on the angle", "int", "", 2, 2, 4, choices=("2", "4")),
     Key("filter_cutoff_hz", "Butterworth cutoff; keep above the fingers' 9–14 Hz, and below half "
         "rate_hz", "float", "Hz",
         25.0, 0.0, None, True),

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from hand_service.config.schema import fail, unknown_key_message
+from hand_service.config.textfile import show
 from hand_service.config.yamlio import LineDict
 from rtcore import Effects
 
@@ -79,7 +80,7 @@ def parse_effects(data: Any, source: str | Path, context: str = "effects") -> Ef
                 spec.lower <= value <= spec.upper):
             line_owner = params if isinstance(params, LineDict) else data
             raise fail(source, line_owner, spec.param,
-                       f"{label}.{spec.param} = {value!r} is out of range "
+                       f"{label}.{spec.param} = {show(value)} is out of range "
                        f"({spec.lower:g} to {spec.upper:g} {spec.unit})")
         effects[name] = {spec.param: float(value)}
     return effects

@@ -142,9 +142,20 @@ def model_from_mapping(data: LineDict, source: str | Path, context: str = "",
             label = f"{context}: " if context else ""
             raise UserError(f"{source}:{getattr(data, 'line', '?')}: {label}give inertia_kgm2, or "
                             "mass_kg, length_m and gamma to compute it")
-        inertia = inertia_from_geometry(*geometry)  # type: ignore[arg-type]
+        try:
+            inertia = inertia_from_geometry(*geometry)  # type: ignore[arg-type]
+        except OverflowError:
+            inertia = math.inf
+        if not 0.0 < inertia < math.inf:
+            label = f"{context}: " if context else ""
+            raise UserError(f"{source}:{getattr(data, 'line', '?')}: {label}mass_kg, length_m and gamma "
+                            f"give an inertia of {inertia:g} kg·m²: not a finger's (check their units)")
     if values["lever_arm_m"] is None and values["length_m"] is not None and values["gamma"] is not None:
         values["lever_arm_m"] = values["gamma"] * values["length_m"] / 2.0
+        if not 0.0 < values["lever_arm_m"] < math.inf:
+            raise UserError(f"{source}:{getattr(data, 'line', '?')}: {f'{context}: ' if context else ''}"
+                            f"the lever arm gamma·length_m/2 = {values['lever_arm_m']:g} m is not a "
+                            "finger's; give lever_arm_m")
     rest = {k: data[k] for k in extra if k in data}
     model = FingerModel(inertia_kgm2=inertia, effects=effects, source=str(source),
                         **{k: v for k, v in values.items() if k in MODEL_KEYS})

@@ -11,6 +11,8 @@ which is generated from the sections below.
 from __future__ import annotations
 
 import dataclasses
+import math
+import re
 from dataclasses import dataclass, field
 from importlib.resources import files
 from pathlib import Path
@@ -20,6 +22,7 @@ import rtcore
 from hand_service.config.control import CONTROL_SECTION, ControlSettings, cutoff_problem
 from hand_service.config.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
 from hand_service.config.schema import Key, Section, expect_mapping, fail, validate
+from hand_service.config.textfile import printable, show
 from hand_service.config.transports import KINDS
 from hand_service.config.tuning import INTEGRAL_RATE_PER_S, margin_gains
 from hand_service.config.yamlio import LineDict, load_yaml
@@ -76,7 +79,10 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
         0.0, -360.0, 360.0),
     Key("target_angle_max_deg", "highest angle target the control API accepts", "float", "deg",
         180.0, -360.0, 360.0),
-    Key("target_force_max_n", "largest force target (either sign) the control API accepts",
+    Key("target_force_min_n", "smallest force target the control API and trajectories accept; "
+        "0: a finger only presses. Below 0 allows a finger that an object holds bent to press back "
+        "less than its spring would", "float", "N", 0.0, -1000.0, 0.0),
+    Key("target_force_max_n", "largest force target the control API and trajectories accept",
         "float", "N", 10.0, 0.0, 1000.0, True),
 ))
 
@@ -94,8 +100,8 @@ SIMULATION_SECTION = Section(
 
 FINGER_EXTRA_SECTION = Section(
     "Finger", "`hand.<name>:` — the model keys of docs/formats.md (below) plus these.", (
-        Key("sensor_gain_deg_per_mv", "flex sensor calibration: deg = gain·mV + offset", "float",
-            "deg/mV", 0.1),
+        Key("sensor_gain_deg_per_mv", "flex sensor calibration: deg = gain·mV + offset; not 0",
+            "float", "deg/mV", 0.1),
         Key("sensor_offset_deg", "flex sensor calibration offset", "float", "deg", 0.0),
         Key("pressure_min_kpa", "lowest pressure command", "float", "kPa", 0.0, -100.0, 1000.0),
         Key("pressure_max_kpa", "highest pressure command (the finger's limit)", "float", "kPa",
@@ -113,6 +119,7 @@ FINGER_EXTRA_SECTION = Section(
 FINGER_EXTRA_KEYS = tuple(k.name for k in FINGER_EXTRA_SECTION.keys)
 
 PRESSURE_LIMIT_KEYS = ("pressure_min_kpa", "pressure_max_kpa")
+FINGER_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,31}")
 INCLUDED_SECTIONS = ("control", "safety", "simulation", "hand")
 
 
@@ -131,7 +138,8 @@ class FingerProfile:
     force_kp_kpa_per_n: float
     force_ki_kpa_per_n_s: float
     gains_from_model: bool = False  # kp/ki were absent and came from tuning.margin_gains
-    # file:line of each pressure limit, for a bus profile that checks an included hand
+    # file:line of each pressure limit (for a bus profile that checks an included hand) and
+    # of the finger's block ("model")
     lines: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
 
     def rtcore_config(self, control: ControlSettings, **overrides: float) -> rtcore.FingerConfig:
@@ -197,6 +205,9 @@ def _section(data: Any, key: str, section: Section, source: Path) -> dict[str, A
 
 
 def _finger(name: str, block: Any, source: Path, hand: Any) -> FingerProfile:
+    if not FINGER_NAME.fullmatch(name) or name == "all":
+        raise fail(source, hand, name, f"hand: the finger name {show(name)} must be a letter, then up to "
+                   "31 letters, digits, '_' or '-' (it names CSV columns and API targets), and not 'all'")
     context = f"hand.{name}"
     block = expect_mapping(block, source, hand, name, context)
     model, rest = model_from_mapping(block, source, context, extra=FINGER_EXTRA_KEYS)
@@ -204,10 +215,13 @@ def _finger(name: str, block: Any, source: Path, hand: Any) -> FingerProfile:
         raise fail(source, block, "finger", f"{context}.finger says '{model.finger}'")
     model.finger = name
     extra = validate(rest, FINGER_EXTRA_SECTION, source, context)
+    if extra["sensor_gain_deg_per_mv"] == 0.0:
+        raise fail(source, block, "sensor_gain_deg_per_mv", f"{context}.sensor_gain_deg_per_mv must not be 0")
     if extra["pressure_min_kpa"] >= extra["pressure_max_kpa"]:
         raise fail(source, block, "pressure_min_kpa",
                    f"{context}: pressure_min_kpa must be below pressure_max_kpa")
     lines = {key: where(source, block.line_of(key)) for key in PRESSURE_LIMIT_KEYS}
+    lines["model"] = where(source, block.line)
     return FingerProfile(name=name, model=model, **extra, lines=lines)
 
 
@@ -248,6 +262,11 @@ def _fill_gains(finger: FingerProfile, control: ControlSettings) -> None:
         return
     provisional = finger.rtcore_config(control, kp_kpa_per_deg=0.0, ki_kpa_per_deg_s=0.0)
     gains = margin_gains(provisional, control.rate_hz)
+    if not 0.0 < gains.kp_kpa_per_deg < math.inf:
+        raise UserError(f"{finger.lines.get('model', '?')}: hand.{finger.name}: its model gives no usable "
+                        f"position gains (kp = {gains.kp_kpa_per_deg:g} kPa/deg): check its stiffness, "
+                        "damping, pressure gain, inertia and control.filter_cutoff_hz, or give "
+                        "kp_kpa_per_deg and ki_kpa_per_deg_s")
     finger.gains_from_model = True
     if finger.kp_kpa_per_deg is None:
         finger.kp_kpa_per_deg = gains.kp_kpa_per_deg
@@ -264,9 +283,9 @@ def load_profile(path: str | Path | None = None) -> Profile:
     top = validate(data, TOP_SECTION, source)
     transport_block = expect_mapping(top["transport"], source, data, "transport", "transport")
     kind = transport_block.get("kind")
-    if kind not in KINDS:
+    if not isinstance(kind, str) or kind not in KINDS:
         raise fail(source, transport_block, "kind",
-                   f"transport.kind must be one of {', '.join(sorted(KINDS))}, not {kind!r}")
+                   f"transport.kind must be one of {', '.join(sorted(KINDS))}, not {show(kind)}")
     transport_kind = KINDS[kind]
     transport = validate(transport_block, transport_kind.section, source, "transport")
     if transport_kind.check is not None:
@@ -290,6 +309,9 @@ def load_profile(path: str | Path | None = None) -> Profile:
             raise fail(source, data["safety"], "target_angle_min_deg",
                        "safety: the angle targets must lie inside the safe angles, "
                        "angle_min_deg <= target_angle_min_deg < target_angle_max_deg <= angle_max_deg")
+        if safety["target_force_min_n"] < -safety["target_force_max_n"]:
+            raise fail(source, data["safety"], "target_force_min_n",
+                       "safety.target_force_min_n must not be below -target_force_max_n")
     else:
         safety = base.safety
     simulation = (_section(data, "simulation", SIMULATION_SECTION, source) if own("simulation")
@@ -317,9 +339,11 @@ def load_profile(path: str | Path | None = None) -> Profile:
 def _included(source: Path, data: Any, include: str) -> Profile:
     """The included profile, validated in its own file (one level deep: no include there)."""
     path = Path(include) if Path(include).is_absolute() else source.parent / include
-    raw = load_yaml(path) if path.exists() else None
-    if raw is None:
-        raise fail(source, data, "include", f"include: {path} not found")
+    if not path.exists():
+        raise fail(source, data, "include", f"include: {printable(str(path))} not found")
+    if not path.is_file():  # never a FIFO or a device: reading one may never end
+        raise fail(source, data, "include", f"include: {printable(str(path))} is not a regular file")
+    raw = load_yaml(path)
     if isinstance(raw, dict) and raw.get("include"):
         raise fail(source, data, "include", f"include: {path} includes another profile itself; "
                    "include a profile that stands alone")

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hand_service.config.textfile import show
 from hand_service.config.yamlio import LineDict
 from hand_service.errors import UserError, where
 
@@ -28,7 +29,7 @@ class Key:
     min: float | None = None
     max: float | None = None
     min_exclusive: bool = False
-    choices: tuple[str, ...] = ()
+    choices: tuple[str, ...] = ()  # a choice's values; an int's allowed values, as text
 
     @property
     def required(self) -> bool:
@@ -37,6 +38,8 @@ class Key:
     def describe_range(self) -> str:
         if self.kind == "choice":
             return " | ".join(self.choices)
+        if self.choices:
+            return " or ".join(self.choices)
         if self.kind == "bool":
             return "true | false"
         if self.min is None and self.max is None:
@@ -80,29 +83,34 @@ def check_value(key: Key, value: Any, source: str | Path, mapping: Any, context:
     unit = f" {key.unit}" if key.unit else ""
     if key.kind in ("float", "int"):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise fail(source, mapping, key.name, f"{label} must be a number{unit}, not {value!r}")
-        if key.kind == "int" and not float(value).is_integer():
-            raise fail(source, mapping, key.name, f"{label} must be a whole number, not {value!r}")
-        if not math.isfinite(value):
-            raise fail(source, mapping, key.name, f"{label} must be finite, not {value!r}")
+            raise fail(source, mapping, key.name, f"{label} must be a number{unit}, not {show(value)}")
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond any double
+            raise fail(source, mapping, key.name, f"{label} = {show(value)} is out of range "
+                       f"({key.describe_range() or 'beyond any number'})") from None
+        if not math.isfinite(number):
+            raise fail(source, mapping, key.name, f"{label} must be finite, not {show(value)}")
+        if key.kind == "int" and not number.is_integer():
+            raise fail(source, mapping, key.name, f"{label} must be a whole number, not {show(value)}")
         too_low = key.min is not None and (value <= key.min if key.min_exclusive else value < key.min)
         too_high = key.max is not None and value > key.max
-        if too_low or too_high:
+        if too_low or too_high or (key.choices and str(int(number)) not in key.choices):
             raise fail(source, mapping, key.name,
-                       f"{label} = {value:g}{unit} is out of range ({key.describe_range()})")
-        return int(value) if key.kind == "int" else float(value)
+                       f"{label} = {number:g}{unit} is out of range ({key.describe_range()})")
+        return int(value) if key.kind == "int" else number
     if key.kind == "bool":
         if not isinstance(value, bool):
-            raise fail(source, mapping, key.name, f"{label} must be true or false, not {value!r}")
+            raise fail(source, mapping, key.name, f"{label} must be true or false, not {show(value)}")
         return value
     if key.kind == "str":
         if not isinstance(value, str):
-            raise fail(source, mapping, key.name, f"{label} must be text, not {value!r}")
+            raise fail(source, mapping, key.name, f"{label} must be text, not {show(value)}")
         return value
     if key.kind == "choice":
-        if value not in key.choices:
+        if not isinstance(value, str) or value not in key.choices:
             raise fail(source, mapping, key.name,
-                       f"{label} must be one of {', '.join(key.choices)}, not {value!r}")
+                       f"{label} must be one of {', '.join(key.choices)}, not {show(value)}")
         return value
     if key.kind == "mapping":
         return expect_mapping(value, source, mapping, key.name, label)
@@ -113,7 +121,8 @@ def unknown_key_message(key: object, known: list[str], context: str) -> str:
     near = difflib.get_close_matches(str(key), known, n=1, cutoff=0.6)
     hint = f" (did you mean '{near[0]}'?)" if near else ""
     where_in = f" in {context}" if context else ""
-    return f"unknown key '{key}'{where_in}{hint}"
+    name = f"'{key}'" if isinstance(key, str) and key.isprintable() and len(key) <= 40 else show(key)
+    return f"unknown key {name}{where_in}{hint}"
 
 
 def validate(data: Any, section: Section, source: str | Path, context: str = "",

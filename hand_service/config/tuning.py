@@ -16,6 +16,7 @@ closed loop).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -56,12 +57,33 @@ def loop_per_kp(finger: rtcore.FingerConfig, sample_rate_hz: float, freqs_hz: np
 def margin_gains(finger: rtcore.FingerConfig, sample_rate_hz: float,
                  gain_margin: float = GAIN_MARGIN,
                  integral_rate_per_s: float = INTEGRAL_RATE_PER_S) -> Gains:
+    """The gains for this margin. Only the model, the valve, the filter and the rate enter
+    loop_per_kp, so the result is kept for those (a profile loads in ms, not 90 ms, the
+    second time: tests, the fuzz tests and `include:` load the same hand again and again)."""
+    m, fx = finger.prbm, finger.prbm.effects
+    return _margin_gains(m.inertia_kgm2, m.damping_nms_per_rad, m.stiffness_nm_per_rad,
+                         m.pressure_gain_nm_per_kpa, fx.dead_time_s, fx.valve_lag_tau_s,
+                         finger.filter_order, finger.filter_cutoff_hz, sample_rate_hz, gain_margin,
+                         integral_rate_per_s)
+
+
+@functools.lru_cache(maxsize=256)
+def _margin_gains(inertia_kgm2: float, damping_nms_per_rad: float, stiffness_nm_per_rad: float,
+                  pressure_gain_nm_per_kpa: float, dead_time_s: float, valve_lag_tau_s: float,
+                  filter_order: int, filter_cutoff_hz: float, sample_rate_hz: float, gain_margin: float,
+                  integral_rate_per_s: float) -> Gains:
+    effects = rtcore.Effects(dead_time_s=dead_time_s, valve_lag_tau_s=valve_lag_tau_s)
+    finger = rtcore.FingerConfig(
+        prbm=rtcore.Prbm(inertia_kgm2, damping_nms_per_rad, stiffness_nm_per_rad, pressure_gain_nm_per_kpa,
+                         0.0, effects),
+        filter_order=filter_order, filter_cutoff_hz=filter_cutoff_hz)
     freqs = np.linspace(0.01, 0.499 * sample_rate_hz, 40000)
     loop = loop_per_kp(finger, sample_rate_hz, freqs, integral_rate_per_s)
     phase = np.unwrap(np.angle(loop))
     crossing = np.flatnonzero(phase <= -np.pi)
     # never reaching -180 deg below Nyquist, the peak gain bounds kp instead
     k = int(crossing[0]) if crossing.size else int(np.argmax(np.abs(loop)))
-    critical = 1.0 / float(np.abs(loop[k]))
+    magnitude = float(np.abs(loop[k]))
+    critical = 1.0 / magnitude if magnitude > 0.0 else math.inf  # a loop with no gain: no bound
     kp = critical / gain_margin
     return Gains(kp, integral_rate_per_s * kp, critical, float(freqs[k]))

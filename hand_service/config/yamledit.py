@@ -19,6 +19,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from hand_service.config.textfile import read_text
 from hand_service.config.yamlio import LineDict, parse_yaml
 from hand_service.errors import UserError
 
@@ -95,10 +96,7 @@ def update_values(path: str | Path, updates: Sequence[tuple[KeyPath, Any]],
                   validate: Callable[[Path], object]) -> None:
     """Apply every update to the file, validate the result with `validate`, then replace it."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    text = read_text(path)
     for keys, value in updates:
         text = set_value(text, keys, value, path)
     temporary = path.with_name(f".{path.name}.updating")

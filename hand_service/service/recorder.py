@@ -25,10 +25,18 @@ from typing import IO
 import numpy as np
 
 from hand_service.errors import UserError
-from hand_service.service.recorder_writer import Drainer, WriterThread, csv_header, ring_columns
+from hand_service.service.recorder_writer import (
+    SHUTDOWN_STATE,
+    Drainer,
+    WriterThread,
+    csv_header,
+    ring_columns,
+)
 from rtcore.ring import Ring
 
 log = logging.getLogger(__name__)
+
+__all__ = ["SHUTDOWN_STATE", "Recorder"]
 
 RING_SECONDS = 10.0  # the writer may fall this far behind before rows are lost
 STOP_TIMEOUT_S = 0.5  # how long the daemon's shutdown waits for the writer

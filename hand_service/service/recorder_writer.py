@@ -32,7 +32,11 @@ from rtcore.config import MODE_FORCE, MODE_NAMES, MODE_POSITION
 from rtcore.ring import Ring
 
 FLUSH_INTERVAL_S = 0.2
-STATE_NAMES = tuple(s.name for s in State)
+# The state column: the supervisor's state, and one more for the last row of a daemon
+# that stops, the tick that vented every finger (Supervisor.shutdown): the file says so,
+# whatever state the loop was in when it stopped.
+SHUTDOWN_STATE = max(State) + 1
+STATE_NAMES = (*(s.name for s in State), "SHUTDOWN")
 
 # The ring row: t, state, then one block of n_fingers per quantity, in this order.
 QUANTITIES = ("angle_ref_deg", "pressure_kpa", "pressure_meas_kpa", "angle_deg", "angle_filt_deg",

@@ -22,7 +22,7 @@ import numpy as np
 
 import rtcore
 from hand_service.config.profile import Profile
-from hand_service.service.recorder import Recorder
+from hand_service.service.recorder import SHUTDOWN_STATE, Recorder
 from hand_service.service.safety import Cause, Fault, FaultLog, SafetyGate
 from hand_service.service.states import ACTIVE, LATCHED, REFS, Event, State, StateMachine
 from hand_service.service.timing import GcControl, TickStats
@@ -266,8 +266,9 @@ class Supervisor:
         if events & FOUND_LEAK:
             self.fault(self.gate.follow_fault(self._ts.follow_result))
 
-    def _vent_and_record(self, state: State) -> None:
-        """A tick without control (INIT, shutdown): vent, record zeros."""
+    def _vent_and_record(self, state: int) -> None:
+        """A tick without control (INIT, shutdown): vent, record zeros, and `state` (a
+        State, or SHUTDOWN_STATE for the shutdown's last row)."""
         self.hand.inputs.mode[:] = MODE_VENT
         if self.link_open:
             try:
@@ -277,7 +278,7 @@ class Supervisor:
         self.sent_kpa[:] = 0.0
         self._record(state)
 
-    def _record(self, state: State) -> None:
+    def _record(self, state: int) -> None:
         # one C call builds the row from the step's structs and sent_kpa (the writer blanks
         # the references a finger's mode does not use)
         self.recorder.push_tick(self.t_s, state)
@@ -369,7 +370,7 @@ class Supervisor:
         if self.schedule is not None:
             self.t_s = self.schedule.index / self.rate_hz  # the slot after the last tick
         self.hand.inputs.mode[:] = MODE_VENT
-        for step in (self.hand.step, lambda: self._vent_and_record(self.state),
+        for step in (self.hand.step, lambda: self._vent_and_record(SHUTDOWN_STATE),
                      self.recorder.close, self._close_link):
             try:
                 step()

@@ -25,6 +25,7 @@ from typing import TextIO
 import numpy as np
 
 from hand_service.config.profile import Profile
+from hand_service.config.textfile import cell_text, printable
 from hand_service.errors import UserError, where
 from hand_service.service.trajectory import Trajectory
 from rtcore import MODE_FORCE, MODE_POSITION, MODE_VENT
@@ -50,9 +51,9 @@ def _columns(header: list[str], profile: Profile, path: Path, line: int) -> dict
         quantity = next((q for q in QUANTITIES if name.startswith(q + "_")), None)
         finger = name[len(quantity) + 1:] if quantity else None
         if quantity is None or finger not in names:
-            expected = (f"finger '{finger}' is not in the profile ({', '.join(names)})" if quantity
-                        else "expected t, angle_ref_deg_<finger> or force_ref_n_<finger>")
-            raise UserError(f"{where(path, line, name)}: unknown column: {expected}")
+            expected = (f"finger '{cell_text(finger or '')}' is not in the profile ({', '.join(names)})"
+                        if quantity else "expected t, angle_ref_deg_<finger> or force_ref_n_<finger>")
+            raise UserError(f"{where(path, line, cell_text(name))}: unknown column: {expected}")
         found[quantity][names.index(finger)] = col
     if "t" not in header:
         raise UserError(f"{where(path, line)}: missing required column 't'")
@@ -66,7 +67,7 @@ def _check(value: float, quantity: str, profile: Profile, path: Path, line: int,
     if quantity == "angle_ref_deg":
         low, high, unit = safety["target_angle_min_deg"], safety["target_angle_max_deg"], "deg"
     else:
-        low, high, unit = -safety["target_force_max_n"], safety["target_force_max_n"], "N"
+        low, high, unit = safety["target_force_min_n"], safety["target_force_max_n"], "N"
     if not low <= value <= high:
         raise UserError(f"{where(path, line, column)}: {value:g} {unit} is outside the profile's "
                         f"target range [{low:g}, {high:g}] {unit}")
@@ -77,9 +78,14 @@ def _open_regular(path: Path) -> TextIO:
     effects: a watchdog arms, a tty resets a board or becomes the daemon's controlling
     terminal), and the type is checked again on the open descriptor, which is opened
     without blocking: a FIFO swapped in between would otherwise hold the loader for good."""
-    if not stat.S_ISREG(os.stat(path).st_mode):
+    try:
+        mode = os.stat(path).st_mode
+    except ValueError as exc:  # a NUL in the path
+        raise UserError(f"{printable(str(path))}: not a usable path: {exc}") from None
+    if not stat.S_ISREG(mode):
         raise UserError(f"{path} is not a regular file (a FIFO, device or directory is never read)")
-    f = open(path, newline="",  # noqa: SIM115 - returned open, closed here on error
+    # UTF-8, a byte-order mark dropped; csv takes CRLF, LF and CR line ends alike
+    f = open(path, newline="", encoding="utf-8-sig",  # noqa: SIM115 - returned open, closed here on error
              opener=lambda p, flags: os.open(p, flags | os.O_NONBLOCK | os.O_NOCTTY))
     try:
         if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
@@ -117,8 +123,11 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
                 _within_limits(t_s, rate_hz, path, line)
     except OSError as exc:
         raise UserError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except (UnicodeDecodeError, csv.Error) as exc:
-        raise UserError(f"{path}: not a CSV text file ({exc})") from None
+    except UnicodeDecodeError as exc:
+        raise UserError(f"{path}: not UTF-8 text (byte 0x{exc.object[exc.start]:02x}): save the file "
+                        "as UTF-8") from None
+    except csv.Error as exc:
+        raise UserError(f"{path}: not a CSV text file ({' '.join(str(exc).split())})") from None
     if header is None or len(t_s) < 2:
         raise UserError(f"{path}: a trajectory needs a header and at least two rows")
     t = np.frombuffer(t_s, dtype=np.float64)
@@ -133,7 +142,8 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
 
 def _within_limits(t_s: array, rate_hz: float, path: Path, line: int) -> None:
     """Stop at the first row past MAX_TICKS of duration or past MAX_ROWS rows."""
-    n_ticks = _ticks(t_s[-1] - t_s[0], rate_hz)
+    duration_s = t_s[-1] - t_s[0]  # infinite for t from -1e308 to 1e308
+    n_ticks: float = _ticks(duration_s, rate_hz) if math.isfinite(duration_s * rate_hz) else math.inf
     if n_ticks > MAX_TICKS:
         raise UserError(f"{where(path, line, 't')}: {t_s[-1] - t_s[0]:g} s at {rate_hz:g} Hz is "
                         f"{n_ticks} ticks; the limit is {MAX_TICKS} ticks")

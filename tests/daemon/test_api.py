@@ -149,7 +149,8 @@ def test_trajectory_runs_to_hold(daemon: Running, tmp_path: Path) -> None:
     (b'{"cmd": "target", "finger": "pinky", "angle_deg": 10}\n', "unknown finger 'pinky'"),
     (b'{"cmd": "target", "finger": "index", "angle_deg": 500}\n', "outside [0, 180]"),
     (b'{"cmd": "target", "finger": "middle", "pressure_kpa": 200}\n', "outside [0, 150] for middle"),
-    (b'{"cmd": "target", "finger": "index", "force_n": -11}\n', "outside [-10, 10]"),
+    (b'{"cmd": "target", "finger": "index", "force_n": -11}\n', "outside [0, 10]"),
+    (b'{"cmd": "target", "finger": "index", "force_n": -5}\n', "outside [0, 10]"),  # pulls: not by default
     (b'{"cmd": "target", "finger": "index", "angle_deg": "ten"}\n', "finite number"),
     (b'{"cmd": "target", "finger": "index", "angle_deg": 1, "force_n": 1}\n', "exactly one"),
     (b'{"cmd": "target", "finger": "index"}\n', "exactly one"),
@@ -367,3 +368,13 @@ def test_a_fifo_is_refused_and_a_later_load_works(daemon: Running, tmp_path: Pat
             hand.load_trajectory(tmp_path)
         assert hand.status()["trajectory_loading"] is None
         assert hand.load_trajectory(traj)["ticks"] == 101
+
+
+def test_an_urgent_looking_line_whose_cmd_is_not_text_waits_its_turn() -> None:
+    """`{"cmd": {"estop": 1}}` while a trajectory loads: the urgent look must not raise (a
+    TypeError there would end the daemon's loop); its error reply comes in its turn."""
+    from hand_service.api.server import ApiServer
+
+    assert ApiServer._urgent(b'{"cmd": {"estop": 1}}') is None
+    assert ApiServer._urgent(b'{"cmd": ["estop"]}') is None
+    assert ApiServer._urgent(b'{"cmd": "estop"}') == {"cmd": "estop"}

@@ -20,6 +20,7 @@ TARGET_N = -1.0  # press back on it with 1 N less than the finger's spring would
 
 def test_a_negative_force_target_is_recorded_and_reported_negative(tmp_path: Path) -> None:
     rig = Rig()
+    rig.profile.safety["target_force_min_n"] = -2.0  # this rig allows pressing back (docs/api.md)
     # the finger rests on the object: the sensor reads HELD_DEG whatever the chamber does
     # (while it presses back on it, which it does below kθ/N of pressure)
     rig.transport.sensor_override = np.array(

@@ -68,6 +68,7 @@ def test_sigterm_vents_flushes_and_exits_0(process: Process) -> None:
     assert rec.metadata["profile"].startswith("sim")
     assert rec.metadata["seed"] == "1"
     assert rec.text_columns["state"][-2] == "RUNNING"
+    assert rec.text_columns["state"][-1] == "SHUTDOWN"  # the vented last row says so
 
 
 def test_sigkill_loses_at_most_one_second(process: Process) -> None:
