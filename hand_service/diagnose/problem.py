@@ -184,6 +184,18 @@ def settle_time_s(finger: SimFinger) -> float:
     return 3.0 / max(decay_per_s, 1.0)
 
 
+RELEASE_SHARE = 0.2  # a start this far from rest (share of the angle's range) is a release
+
+
+def released(finger: SimFinger, pressure0_kpa: float, angle0_deg: float, angle_deg: np.ndarray) -> bool:
+    """Does the recording start with the finger held still away from where the first
+    command would put it (the LDM's free release, a vent from a held pressure)? Then its
+    start is known, and its first swings, the whole of the information, count."""
+    prbm = finger.prbm
+    rest_deg = math.degrees(prbm.pressure_gain_nm_per_kpa * pressure0_kpa / prbm.stiffness_nm_per_rad)
+    return abs(angle0_deg - rest_deg) > RELEASE_SHARE * float(np.ptp(angle_deg))
+
+
 def split_blocks(n: int, rate_hz: float, start: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
     """Interleaved blocks after `start`: every HOLDOUT_EVERY-th one is held out.
 
@@ -219,6 +231,10 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     substeps = substeps_for(rate_hz)
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
+    if released(base, float(pressure_kpa[0]), angle0, angle_deg):
+        # a release: the finger was held still away from rest, so its start is known; it
+        # moves at once, so the first sample (not a median over 50 ms of swing) places it
+        start, angle0 = 0, float(angle_deg[0])
     fit, held, blocks = split_blocks(len(t_s), rate_hz, start)
     if missing is not None:  # samples the recording lacks (skipped ticks): in no fit or score
         fit &= ~missing

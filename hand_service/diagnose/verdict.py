@@ -1,0 +1,159 @@
+"""The verdict of `diagnose`, in words: what the found effects explain, what structure
+remains, and which answer the evidence allows (consistent, parameters_only,
+missing_physics with its grade, unexplained, insufficient_excitation)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_service.config import effects as fx
+from hand_service.diagnose import noise, stats
+from hand_service.diagnose.fit import Fit
+from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Problem
+from hand_service.diagnose.search import Selection
+
+STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
+# An effect whose signature k, B and N absorb all but this share of could hide in a refit:
+# an effect ten times the noise would leave less than the noise behind.
+SEPARABLE_MIN = 0.1
+
+
+@dataclass
+class FoundEffect:
+    name: str
+    value: float
+    std: float
+    evidence: str
+    delta_bic: float
+    z_heldout: float
+    signature_corr: float
+
+    def to_json(self) -> dict:
+        param = fx.BY_NAME[self.name].param
+        return {"name": self.name, "params": {param: self.value}, "evidence": self.evidence,
+                "std": {param: self.std}, "delta_bic": self.delta_bic, "heldout_z": self.z_heldout,
+                "signature_corr": self.signature_corr}
+
+
+DOMINANT_SHARE = 0.6  # the share of the mismatch an effect must explain to be named over structure
+DOMINANT_RELATIVE_STD = 0.2  # and its estimate must be this well determined
+
+
+def dominant(found: list[FoundEffect], explained: float) -> bool:
+    """The graded verdict for real rigs: the effects explain most of the mismatch and the
+    first is well determined, though structure outside the library remains."""
+    first = found[0]
+    return explained >= DOMINANT_SHARE and abs(first.std) <= DOMINANT_RELATIVE_STD * abs(first.value)
+
+
+def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:
+    """How much of the refitted plain model's mismatch the augmented model explains: the
+    drop of the squared misfit over what lies above the noise floor (the variance a
+    fitted AR filter cannot predict in the augmented model's misfit), 0 to 1."""
+    mask = problem.fit_mask
+    before, after = problem.misfit(refit.angle_deg)[mask], problem.misfit(final.angle_deg)[mask]
+    floor = noise.estimate(after, np.ones(after.size, bool), problem.rate_hz, with_drift=False)
+    floor_deg2 = after.size * floor.innovation_std_deg**2
+    excess = float(before @ before) - floor_deg2
+    if excess <= 0.0:
+        return 0.0
+    return float(np.clip((before @ before - after @ after) / excess, 0.0, 1.0))
+
+
+TRADE_OFF_CORR = 0.95  # an effect this correlated with a plain parameter trades off with it
+
+
+def trade_offs(final: Fit, found: list[FoundEffect]) -> list[str]:
+    """Found effects whose estimate this recording ties to k, B or N: said plainly (on an
+    over-damped finger a valve lag and extra damping make nearly the same response)."""
+    labels = [p.label for p in final.params]
+    corr = final.correlation()
+    said = []
+    for effect in found:
+        i = labels.index(effect.name)
+        for j, label in enumerate(labels):
+            if label in PLAIN and abs(corr[i, j]) > TRADE_OFF_CORR:
+                what = {"damping_nms_per_rad": "extra damping B", "stiffness_nm_per_rad": "the stiffness k",
+                        "pressure_gain_nm_per_kpa": "the pressure gain N"}[label]
+                said.append(f"{effect.name} trades off with {what} in this recording (correlation "
+                            f"{corr[i, j]:+.2f}): the data tell them apart only weakly, so read its "
+                            f"estimate with {label}'s")
+    return said
+
+
+def structure_left(white: stats.Whiteness, cross: stats.Whiteness) -> str:
+    """What in a model's innovations says it misses something, in words; '' if nothing.
+    The input test speaks first: an output that answers something other than the modelled
+    input is the plainer reason."""
+    reasons = []
+    if cross.p_value < STRUCTURE_P:
+        reasons.append(f"the residual still follows the input (cross-correlation with the prewhitened "
+                       f"command, p = {cross.p_value:.1g}): the output answers the input, or something "
+                       "besides it, in a way the model does not")
+    if white.p_value < STRUCTURE_P:
+        reasons.append(f"a structured residual remains (Ljung-Box p = {white.p_value:.1g})")
+    return "; and ".join(reasons)
+
+
+def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray, selection: Selection,
+          found: list[FoundEffect], refit_tests: tuple[stats.Whiteness, stats.Whiteness],
+          final_tests: tuple[stats.Whiteness, stats.Whiteness],
+          refit_gain_z: float, refit_bic: float, inseparable: list[str],
+          warnings: list[str], rmse: dict[str, float], advice: str = "",
+          explained: float = 0.0) -> tuple[str, list[str]]:
+    """The verdict. `advice`: what this recording's command holds and lacks, in words."""
+    notes: list[str] = []
+    if unidentified:
+        worst = ", ".join(f"{p.label} ±{100 * r:.0f} %" for p, r in zip(params, relative_std, strict=True)
+                          if p.label in unidentified)
+        warnings.append(f"the recording alone cannot pin the plain parameters ({worst} from the data "
+                        "alone): they are held near the nominal (a prior of "
+                        f"±{100 * PRIOR_RELATIVE_WIDTH:.0f} %) and the effects tested against that; {advice}")
+    if selection.ambiguous is not None:
+        a, b = selection.ambiguous
+        warnings.append(f"{a.name} and {b.name} explain the residual about equally well (ΔBIC "
+                        f"{a.delta_bic:.0f} and {b.delta_bic:.0f}) and not better together: this "
+                        "recording cannot tell them apart")
+        if not found:
+            return "insufficient_excitation", notes
+    if found and rmse["augmented"] >= rmse["nominal"]:
+        names = ", ".join(e.name for e in found)
+        warnings.append(f"{names} fit the recording, yet the model with them predicts the held-out data "
+                        f"worse than the nominal model does ({rmse['augmented']:.3g} against "
+                        f"{rmse['nominal']:.3g} deg RMS): the refit and the effects are bending to absorb "
+                        "something outside the library, so they are not named (see partial_effects)")
+        return "unexplained", notes
+    if found:
+        left = structure_left(*final_tests)
+        if left and dominant(found, explained):
+            notes.append(f"{found[0].name} is the dominant missing physics: with "
+                         f"{'it' if len(found) == 1 else 'them'} the model explains "
+                         f"{100 * explained:.0f} % of the mismatch, but {left}: something outside the "
+                         "library remains")
+            return "missing_physics", notes
+        if left:
+            names = ", ".join(e.name for e in found)
+            warnings.append(f"{names} reduce the residual, but {left}: they explain only part of the "
+                            f"mismatch ({100 * explained:.0f} %), so they are not named "
+                            "(see partial_effects)")
+            return "unexplained", notes
+        return "missing_physics", notes
+    left = structure_left(*refit_tests)
+    if left:
+        warnings.append(f"the refitted model leaves a mismatch that no library effect explains: {left}")
+        return "unexplained", notes
+    if unidentified:
+        return "insufficient_excitation", notes
+    if inseparable:
+        warnings.append(f"this recording cannot tell {', '.join(inseparable)} from a change of k, B and N "
+                        f"(k, B and N absorb over {100 * (1 - SEPARABLE_MIN):.0f} % of "
+                        f"{'its' if len(inseparable) == 1 else 'their'} signature): the refit may be "
+                        f"hiding it; {advice}")
+        return "insufficient_excitation", notes
+    if refit_bic > 10.0 and refit_gain_z > 3.0:
+        notes.append("the refit predicts held-out data better than the nominal model "
+                     f"(z = {refit_gain_z:.1f})")
+        return "parameters_only", notes
+    return "consistent", notes
