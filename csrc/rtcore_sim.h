@@ -2,12 +2,14 @@
  * rtcore_sim: the simulated hand (csrc/rtcore_sim.c) and the simulated link that runs it
  * beside the supervisor's tick in the same process (csrc/rtcore_sim_link.c).
  *
- * The PRBM of every finger with the same torque model and effects as the controller,
- * integrated with RK4 at sample_period/substeps, or finer where a stiff term (dry
- * friction's smoothed slope, a stiff contact) needs it; the valve is a first-order lag behind a
- * dead time, integrated exactly (the dead time's breakpoints split the sub-steps); an
- * optional object is a spring-damper at the force point; the flex sensor reads the angle
- * through the inverse calibration with noise and ADC quantisation.
+ * The PRBM of every finger with the same torque model and effects as the controller: its
+ * linear part (A, B, k) integrated exactly whatever the step, the rest of the torque (the
+ * effects, the object) by ETDRK4, in steps of at most sample_period/substeps and of what
+ * those terms and the valve lag need (csrc/rtcore_sim.c); the plain linear finger takes
+ * one step per sample at any stiffness. The valve is a first-order lag behind a dead time,
+ * integrated exactly (the dead time's breakpoints split the period); an optional object is
+ * a spring-damper at the force point; the flex sensor reads the angle through the inverse
+ * calibration with noise and ADC quantisation.
  *
  * The block between the CDEF markers is read verbatim by rtcore/_build.py (with the
  * other headers' blocks, in the order listed there) and handed to cffi: keep it to
@@ -63,7 +65,7 @@ typedef struct {
     int32_t head;
     int32_t delay_samples;
     double delay_fraction;
-    /* longest RK4 step that keeps the fastest mode accurate (stiff friction, contact) */
+    /* longest step the finger's parameters allow (infinite for the plain linear finger) */
     double max_step_s;
 } rtcore_sim_finger_state;
 

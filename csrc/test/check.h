@@ -36,5 +36,6 @@ void run_step_tests(void);
 void run_loop_tests(void);
 void run_supervisor_tests(void);
 void run_tick_tests(void);
+void run_sim_tests(void);
 
 #endif

@@ -10,6 +10,7 @@ int main(void)
     run_loop_tests();
     run_supervisor_tests();
     run_tick_tests();
+    run_sim_tests();
     printf("%d checks, %d failures\n", checks, failures);
     return failures == 0 ? 0 : 1;
 }

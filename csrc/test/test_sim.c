@@ -1,0 +1,139 @@
+/* The simulator's integrator: the plain linear finger exact against closed forms at one
+ * step per sample (under-, critically and over-damped, undamped), no overflow however
+ * stiff the plant and long the step, a diverging finger that ends its run, and a sliver
+ * of a segment that changes nothing. */
+#include "check.h"
+
+static rtcore_sim_finger plain_finger(double inertia, double damping, double stiffness)
+{
+    rtcore_sim_finger f;
+    memset(&f, 0, sizeof(f));
+    f.prbm.inertia_kgm2 = inertia;
+    f.prbm.damping_nms_per_rad = damping;
+    f.prbm.stiffness_nm_per_rad = stiffness;
+    f.prbm.pressure_gain_nm_per_kpa = 0.01;
+    f.prbm.lever_arm_m = 0.04;
+    f.prbm.effects.coulomb_smoothing_deg_per_s = 2.0;
+    f.prbm.effects.asymmetric_stiffness_ratio = 1.0;
+    f.supply_max_kpa = 300.0;
+    f.sensor_gain_deg_per_mv = 1.0;
+    return f;
+}
+
+/* θ(t) of A·θ'' + B·θ' + k·θ = 0 from θ(0) = theta0 at rest, by the textbook case */
+static double free_decay(double a, double b, double k, double theta0, double t)
+{
+    const double sigma = b / (2.0 * a);
+    const double disc = sigma * sigma - k / a;
+    if (disc > 0.0) {
+        const double d = sqrt(disc);
+        const double l1 = -sigma + d;
+        const double l2 = -sigma - d;
+        return theta0 * (l1 * exp(l2 * t) - l2 * exp(l1 * t)) / (l1 - l2);
+    }
+    if (disc < 0.0) {
+        const double w = sqrt(-disc);
+        return theta0 * exp(-sigma * t) * (cos(w * t) + sigma / w * sin(w * t));
+    }
+    return theta0 * (1.0 + sigma * t) * exp(-sigma * t);
+}
+
+static void check_free_decay(double a, double b, double k, double rate_hz, const char *name)
+{
+    enum { N = 40 };
+    const rtcore_sim_finger f = plain_finger(a, b, k);
+    double command[N];
+    double angle[N];
+    double worst = 0.0;
+    int i;
+    for (i = 0; i < N; ++i) {
+        command[i] = 0.0;
+    }
+    CHECK(rtcore_sim_run(&f, rate_hz, 1, N, command, 30.0, 0.0, 0.0, angle, 0) == RTCORE_OK, "%s runs", name);
+    for (i = 0; i < N; ++i) {
+        const double exact = free_decay(a, b, k, 30.0, (double)i / rate_hz);
+        worst = fmax(worst, fabs(angle[i] - exact));
+    }
+    CHECK(worst < 1e-9, "%s: one step per sample is exact (%g deg off)", name, worst);
+}
+
+/* a step of pressure from rest: θss − (the free decay from θss), whatever the step */
+static void check_stiff_long_steps(void)
+{
+    enum { N = 6 };
+    const rtcore_sim_finger f = plain_finger(1e-6, 1.0, 0.5); /* B/A = 1e6/s: d·h ~ 2e6 */
+    const double static_deg = 0.01 * 100.0 / 0.5 * 180.0 / PI;
+    double command[N];
+    double angle[N];
+    int i;
+    for (i = 0; i < N; ++i) {
+        command[i] = 100.0;
+    }
+    CHECK(rtcore_sim_run(&f, 0.25, 1, N, command, 0.0, 0.0, 0.0, angle, 0) == RTCORE_OK, "stiff runs");
+    for (i = 1; i < N; ++i) {
+        const double exact = static_deg - free_decay(1e-6, 1.0, 0.5, static_deg, 4.0 * (double)i);
+        CHECK(isfinite(angle[i]) && fabs(angle[i] - exact) < 1e-9 * static_deg,
+              "a slow mode of 2 s against a fast one of 1 us, one step per 4 s sample: %.12g, exact %.12g",
+              angle[i], exact);
+    }
+}
+
+/* a softening spring that runs away: the run ends, the angle goes non-finite or huge */
+static void check_divergence_ends(void)
+{
+    enum { N = 200 };
+    rtcore_sim_finger f = plain_finger(1.6e-4, 0.003, 0.57);
+    double command[N];
+    double angle[N];
+    double chamber[N];
+    int i;
+    f.prbm.effects.cubic_stiffness_nm_per_rad3 = -5.0;
+    f.prbm.effects.quadratic_damping_nms2_per_rad2 = 0.001;
+    for (i = 0; i < N; ++i) {
+        command[i] = i == 7 ? (double)NAN : 200.0;
+    }
+    CHECK(rtcore_sim_run(&f, 100.0, 10, N, command, 0.0, 0.0, 0.0, angle, chamber) == RTCORE_OK, "runs away");
+    CHECK(!isfinite(angle[N - 1]) || fabs(angle[N - 1]) > 1e6, "diverged: %g deg", angle[N - 1]);
+    CHECK(chamber[N - 1] == 200.0 && chamber[8] == 0.0, "the chamber still follows (a NaN vents): %g, %g",
+          chamber[N - 1], chamber[8]);
+}
+
+/* a dead time a hair above 0 leaves a sliver of a segment: no NaN from it, and no change */
+static void check_sliver_of_a_segment(void)
+{
+    enum { N = 20 };
+    rtcore_sim_finger f = plain_finger(1.6e-4, 0.003, 0.57);
+    double command[N];
+    double plain[N];
+    double sliver[N];
+    int i;
+    f.prbm.effects.valve_lag_tau_s = 0.03;
+    f.prbm.effects.gravity_torque_nm = 0.01;
+    for (i = 0; i < N; ++i) {
+        command[i] = 10.0 * (double)(i % 7);
+    }
+    CHECK(rtcore_sim_run(&f, 100.0, 1, N, command, 0.0, 0.0, 0.0, plain, 0) == RTCORE_OK, "runs");
+    f.prbm.effects.dead_time_s = 1e-200;
+    CHECK(rtcore_sim_run(&f, 100.0, 1, N, command, 0.0, 0.0, 0.0, sliver, 0) == RTCORE_OK, "runs");
+    for (i = 0; i < N; ++i) {
+        CHECK(isfinite(sliver[i]) && fabs(sliver[i] - plain[i]) < 1e-12, "sample %d: %g against %g", i,
+              sliver[i], plain[i]);
+    }
+}
+
+void run_sim_tests(void)
+{
+    const double a = 1.6e-4;
+    const double k = 0.57;
+    const double critical = 2.0 * sqrt(k * a);
+    check_free_decay(a, 0.003, k, 25.0, "under-damped");
+    check_free_decay(a, 0.0, k, 100.0, "undamped");
+    check_free_decay(a, critical, k, 25.0, "critically damped");
+    check_free_decay(a, critical * (1.0 + 1e-7), k, 25.0, "a hair over critical");
+    check_free_decay(a, critical * (1.0 - 1e-7), k, 25.0, "a hair under critical");
+    check_free_decay(1e-5, 0.05, 0.5, 25.0, "over-damped (B/A = 5000/s)");
+    check_free_decay(1e-5, 0.2, 0.5, 1000.0, "over-damped (B/A = 20000/s) at 1 kHz");
+    check_stiff_long_steps();
+    check_divergence_ends();
+    check_sliver_of_a_segment();
+}
