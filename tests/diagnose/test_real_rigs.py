@@ -34,6 +34,7 @@ EMPS_OPEN = pytest.mark.xfail(strict=False, reason=(
     "independent fit, ΔBIC 20 000) predicts the held-out blocks worse than the nominal, which "
     "was fitted to the whole recording; the guard against bent refits then withholds the "
     "name (partial_effects). Open in issue 20."))
+RUN_PARAMS = [pytest.param("silverbox", marks=pytest.mark.slow), "emps"]
 RIG_PARAMS = [pytest.param("silverbox", marks=pytest.mark.slow), pytest.param("emps", marks=EMPS_OPEN)]
 
 
@@ -92,7 +93,7 @@ def test_expected_values_are_the_documented_physics() -> None:
     assert abs(checks["output_error_no_spring_torque_nm"] / emps["value"] - 1) < 0.1
 
 
-@pytest.mark.parametrize("result", RIG_PARAMS, indirect=True)
+@pytest.mark.parametrize("result", RUN_PARAMS, indirect=True)
 def test_diagnose_runs_on_the_fixture(result: dict[str, Any]) -> None:
     assert {"verdict", "refit", "effects", "candidates", "rmse_deg"} <= set(result)
     assert isinstance(result["verdict"], str)
