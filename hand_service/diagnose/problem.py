@@ -187,6 +187,7 @@ def settle_time_s(finger: SimFinger) -> float:
 
 
 RELEASE_SHARE = 0.2  # a start this far from rest (share of the angle's range) is a release
+RELEASE_BLOCK_S = 0.1  # the blocks of a release, short enough to fall among its swings
 
 
 def released(finger: SimFinger, pressure0_kpa: float, angle0_deg: float, angle_deg: np.ndarray) -> bool:
@@ -198,13 +199,16 @@ def released(finger: SimFinger, pressure0_kpa: float, angle0_deg: float, angle_d
     return abs(angle0_deg - rest_deg) > RELEASE_SHARE * float(np.ptp(angle_deg))
 
 
-def split_blocks(n: int, rate_hz: float, start: int) -> tuple[np.ndarray, np.ndarray, list[tuple[int, int]]]:
+def split_blocks(n: int, rate_hz: float, start: int,
+                 shortest_s: float = 0.5, longest_s: float = 3.0) -> tuple[np.ndarray, np.ndarray,
+                                                                        list[tuple[int, int]]]:
     """Interleaved blocks after `start`: every HOLDOUT_EVERY-th one is held out.
 
     Interleaving puts held-out data in every part of the excitation (steps, chirps,
-    ramps), which a single held-out tail would not."""
+    ramps), which a single held-out tail would not. Blocks last from `shortest_s` to
+    `longest_s`."""
     usable = n - start
-    block = int(np.clip(usable / BLOCKS_WANTED, 0.5 * rate_hz, 3.0 * rate_hz))
+    block = int(np.clip(usable / BLOCKS_WANTED, shortest_s * rate_hz, longest_s * rate_hz))
     block = max(block, 1)
     fit = np.zeros(n, dtype=bool)
     held = np.zeros(n, dtype=bool)
@@ -233,11 +237,13 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     substeps = substeps_for(rate_hz)
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
+    shortest_s, longest_s = 0.5, 3.0
     if released(base, float(pressure_kpa[0]), angle0, angle_deg):
         # a release: the finger was held still away from rest, so its start is known; it
-        # moves at once, so the first sample (not a median over 50 ms of swing) places it
-        start, angle0 = 0, float(angle_deg[0])
-    fit, held, blocks = split_blocks(len(t_s), rate_hz, start)
+        # moves at once, so the first sample (not a median over 50 ms of swing) places it.
+        # Its swings die within a second: short blocks put held-out data among them.
+        start, angle0, shortest_s, longest_s = 0, float(angle_deg[0]), RELEASE_BLOCK_S, RELEASE_BLOCK_S
+    fit, held, blocks = split_blocks(len(t_s), rate_hz, start, shortest_s, longest_s)
     if missing is not None:  # samples the recording lacks (skipped ticks): in no fit or score
         fit &= ~missing
         held &= ~missing

@@ -29,3 +29,57 @@ def test_diagnose_30_s_at_each_rate(benchmark, rate_hz: float) -> None:
     result = benchmark.pedantic(diagnose, args=(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, rate_hz),
                                 rounds=1, iterations=1)
     assert result.effects[0].name == "gravity"
+
+
+def _independent(effect: str, excitation: str, family: str, rate_hz: float, tmp_path,
+                 magnitude: str = "evident"):
+    """One recording of the independent truth generator (tests/diagnose/truth), read back
+    through the recording reader as a lab's file would be."""
+    from hand_service.config.profile import load_model
+    from hand_service.diagnose.timebase import regular_grid
+    from hand_service.recording import read_recording
+    from tests.diagnose.truth import cases as cs
+
+    spec = cs.CaseSpec(effect, excitation, 0, magnitude if effect != cs.CLEAN else "none", family, rate_hz)
+    rec_path, model_path = cs.write(cs.build(spec), tmp_path)
+    rec = read_recording(rec_path, None)
+    grid = regular_grid(rec.t_s, rec.pressure_kpa, rec.angle_deg, rec_path)
+    return load_model(model_path, None), grid
+
+
+@pytest.mark.slow
+def test_diagnose_an_over_damped_actuator(benchmark, tmp_path) -> None:
+    """A soft actuator with no resonance (B/A in the thousands per second), 30 s at 100 Hz,
+    with an evident stiffening spring: the exact integrator keeps it as fast as a finger."""
+    model, grid = _independent("cubic_stiffness", "steps", "overdamped", 100.0, tmp_path)
+    args = (model, grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz)
+    result = benchmark.pedantic(diagnose, args=args, rounds=1, iterations=1)
+    benchmark.extra_info["verdict"] = result.verdict
+    benchmark.extra_info["effects"] = [e.name for e in result.effects]
+
+
+@pytest.mark.slow
+def test_diagnose_median_and_max_over_independent_100_hz_recordings(benchmark, tmp_path) -> None:
+    """Issue 20's speed target, median <= 2 s and max <= 5 s per 30 s, 100 Hz recording:
+    one recording per excitation class of the independent generator, three plant families."""
+    import time
+
+    import numpy as np
+
+    classes = ["steps", "chirp", "prbs", "multisine", "ramp", "slow_sine", "vent_release", "pi_steps"]
+    families = ["ringing", "overdamped", "stiff"]
+    inputs = [_independent("coulomb_friction", c, families[i % 3], 100.0, tmp_path / c)
+              for i, c in enumerate(classes)]
+    seconds: list[float] = []
+
+    def run_all() -> None:
+        for model, grid in inputs:
+            started = time.perf_counter()
+            diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz)
+            seconds.append(time.perf_counter() - started)
+
+    benchmark.pedantic(run_all, rounds=1, iterations=1)
+    benchmark.extra_info["median_s"] = float(np.median(seconds))
+    benchmark.extra_info["max_s"] = float(np.max(seconds))
+    print(f"\ndiagnose per 30 s, 100 Hz recording: median {np.median(seconds):.2f} s, "
+          f"max {np.max(seconds):.2f} s")

@@ -28,14 +28,11 @@ from tests.diagnose.real.convert import DEG, Recording, fit_ode, read_csv, simul
 REAL = Path(__file__).resolve().parent / "real"
 RIGS = ("silverbox", "emps")
 TOLERANCE = 0.20  # diagnose's estimate against the independent fit
-EMPS_OPEN = pytest.mark.xfail(strict=False, reason=(
-    "EMPS is a position axis with no spring (k near 0): simulated open loop it drifts, and "
-    "since the exact integrator the joint fit with Coulomb friction (0.0079 N·m, +5 % of the "
-    "independent fit, ΔBIC 20 000) predicts the held-out blocks worse than the nominal, which "
-    "was fitted to the whole recording; the guard against bent refits then withholds the "
-    "name (partial_effects). Open in issue 20."))
 RUN_PARAMS = [pytest.param("silverbox", marks=pytest.mark.slow), "emps"]
-RIG_PARAMS = [pytest.param("silverbox", marks=pytest.mark.slow), pytest.param("emps", marks=EMPS_OPEN)]
+# EMPS starts still, far from where its (near-zero) spring would rest: diagnose takes it as a
+# release (known start, 0.1 s blocks), which is what lets the held-out blocks judge a
+# springless axis that drifts in open-loop simulation
+RIG_PARAMS = RUN_PARAMS
 
 
 def expected(rig: str) -> dict[str, Any]:
@@ -113,7 +110,7 @@ def test_documented_effect_is_named_first(result: dict[str, Any], request: pytes
 
 
 @pytest.mark.parametrize("result", [pytest.param("silverbox", marks=pytest.mark.slow),
-                                    pytest.param("emps", marks=EMPS_OPEN)], indirect=True)
+                                    "emps"], indirect=True)
 def test_estimate_agrees_with_the_independent_fit(result: dict[str, Any],
                                                   request: pytest.FixtureRequest) -> None:
     rig = request.node.callspec.params["result"]
