@@ -63,7 +63,7 @@ static double next_gaussian(rtcore_sim *sim)
 static const double MOTION_STEP_FRACTION = 0.25;
 static const double DAMPING_STEP_FRACTION = 1.0;
 static const double STIFFNESS_STEP_FRACTION = 0.25;
-static const double LAG_STEP_FRACTION = 0.125;
+static const double LAG_STEP_FRACTION = 0.0625;
 /* a state-dependent slope (quadratic damping, cubic stiffness) shortens the step at most
  * this much, and no held segment takes more than 2^20 steps, so a run that diverges ends */
 static const double STATE_STEP_SHRINK = 256.0;
@@ -562,12 +562,14 @@ static double chamber_at(double start_kpa, double input_kpa, double tau_s, doubl
  * step_cap_s, and of what state_step_s allows for the state at the start (the input is
  * held, so what the segment will reach is known there). The chamber follows its exact
  * solution, on one side of the dead zone's threshold throughout (integrate_held splits
- * there). While its torque moves the step is at most LAG_STEP_FRACTION·τ·e^(t/3τ), t the
- * time since the segment began: what the quadratic misses of the exponential,
- * ∝ (h/τ)³·e^(−t/τ), stays as small as in the first step, and the lag costs at most
- * ∫dt/h = 3/LAG_STEP_FRACTION = 24 steps per segment however long it is. That keeps the
- * angle within 5e-7 of its range (1e-4 with a fraction of 0.5), so that an effect switched
- * on, whose shorter steps follow the lag more closely, moves the result by no more. The
+ * there). While its torque moves the step is at most LAG_STEP_FRACTION·τ·(S/|p − u|)^(1/3),
+ * S the supply's span and p − u what the chamber still lacks of its input: what the
+ * quadratic misses of the exponential, ∝ |p − u|·(h/τ)³, stays as small as in the first
+ * step of a full-span change (τ/16), so a change costs about 3/LAG_STEP_FRACTION = 48
+ * steps however long it is held, and a nearly settled chamber (every later sample period)
+ * costs none. That keeps the angle within about 5e-7 of its range, so that an effect
+ * switched on, whose shorter steps follow the lag more closely, moves the result by no
+ * more. The
  * last step ends the segment exactly and a kink cuts a step where it lies, so the steps
  * and the result move continuously with every parameter. */
 static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, propagator_cache *cache,
@@ -583,6 +585,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
     const int32_t moving = tau_s > 0.0 && f->prbm.pressure_gain_nm_per_kpa > 0.0 && start_kpa != input_kpa
                            && !(deadzone_kpa > 0.0 && start_kpa <= deadzone_kpa && end_kpa <= deadzone_kpa);
     const double min_step_s = duration_s * MIN_STEP_PER_SEGMENT;
+    const double lag_span_kpa = fmax(f->supply_max_kpa - f->supply_min_kpa, 1.0);
     const double torque_last = pressure_torque_nm(f, end_kpa);
     double torque_start = pressure_torque_nm(f, start_kpa);
     double cap_s = step_cap_s;
@@ -613,8 +616,14 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
         int32_t flipped = 0; /* the step was taken again on the far side of the surface */
 
         next_touching = -1;
-        if (moving && t_s < 60.0 * tau_s) {
-            h = fmin(h, LAG_STEP_FRACTION * tau_s * exp(t_s / (3.0 * tau_s)));
+        if (moving) {
+            /* from how far the chamber still is from its input, not from when this
+             * segment began: a chamber nearly settled (every sample period after a step)
+             * needs no short steps, and a new segment does not restart them */
+            const double gap_kpa = fabs(chamber_at(start_kpa, input_kpa, tau_s, t_s) - input_kpa);
+            if (gap_kpa > 0.0) {
+                h = fmin(h, LAG_STEP_FRACTION * tau_s * cbrt(lag_span_kpa / gap_kpa));
+            }
         }
         h = fmax(h, min_step_s);
         if (!(h * (1.0 + 1e-9) < remaining_s)) { /* no sliver of a step after this one */
