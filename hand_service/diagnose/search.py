@@ -33,7 +33,7 @@ NAME_MARGIN_BIC = 10.0
 MAX_EFFECTS = 3
 THOROUGH_TOP = 3  # the screen's best three are fitted from every start, the rest from one
 LATER_TOP = 3  # after the first round, only the screen's best three are fitted
-ENTANGLED = 0.99  # an effect this correlated with k, B or N is not told from it
+DETERMINED_Z = 3.0  # an effect's estimate must stand this many standard errors from neutral
 
 Progress = Callable[[str], None]
 
@@ -78,9 +78,19 @@ class Candidate:
         return float(np.nan_to_num(values, nan=1.0).max())
 
     @property
+    def determined(self) -> bool:
+        """The estimate stands clear of "no effect" by DETERMINED_Z of its own standard
+        errors in the joint fit (with k, B, N free and their prior): what the recording
+        cannot tell from k, B or N shows as a large std. (A correlation with k, B or N
+        alone is no measure: on an over-damped finger k, B and N move together, and an
+        effect known to 3 % correlates at 0.997 with their common scale.)"""
+        neutral = fx.BY_NAME[self.name].neutral
+        return bool(abs(self.estimate - neutral) > DETERMINED_Z * self.std)
+
+    @property
     def significant(self) -> bool:
         return (self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z and not self.at_bound
-                and self.entanglement < ENTANGLED)
+                and self.determined)
 
 
 @dataclass

@@ -63,6 +63,7 @@ def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:
 
 
 TRADE_OFF_CORR = 0.95  # an effect this correlated with a plain parameter trades off with it
+TRADE_OFF_RELATIVE_STD = 0.1  # when it is known worse than this
 
 
 def trade_offs(final: Fit, found: list[FoundEffect]) -> list[str]:
@@ -72,6 +73,8 @@ def trade_offs(final: Fit, found: list[FoundEffect]) -> list[str]:
     corr = final.correlation()
     said = []
     for effect in found:
+        if not abs(effect.std) > TRADE_OFF_RELATIVE_STD * abs(effect.value):
+            continue  # well determined whatever it correlates with
         i = labels.index(effect.name)
         for j, label in enumerate(labels):
             if label in PLAIN and abs(corr[i, j]) > TRADE_OFF_CORR:
