@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, signal
 
-MAX_ORDER = 12  # AR orders tried: enough for a filtered, partly correlated sensor
+MAX_ORDER = 40  # AR orders tried: enough for a filtered, partly correlated sensor at 1 kHz
 DRIFT_PERIOD_S = 20.0  # slower than this is sensor drift (a few terms over a recording)
 
 
