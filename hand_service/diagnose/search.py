@@ -68,16 +68,6 @@ class Candidate:
         return any(abs(self.estimate - b) < 1e-6 * span and b != neutral for b in (p.lower, p.upper))
 
     @property
-    def entanglement(self) -> float:
-        """The largest |correlation| of the effect's estimate with a plain parameter (k, B,
-        N) in its joint fit: near 1, the recording cannot tell the effect from that
-        parameter (on an axis with no spring, air drag from viscous damping)."""
-        corr = self.fit.correlation()[-1, :-1]
-        plain = [i for i, p in enumerate(self.fit.params[:-1]) if not p.is_effect]
-        values = np.abs(corr[plain]) if plain else np.zeros(1)
-        return float(np.nan_to_num(values, nan=1.0).max())
-
-    @property
     def determined(self) -> bool:
         """The estimate stands clear of "no effect" by DETERMINED_Z of its own standard
         errors in the joint fit (with k, B, N free and their prior): what the recording

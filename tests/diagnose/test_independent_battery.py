@@ -17,6 +17,7 @@ import pytest
 from scipy import signal
 
 from tests.diagnose.truth import cases as cs
+from tests.diagnose.truth.battery import diagnose_argv
 from tests.diagnose.truth.excitation import CLASSES
 from tests.diagnose.truth.linear import LinearModel, refit, response_deg
 from tests.diagnose.truth.plant import DEG, FAMILIES, Truth, simulate
@@ -298,22 +299,7 @@ def test_diagnose_on_an_independent_recording(
     assert case.observable, case.reason
     rec, model = cs.write(case, tmp_path)
     out = tmp_path / "diagnose.json"
-    assert (
-        main(
-            [
-                "diagnose",
-                str(rec),
-                "--model",
-                str(model),
-                "--json",
-                str(out),
-                "--quiet",
-                "--noise-model",
-                "ar",
-            ]
-        )
-        == 0
-    )
+    assert main(diagnose_argv(rec, model, out)) == 0
     capsys.readouterr()
     result = json.loads(out.read_text())
     scored = cs.score(spec, case.observable, result)

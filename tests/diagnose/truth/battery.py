@@ -107,24 +107,17 @@ def specs(
     return sorted(out, key=lambda s: (s.seed, s.magnitude != "concealed", CLASSES.index(s.excitation)))
 
 
+def diagnose_argv(recording: Path, model: Path, out: Path, noise_model: str = "ar") -> list[str]:
+    """The arguments of `hand-service diagnose` for one case: its JSON to `out`, quiet."""
+    return ["diagnose", str(recording), "--model", str(model), "--json", str(out), "--quiet",
+            "--noise-model", noise_model]
+
+
 def diagnose_cli(
     recording: Path, model: Path, out: Path, noise_model: str = "ar", timeout_s: float = 600.0
 ) -> tuple[dict, float, str]:
     """Runs `hand-service diagnose` as a subprocess; (its JSON, seconds, stderr)."""
-    cmd = [
-        sys.executable,
-        "-m",
-        "hand_service.cli",
-        "diagnose",
-        str(recording),
-        "--model",
-        str(model),
-        "--json",
-        str(out),
-        "--quiet",
-        "--noise-model",
-        noise_model,
-    ]
+    cmd = [sys.executable, "-m", "hand_service.cli", *diagnose_argv(recording, model, out, noise_model)]
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     t0 = time.perf_counter()
     try:
