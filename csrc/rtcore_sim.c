@@ -1,9 +1,10 @@
 /* The simulated hand: PRBM dynamics with the shared torque model (its linear part exact,
- * the rest by ETD2RK), the valve (lag behind a dead time, integrated exactly), an optional
+ * dry friction's slope linearised into it step by step, the rest by ETDRK4), the valve (lag behind a dead time, integrated exactly), an optional
  * object, and the flex sensor. */
 #include <math.h>
 #include <string.h>
 
+#include "rtcore_exact.h"
 #include "rtcore_internal.h"
 #include "rtcore_sim.h"
 
@@ -59,6 +60,8 @@ static double next_gaussian(rtcore_sim *sim)
  *   is stable at long steps only while c < B, so this bound stays however damped the
  *   plant);
  * - 1/(the shift by g's stiffness-like slopes);
+ * - dry friction's slope, taken into the exact part at each step's start, by how fast
+ *   the velocity can leave the band where that slope still holds (friction_step_s);
  * - the valve lag τ (LAG_STEP_FRACTION·τ at first, see integrate_segment). */
 static const double MOTION_STEP_FRACTION = 0.25;
 static const double DAMPING_STEP_FRACTION = 1.0;
@@ -73,7 +76,6 @@ static const double MIN_STEP_PER_SEGMENT = 1.0 / 1048576.0;
 static const double MIN_SEGMENT_S = 1e-30;
 /* a kink this close to either end of a step is left there (before_kink) */
 static const double KINK_MIN_FRACTION = 1e-3;
-#define PROPAGATOR_CACHE 4
 
 /* The object's normal force at the force point while touching: the spring-damper,
  * pushing only (>= 0), continued across the surface so that a step keeps one formula. */
@@ -116,41 +118,15 @@ static double pressure_torque_nm(const rtcore_sim_finger *f, double chamber_kpa)
            * rtcore_effective_pressure_kpa(&f->prbm.effects, chamber_kpa);
 }
 
-/* Roots of A·λ² + B·λ + k for A > 0, B >= 0 and k of either sign, as (re, im) pairs: real
- * ones slow first (the slow one as −k/(A·(σ + d)), free of the cancellation in −σ + d),
- * complex ones with the positive imaginary part first. */
-static void eigenvalues(double inertia, double damping, double stiffness, double lambda_per_s[4])
-{
-    const double sigma = 0.5 * damping / inertia;
-    const double disc = sigma * sigma - stiffness / inertia;
-    if (disc >= 0.0) {
-        const double d = sqrt(disc);
-        lambda_per_s[0] = sigma + d > 0.0 ? -(stiffness / inertia) / (sigma + d) : 0.0;
-        lambda_per_s[1] = 0.0;
-        lambda_per_s[2] = -sigma - d;
-        lambda_per_s[3] = 0.0;
-    } else {
-        const double w = sqrt(-disc);
-        lambda_per_s[0] = -sigma;
-        lambda_per_s[1] = w;
-        lambda_per_s[2] = -sigma;
-        lambda_per_s[3] = -w;
-    }
-}
-
 /* One finger's linear plant and the bounds on g's slopes, derived once per sample. */
 typedef struct {
     const rtcore_sim_finger *finger;
-    double inertia_kgm2;
-    double damping_nms_per_rad;
-    double stiffness_nm_per_rad;
-    double half_decay_per_s; /* σ = B/(2A) */
-    double disc_per_s2; /* d² = σ² − k/A: > 0 over-damped, < 0 under-damped */
-    double lambda_per_s[4]; /* the plant's eigenvalues (eigenvalues()) */
+    rtcore_exact_plant linear; /* A, B, k: the part integrated exactly */
     int32_t nonlinear; /* g is not identically zero */
     int32_t state_dependent; /* a slope of g grows without bound with the state */
     int32_t kinks; /* g has kinks (before_kink) */
-    double damping_slope_nms_per_rad; /* bound on −dg/dθ' (>= 0: g only damps) everywhere */
+    double damping_slope_nms_per_rad; /* bound on −dg/dθ' (>= 0: g only damps) everywhere,
+                                       * the friction's apart (friction_step_s) */
     double stiffness_slope_nm_per_rad; /* bound on |dg/dθ| everywhere */
 } sim_plant;
 
@@ -159,9 +135,9 @@ static double shift_per_s(const sim_plant *p, double damping, double stiffness)
     double lambda_per_s[4];
     double first;
     double second;
-    eigenvalues(p->inertia_kgm2, damping, stiffness, lambda_per_s);
-    first = hypot(lambda_per_s[0] - p->lambda_per_s[0], lambda_per_s[1] - p->lambda_per_s[1]);
-    second = hypot(lambda_per_s[2] - p->lambda_per_s[2], lambda_per_s[3] - p->lambda_per_s[3]);
+    rtcore_exact_eigenvalues(p->linear.inertia_kgm2, damping, stiffness, lambda_per_s);
+    first = hypot(lambda_per_s[0] - p->linear.lambda_per_s[0], lambda_per_s[1] - p->linear.lambda_per_s[1]);
+    second = hypot(lambda_per_s[2] - p->linear.lambda_per_s[2], lambda_per_s[3] - p->linear.lambda_per_s[3]);
     return first > second ? first : second;
 }
 
@@ -169,10 +145,10 @@ static double shift_per_s(const sim_plant *p, double damping, double stiffness)
  * ±K, each by how far it moves the plant's eigenvalues. */
 static double slope_step_s(const sim_plant *p, double damping_slope, double stiffness_slope)
 {
-    const double damping_per_s = shift_per_s(p, p->damping_nms_per_rad + damping_slope,
-                                             p->stiffness_nm_per_rad);
-    const double stiffer_per_s = shift_per_s(p, p->damping_nms_per_rad, p->stiffness_nm_per_rad + stiffness_slope);
-    const double softer_per_s = shift_per_s(p, p->damping_nms_per_rad, p->stiffness_nm_per_rad - stiffness_slope);
+    const double damping_per_s = shift_per_s(p, p->linear.damping_nms_per_rad + damping_slope,
+                                             p->linear.stiffness_nm_per_rad);
+    const double stiffer_per_s = shift_per_s(p, p->linear.damping_nms_per_rad, p->linear.stiffness_nm_per_rad + stiffness_slope);
+    const double softer_per_s = shift_per_s(p, p->linear.damping_nms_per_rad, p->linear.stiffness_nm_per_rad - stiffness_slope);
     const double stiffness_per_s = softer_per_s > stiffer_per_s ? softer_per_s : stiffer_per_s;
     double step_s = INFINITY;
     if (damping_per_s > 0.0) {
@@ -191,32 +167,92 @@ static void plant_for(const rtcore_sim_finger *f, sim_plant *p)
     const int32_t contact = f->contact_stiffness_n_per_m > 0.0;
     const double r2 = m->lever_arm_m * m->lever_arm_m;
     p->finger = f;
-    p->inertia_kgm2 = m->inertia_kgm2;
-    p->damping_nms_per_rad = m->damping_nms_per_rad;
-    p->stiffness_nm_per_rad = m->stiffness_nm_per_rad;
-    p->half_decay_per_s = 0.5 * m->damping_nms_per_rad / m->inertia_kgm2;
-    p->disc_per_s2 = p->half_decay_per_s * p->half_decay_per_s - m->stiffness_nm_per_rad / m->inertia_kgm2;
-    eigenvalues(p->inertia_kgm2, p->damping_nms_per_rad, p->stiffness_nm_per_rad, p->lambda_per_s);
+    rtcore_exact_plant_init(&p->linear, m->inertia_kgm2, m->damping_nms_per_rad, m->stiffness_nm_per_rad);
     p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0;
     p->nonlinear = p->state_dependent || contact || e->coulomb_torque_nm > 0.0 || e->gravity_torque_nm != 0.0
                    || e->asymmetric_stiffness_ratio != 1.0;
     p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0;
     p->damping_slope_nms_per_rad = contact ? f->contact_damping_ns_per_m * r2 : 0.0;
-    if (e->coulomb_torque_nm > 0.0) {
-        /* Tc·tanh(ω/ω_s) is steepest at ω = 0 */
-        p->damping_slope_nms_per_rad += e->coulomb_torque_nm
-                                        / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG);
-    }
     p->stiffness_slope_nm_per_rad = fabs(e->asymmetric_stiffness_ratio - 1.0) * m->stiffness_nm_per_rad
                                     + fabs(e->gravity_torque_nm)
                                     + (contact ? f->contact_stiffness_n_per_m * r2 : 0.0);
+}
+
+/* The same plant with the damping B + extra: the linear part a step integrates exactly. */
+static void with_damping(const sim_plant *base, double extra_nms_per_rad, sim_plant *out)
+{
+    *out = *base;
+    if (extra_nms_per_rad == 0.0) {
+        return;
+    }
+    rtcore_exact_plant_init(&out->linear, base->linear.inertia_kgm2, base->linear.damping_nms_per_rad + extra_nms_per_rad,
+                            base->linear.stiffness_nm_per_rad);
+}
+
+/* The friction Tc·tanh(ω/ω_s) damps like a slope c(ω) = (Tc/ω_s)·sech²(ω/ω_s), up to
+ * Tc/ω_s at rest: for a small ω_s far beyond B, a stiffness no explicit step could take at
+ * the sample rate (a finger that sticks is a finger damped without bound). So each step
+ * takes the slope at its start, c0, into the linear part it integrates exactly (damping
+ * B + c0), and only what the slope changes within the step, c(ω) − c0, is left explicit
+ * (a Rosenbrock-type linearisation). The step keeps that change within
+ * FRICTION_SLOPE_SHARE of the exact damping B + c0 over the velocities it can reach. */
+static const double FRICTION_SLOPE_SHARE = 0.25;
+
+static double friction_slope_nms_per_rad(const rtcore_effects *e, double velocity_rad_per_s)
+{
+    const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
+    const double c = cosh(velocity_rad_per_s / smoothing_rad_per_s);
+    return e->coulomb_torque_nm / (smoothing_rad_per_s * c * c);
+}
+
+/* |ω|/ω_s where the slope is `slope` (0 < slope <= Tc/ω_s): sech²(x) = slope·ω_s/Tc */
+static double friction_speed_at(double peak_slope, double slope)
+{
+    return acosh(sqrt(peak_slope / slope));
+}
+
+/* How far the velocity may move from ω before the friction's slope leaves
+ * c0 ± FRICTION_SLOPE_SHARE·(B + c0), either way (infinite when it never does). */
+static double friction_reach_rad_per_s(const sim_plant *p, double velocity_rad_per_s, double slope0)
+{
+    const rtcore_effects *e = &p->finger->prbm.effects;
+    const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
+    const double peak = e->coulomb_torque_nm / smoothing_rad_per_s;
+    /* (a floor for a plant without damping, whose slope far from rest is zero) */
+    const double allowed = FRICTION_SLOPE_SHARE * fmax(p->linear.damping_nms_per_rad + slope0, 1e-6 * peak);
+    const double x = fabs(velocity_rad_per_s) / smoothing_rad_per_s;
+    const double x_low = slope0 - allowed > 0.0 ? friction_speed_at(peak, slope0 - allowed) : INFINITY;
+    /* towards rest the slope rises: to its bound, or over the peak and down the far side */
+    const double toward = slope0 + allowed < peak ? x - friction_speed_at(peak, slope0 + allowed) : x + x_low;
+    const double away = x_low - x;
+    return fmax(fmin(toward, away), 0.0) * smoothing_rad_per_s;
+}
+
+/* The longest step, up to h_cap, over which the velocity stays within
+ * friction_reach_rad_per_s. The torque out of balance is net_nm at the start and moves by
+ * drift_nm (the chamber's torque) plus k·|θ'|·h (the spring, as the finger moves) within
+ * the step; it moves the velocity by at most its size·h/A, and, when the plant with B + c0
+ * is over-damped, by no more than its size/(B + c0), where that damping has caught up. */
+static double friction_step_s(const sim_plant *local, double velocity_rad_per_s, double slope0, double net_nm,
+                              double drift_nm, double h_cap_s)
+{
+    const double reach = friction_reach_rad_per_s(local, velocity_rad_per_s, slope0);
+    const double spring_nm_per_s = local->linear.stiffness_nm_per_rad * fabs(velocity_rad_per_s);
+    const double torque_nm = fabs(net_nm) + fabs(drift_nm);
+    double rate;
+    if (local->linear.disc_per_s2 > 0.0 && torque_nm + spring_nm_per_s * h_cap_s <= reach * local->linear.damping_nms_per_rad) {
+        return INFINITY;
+    }
+    /* the root h of (spring·h² + torque·h)/A = reach */
+    rate = torque_nm / local->linear.inertia_kgm2;
+    return 2.0 * reach / (rate + sqrt(rate * rate + 4.0 * spring_nm_per_s * reach / local->linear.inertia_kgm2));
 }
 
 /* The longest step the parameters allow: infinite for the plain linear finger (exact at
  * any step), else a fraction of the motion's time scale and of what g's slopes need. */
 static double parameter_step_s(const sim_plant *p)
 {
-    const double motion_per_s = hypot(p->lambda_per_s[0], p->lambda_per_s[1]);
+    const double motion_per_s = hypot(p->linear.lambda_per_s[0], p->linear.lambda_per_s[1]);
     double step_s;
     if (!p->nonlinear) {
         return INFINITY;
@@ -238,259 +274,28 @@ static double state_step_s(const sim_plant *p, double angle_rad, double velocity
     const rtcore_effects *e = &p->finger->prbm.effects;
     const double torque = fabs(accel_torque_nm);
     const double velocity = fabs(velocity_rad_per_s)
-                            + torque / (p->damping_nms_per_rad
-                                        + sqrt(p->stiffness_nm_per_rad * p->inertia_kgm2));
-    const double angle = fabs(angle_rad) + torque / p->stiffness_nm_per_rad;
+                            + torque / (p->linear.damping_nms_per_rad
+                                        + sqrt(p->linear.stiffness_nm_per_rad * p->linear.inertia_kgm2));
+    const double angle = fabs(angle_rad) + torque / p->linear.stiffness_nm_per_rad;
     return slope_step_s(p, p->damping_slope_nms_per_rad + 2.0 * e->quadratic_damping_nms2_per_rad2 * velocity,
                         p->stiffness_slope_nm_per_rad
                             + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * angle * angle);
 }
 
-/* One step h of the linear plant: x(h) = E·x(0) + G0·u for a torque u held over the
- * step, and x(h) = E·x(0) + Q_start·u_start + Q_mid·u_mid + Q_end·u_end for the torque
- * quadratic through u_start, u_mid, u_end at t = 0, h/2, h. */
-typedef struct {
-    double e[4]; /* E = e^(L·h), row-major: θ from (θ, θ'), then θ' from (θ, θ') */
-    double g0[2]; /* (θ, θ') after the step from rest under a unit torque */
-    double q[3][2]; /* the same under the quadratic through 1, 0, 0; 0, 1, 0; 0, 0, 1 */
-} propagator;
-
-/* the propagators of a step and of its half (ETDRK4's stages), the half only when needed */
-typedef struct {
-    double step_s[PROPAGATOR_CACHE];
-    int32_t has_half[PROPAGATOR_CACHE];
-    propagator full[PROPAGATOR_CACHE];
-    propagator half[PROPAGATOR_CACHE];
-    int32_t count;
-    int32_t next;
-} propagator_cache;
-
-/* E = e^(−σh)·[[C + σS, S], [−(k/A)·S, C − σS]] with C, S = cosh(dh), sinh(dh)/d
- * over-damped and cos(ωh), sin(ωh)/ω under-damped (ω² = −d²), both from their series in
- * d²h² near critical damping; for dh > 1 the same from the two real modes
- * e^(λ_slow·h), e^(λ_fast·h), so that nothing overflows however long the step. */
-static void transition(const sim_plant *p, double h, double e[4])
-{
-    const double sigma = p->half_decay_per_s;
-    const double rate_k = p->stiffness_nm_per_rad / p->inertia_kgm2;
-    const double y = p->disc_per_s2 * h * h;
-    double c;
-    double s;
-    double decay;
-    if (y > 1.0) {
-        const double slow = p->lambda_per_s[0];
-        const double fast = p->lambda_per_s[2];
-        const double e_slow = exp(slow * h);
-        const double e_fast = exp(fast * h);
-        const double two_d = 2.0 * sqrt(p->disc_per_s2);
-        e[0] = (-fast * e_slow + slow * e_fast) / two_d;
-        e[1] = (e_slow - e_fast) / two_d;
-        e[2] = -rate_k * e[1];
-        e[3] = (slow * e_slow - fast * e_fast) / two_d;
-        return;
-    }
-    if (fabs(y) < 1e-3) {
-        c = 1.0 + y * (1.0 / 2.0 + y * (1.0 / 24.0 + y / 720.0));
-        s = h * (1.0 + y * (1.0 / 6.0 + y * (1.0 / 120.0 + y / 5040.0)));
-    } else if (y > 0.0) {
-        const double d = sqrt(p->disc_per_s2);
-        c = cosh(d * h);
-        s = sinh(d * h) / d;
-    } else {
-        const double w = sqrt(-p->disc_per_s2);
-        c = cos(w * h);
-        s = sin(w * h) / w;
-    }
-    decay = exp(-sigma * h);
-    e[0] = decay * (c + sigma * s);
-    e[1] = decay * s;
-    e[2] = -rate_k * decay * s;
-    e[3] = decay * (c - sigma * s);
-}
-
-/* φ_k(z) = Σ_m z^m/(m + k)! for k = 1, 2, 3: (e^z − 1)/z, (e^z − 1 − z)/z²,
- * (e^z − 1 − z − z²/2)/z³, from the series where those would cancel. */
-static double phi(int32_t k, double z)
-{
-    if (fabs(z) < 1.0) {
-        double term = 1.0;
-        double sum = 0.0;
-        int32_t m;
-        for (m = 1; m <= k; ++m) {
-            term /= (double)m;
-        }
-        for (m = 0; m < 20; ++m) {
-            sum += term;
-            term *= z / (double)(m + k + 1);
-        }
-        return sum;
-    }
-    if (k == 1) {
-        return expm1(z) / z;
-    }
-    if (k == 2) {
-        return (expm1(z) - z) / (z * z);
-    }
-    return (expm1(z) - z - 0.5 * z * z) / (z * z * z);
-}
-
-/* G_j = ∫_0^h e^(L(h−s))·b·s^j ds, b = (0, 1/A), the response to the torque t^j, each
- * accurate to its own size (the Q's divide them by h and h²):
- * - a short step, ‖L‖·h <= 1: the series Σ_m (Lh)^m·b·h^(j+1)·j!/(m + j + 1)!;
- * - over-damped with distinct modes (|λ_fast| >= 3·|λ_slow|): from the modes,
- *   G_j = [(1, λ1)·I_j(λ1) − (1, λ2)·I_j(λ2)]/(A·(λ1 − λ2)), I_j(λ) = j!·h^(j+1)·φ_(j+1)(λh);
- * - otherwise (ringing or near critical damping, where the particular solution's terms are
- *   of the size of the response): G_j = x_p(h) − E·x_p(0) from the particular solution of
- *   A·θ'' + B·θ' + k·θ = t^j: θ_p = 1/k; t/k − B/k²; t²/k − 2B·t/k² + 2B²/k³ − 2A/k². */
-static void forced_responses(const sim_plant *p, double h, const double e[4], double g[3][2])
-{
-    const double rate_k = p->stiffness_nm_per_rad / p->inertia_kgm2;
-    const double rate_b = p->damping_nms_per_rad / p->inertia_kgm2;
-    const double inv_a = 1.0 / p->inertia_kgm2;
-    int32_t j;
-    const double norm_h = (sqrt(rate_k) + rate_b) * h; /* bounds ‖Lh‖ with θ scaled by ω_n */
-    if (norm_h <= 1.0) {
-        double w[2]; /* (Lh)^m·b */
-        double factorial; /* (m + j + 1)! */
-        double bound; /* ‖Lh‖^m/(m + j + 1)!: the size of term m against the first */
-        int32_t m;
-        for (j = 0; j < 3; ++j) {
-            const double scale = h * (j == 0 ? 1.0 : j == 1 ? h : 2.0 * h * h); /* h^(j+1)·j! */
-            g[j][0] = 0.0;
-            g[j][1] = 0.0;
-            w[0] = 0.0;
-            w[1] = inv_a;
-            factorial = j == 0 ? 1.0 : j == 1 ? 2.0 : 6.0;
-            bound = 1.0;
-            for (m = 0; m < 24 && bound > 1e-18; ++m) {
-                const double th = w[0];
-                g[j][0] += w[0] / factorial;
-                g[j][1] += w[1] / factorial;
-                w[0] = h * w[1];
-                w[1] = h * (-rate_k * th - rate_b * w[1]);
-                factorial *= (double)(m + j + 2);
-                bound *= norm_h / (double)(m + j + 2);
-            }
-            g[j][0] *= scale;
-            g[j][1] *= scale;
-        }
-        return;
-    }
-    if (p->disc_per_s2 >= 0.25 * p->half_decay_per_s * p->half_decay_per_s) {
-        const double slow = p->lambda_per_s[0];
-        const double fast = p->lambda_per_s[2];
-        const double inv = inv_a / (slow - fast);
-        double power = h;
-        for (j = 0; j < 3; ++j) {
-            const double i_slow = power * phi(j + 1, slow * h);
-            const double i_fast = power * phi(j + 1, fast * h);
-            g[j][0] = inv * (i_slow - i_fast);
-            g[j][1] = inv * (slow * i_slow - fast * i_fast);
-            power *= h * (double)(j + 1);
-        }
-        return;
-    }
-    {
-        const double inv_k = 1.0 / p->stiffness_nm_per_rad;
-        const double b = p->damping_nms_per_rad;
-        double coef[3][3]; /* θ_p(t) = coef[j][0] + coef[j][1]·t + coef[j][2]·t² */
-        coef[0][0] = inv_k;
-        coef[0][1] = 0.0;
-        coef[0][2] = 0.0;
-        coef[1][2] = 0.0;
-        coef[1][1] = inv_k;
-        coef[1][0] = -b * inv_k * inv_k;
-        coef[2][2] = inv_k;
-        coef[2][1] = -2.0 * b * inv_k * inv_k;
-        coef[2][0] = (-2.0 * p->inertia_kgm2 * coef[2][2] - b * coef[2][1]) * inv_k;
-        for (j = 0; j < 3; ++j) {
-            const double th0 = coef[j][0];
-            const double w0 = coef[j][1];
-            const double th_h = coef[j][0] + h * (coef[j][1] + h * coef[j][2]);
-            const double w_h = coef[j][1] + 2.0 * h * coef[j][2];
-            g[j][0] = th_h - (e[0] * th0 + e[1] * w0);
-            g[j][1] = w_h - (e[2] * th0 + e[3] * w0);
-        }
-    }
-}
-
-/* E, G0 and the Q's of a step: the quadratic through u_s, u_m, u_e is
- * u_s + (−3u_s + 4u_m − u_e)·t/h + 2(u_s − 2u_m + u_e)·t²/h². */
-static void compute_propagator(const sim_plant *p, double h, propagator *out)
-{
-    double g[3][2];
-    int32_t i;
-    transition(p, h, out->e);
-    forced_responses(p, h, out->e, g);
-    for (i = 0; i < 2; ++i) {
-        const double g1 = g[1][i] / h;
-        const double g2 = g[2][i] / (h * h);
-        out->g0[i] = g[0][i];
-        out->q[0][i] = g[0][i] - 3.0 * g1 + 2.0 * g2;
-        out->q[1][i] = 4.0 * g1 - 4.0 * g2;
-        out->q[2][i] = -g1 + 2.0 * g2;
-    }
-}
-
-/* The slot of the cache for step h, computed if it is not there (the half too if asked). */
-static int32_t propagators_for(const sim_plant *p, propagator_cache *cache, double h, int32_t need_half)
-{
-    int32_t i;
-    for (i = 0; i < cache->count; ++i) {
-        if (cache->step_s[i] == h) {
-            break;
-        }
-    }
-    if (i == cache->count) {
-        i = cache->next;
-        cache->next = (cache->next + 1) % PROPAGATOR_CACHE;
-        if (cache->count < PROPAGATOR_CACHE) {
-            cache->count += 1;
-        }
-        cache->step_s[i] = h;
-        cache->has_half[i] = 0;
-        compute_propagator(p, h, &cache->full[i]);
-    }
-    if (need_half && !cache->has_half[i]) {
-        compute_propagator(p, 0.5 * h, &cache->half[i]);
-        cache->has_half[i] = 1;
-    }
-    return i;
-}
-
-/* the state after a step under the torque quadratic through u_start, u_mid and u_end at
- * t = 0, h/2 and h */
-static void exact_quadratic(const propagator *pr, double *angle_rad, double *velocity_rad_per_s,
-                            double u_start, double u_mid, double u_end)
-{
-    const double th = *angle_rad;
-    const double w = *velocity_rad_per_s;
-    *angle_rad = pr->e[0] * th + pr->e[1] * w + pr->q[0][0] * u_start + pr->q[1][0] * u_mid
-                 + pr->q[2][0] * u_end;
-    *velocity_rad_per_s = pr->e[2] * th + pr->e[3] * w + pr->q[0][1] * u_start + pr->q[1][1] * u_mid
-                          + pr->q[2][1] * u_end;
-}
-
-/* the state after a step under the torque u held */
-static void exact_held(const propagator *pr, double angle_rad, double velocity_rad_per_s, double u,
-                       double *angle_out_rad, double *velocity_out_rad_per_s)
-{
-    *angle_out_rad = pr->e[0] * angle_rad + pr->e[1] * velocity_rad_per_s + pr->g0[0] * u;
-    *velocity_out_rad_per_s = pr->e[2] * angle_rad + pr->e[3] * velocity_rad_per_s + pr->g0[1] * u;
-}
-
 /* One step h; the chamber's torque is p_start, p_mid and p_end at t = 0, h/2 and h, and
- * g_start = g(x). Without g: the exact response to that quadratic. With g, ETDRK4 (Cox &
+ * g_start = g(x) + c0·θ'. p is the plant with the damping B + c0, c0 =
+ * linearized_nms_per_rad (a friction's slope, friction_step_s), which g gives back. Without g: the exact response to that quadratic. With g, ETDRK4 (Cox &
  * Matthews 2002): stages a and b from x and c from a over h/2, each with the total torque
  * held (at x, at a, and 2·(at b) − (at x)), then the exact response to the quadratic
  * through the torque at x, the mean of those at a and b, and at c. */
-static void step(const sim_plant *p, propagator_cache *cache, double *angle_rad, double *velocity_rad_per_s,
-                 double h, double p_start, double p_mid, double p_end, double g_start, int32_t touching)
+static void step(const sim_plant *p, rtcore_propagator_cache *cache, double *angle_rad, double *velocity_rad_per_s,
+                 double h, double p_start, double p_mid, double p_end, double g_start, int32_t touching,
+                 double linearized_nms_per_rad)
 {
     const rtcore_sim_finger *f = p->finger;
-    const int32_t slot = propagators_for(p, cache, h, p->nonlinear);
-    const propagator *full = &cache->full[slot];
-    const propagator *half = &cache->half[slot];
+    const int32_t slot = rtcore_exact_propagators(&p->linear, cache, h, p->nonlinear);
+    const rtcore_propagator *full = &cache->full[slot];
+    const rtcore_propagator *half = &cache->half[slot];
     double th_a;
     double w_a;
     double th_b;
@@ -502,17 +307,17 @@ static void step(const sim_plant *p, propagator_cache *cache, double *angle_rad,
     double n_b;
     double n_c;
     if (!p->nonlinear) {
-        exact_quadratic(full, angle_rad, velocity_rad_per_s, p_start, p_mid, p_end);
+        rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, p_start, p_mid, p_end);
         return;
     }
     n_x = p_start + g_start;
-    exact_held(half, *angle_rad, *velocity_rad_per_s, n_x, &th_a, &w_a);
-    n_a = p_mid + nonlinear_torque_nm(f, th_a, w_a, touching);
-    exact_held(half, *angle_rad, *velocity_rad_per_s, n_a, &th_b, &w_b);
-    n_b = p_mid + nonlinear_torque_nm(f, th_b, w_b, touching);
-    exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
-    n_c = p_end + nonlinear_torque_nm(f, th_c, w_c, touching);
-    exact_quadratic(full, angle_rad, velocity_rad_per_s, n_x, 0.5 * (n_a + n_b), n_c);
+    rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_x, &th_a, &w_a);
+    n_a = p_mid + nonlinear_torque_nm(f, th_a, w_a, touching) + linearized_nms_per_rad * w_a;
+    rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_a, &th_b, &w_b);
+    n_b = p_mid + nonlinear_torque_nm(f, th_b, w_b, touching) + linearized_nms_per_rad * w_b;
+    rtcore_exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
+    n_c = p_end + nonlinear_torque_nm(f, th_c, w_c, touching) + linearized_nms_per_rad * w_c;
+    rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, n_x, 0.5 * (n_a + n_b), n_c);
 }
 
 /* Where g has a kink or a jump (the object's surface, the contact force reaching 0 as
@@ -572,7 +377,7 @@ static double chamber_at(double start_kpa, double input_kpa, double tau_s, doubl
  * more. The
  * last step ends the segment exactly and a kink cuts a step where it lies, so the steps
  * and the result move continuously with every parameter. */
-static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, propagator_cache *cache,
+static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
                               double input_kpa, double duration_s, double step_cap_s)
 {
     const rtcore_sim_finger *f = p->finger;
@@ -600,7 +405,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
     if (p->state_dependent) {
         /* the torque out of balance at the start, with the chamber now and at the end */
         const double g_nm = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
-        const double linear_nm = p->stiffness_nm_per_rad * s->angle_rad + p->damping_nms_per_rad * s->velocity_rad_per_s;
+        const double linear_nm = p->linear.stiffness_nm_per_rad * s->angle_rad + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
         const double accel_nm = fmax(fabs(torque_start + g_nm - linear_nm), fabs(torque_last + g_nm - linear_nm));
         cap_s = fmin(step_cap_s, fmax(state_step_s(p, s->angle_rad, s->velocity_rad_per_s, accel_nm),
                                       step_cap_s / STATE_STEP_SHRINK));
@@ -610,6 +415,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
         int32_t touching = next_touching >= 0 ? next_touching : touches(f, s->angle_rad);
         double g_start = p->nonlinear ? nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
         double h = cap_s;
+        double slope0 = 0.0; /* the friction's slope here, integrated exactly over the step */
+        sim_plant local;
         double torque_mid = torque_start;
         double torque_end = torque_start;
         int32_t cut = 0; /* the step was shortened to end at a kink */
@@ -624,6 +431,16 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
             if (gap_kpa > 0.0) {
                 h = fmin(h, LAG_STEP_FRACTION * tau_s * cbrt(lag_span_kpa / gap_kpa));
             }
+        }
+        if (f->prbm.effects.coulomb_torque_nm > 0.0) {
+            const double net_nm = torque_start + g_start - p->linear.stiffness_nm_per_rad * s->angle_rad
+                                  - p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
+            slope0 = friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s);
+            with_damping(p, slope0, &local);
+            h = fmin(h, friction_step_s(&local, s->velocity_rad_per_s, slope0, net_nm, torque_last - torque_start, h));
+            g_start += slope0 * s->velocity_rad_per_s;
+        } else {
+            local = *p;
         }
         h = fmax(h, min_step_s);
         if (!(h * (1.0 + 1e-9) < remaining_s)) { /* no sliver of a step after this one */
@@ -640,8 +457,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
                 torque_end = last ? torque_last
                                   : pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s, t_s + h));
             }
-            step(p, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
-                 touching);
+            step(&local, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
+                 touching, slope0);
             if (p->kinks && !cut) {
                 fraction = before_kink(p, touching, s->angle_rad, s->velocity_rad_per_s, angle_rad,
                                        velocity_rad_per_s, &surface);
@@ -656,7 +473,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
             if (fraction < 1.0 && surface && !flipped) {
                 touching = !touching; /* the surface is where the step starts: take it past */
                 flipped = 1;
-                g_start = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching);
+                g_start = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching)
+                          + slope0 * s->velocity_rad_per_s;
                 continue;
             }
             s->angle_rad = angle_rad;
@@ -674,7 +492,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, pr
 
 /* A held segment, split where the chamber crosses the dead zone's threshold, so that the
  * torque is smooth within each part. */
-static void integrate_held(const sim_plant *p, rtcore_sim_finger_state *s, propagator_cache *cache,
+static void integrate_held(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
                            double input_kpa, double duration_s, double step_cap_s)
 {
     const double tau_s = p->finger->prbm.effects.valve_lag_tau_s;
@@ -710,7 +528,7 @@ static double delayed_command(const rtcore_sim_finger_state *s, int32_t samples_
 /* One sample period after pushing command_kpa: the dead time puts at most one breakpoint
  * inside the period, where the older command gives way to the newer one. The step is at
  * most dt/substeps (what the caller asks for) and what the finger's parameters allow. */
-static void advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, propagator_cache *cache,
+static void advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
                            double command_kpa, double dt_s, int32_t substeps)
 {
     const double step_cap_s = fmin(dt_s / (double)substeps, s->max_step_s);
@@ -879,7 +697,7 @@ void rtcore_sim_step(rtcore_sim *sim, const double *pressure_cmd_kpa, rtcore_sim
         return;
     }
     for (i = 0; i < sim->config.n_fingers; ++i) {
-        propagator_cache cache;
+        rtcore_propagator_cache cache;
         cache.count = 0;
         cache.next = 0;
         advance_sample(&sim->config.finger[i], &sim->finger[i], &cache, pressure_cmd_kpa[i], sim->dt_s,
@@ -895,7 +713,7 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
                        double *chamber_out_kpa)
 {
     rtcore_sim_finger_state s;
-    propagator_cache cache;
+    rtcore_propagator_cache cache;
     double dt_s;
     int32_t err;
     int32_t k;

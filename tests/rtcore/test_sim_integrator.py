@@ -174,6 +174,27 @@ def test_effects_against_a_fine_reference(plant: str, effect: str, rate_hz: floa
     assert np.max(np.abs(angle - reference)) <= EFFECTS_TOLERANCE * np.ptp(reference)
 
 
+@pytest.mark.parametrize("plant", sorted(PLANTS))
+@pytest.mark.parametrize("rate_hz", [25.0, 100.0, 1000.0])
+def test_friction_that_sticks_against_a_fine_reference(plant: str, rate_hz: float) -> None:
+    """Dry friction strong enough to hold the finger (Tc at 10 % of the drive's torque,
+    smoothed over 0.2 deg/s: a slope Tc/ω_s up to 30 000 times B/A on the paper's finger)
+    while the finger bends to 100 kPa and is released to 0 kPa, where it stops short of rest
+    (k·θ < Tc).
+    The friction's slope is integrated exactly at each step's start, so the steps need not
+    resolve it; the angle stays within 5e-4 of its range of LSODA's."""
+    m = PLANTS[plant]
+    torque_nm = 0.1 * m.pressure_gain_nm_per_kpa * 120.0
+    finger = SimFinger(dataclasses.replace(m, effects=Effects(coulomb_torque_nm=torque_nm,
+                                                              coulomb_smoothing_deg_per_s=0.2)))
+    command = np.full(int(2.0 * rate_hz) + 1, 100.0)
+    command[len(command) // 2:] = 0.0
+    angle, _ = simulate(finger, command, rate_hz, substeps=1, angle0_deg=-5.0, chamber0_kpa=float(command[0]))
+    reference = fine_reference(finger, command, rate_hz, -5.0)
+    assert 1.0 < abs(reference[-1]) < math.degrees(torque_nm / m.stiffness_nm_per_rad)  # held short of 0
+    assert np.max(np.abs(angle - reference)) <= EFFECTS_TOLERANCE * np.ptp(reference)
+
+
 def test_result_moves_continuously_with_a_parameter() -> None:
     """Dry friction sets the step (its slope Tc/ω_s): across 201 values of Tc the number of
     steps changes many times, but the angles move smoothly (the fits' finite differences
