@@ -22,7 +22,7 @@ def steps(full_kpa: float, duration_s: float, rate_hz: float, rng: np.random.Gen
     command = np.zeros(n)
     k = round(REST_S * rate_hz)
     while k < n:
-        hold = round(rng.uniform(0.8, 2.0) * rate_hz)
+        hold = max(1, round(rng.uniform(0.8, 2.0) * rate_hz))  # a sample at least (slow rates)
         level = 0.0 if rng.random() < 0.3 else rng.uniform(0.1, 1.0) * full_kpa
         command[k:k + hold] = level
         k += hold
@@ -54,8 +54,8 @@ def sweep(full_kpa: float, duration_s: float, rate_hz: float, rng: np.random.Gen
     # inflate-and-vent swings
     k = np.searchsorted(t, chirp_end)
     while k < n:
-        up = round(rng.uniform(0.6, 1.2) * rate_hz)
-        down = round(rng.uniform(0.6, 1.2) * rate_hz)
+        up = max(1, round(rng.uniform(0.6, 1.2) * rate_hz))
+        down = max(1, round(rng.uniform(0.6, 1.2) * rate_hz))
         command[k:k + up] = rng.uniform(0.3, 1.0) * full_kpa
         k += up + down
     return command
