@@ -357,6 +357,54 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
     return fraction;
 }
 
+/* A finger that has settled under a held input needs no short steps: the explicit torque
+ * g hardly changes over a step, and ETDRK4's error, about the motion left times (h/T)^5,
+ * T the motion's time scale, shrinks with that motion. The step grows beyond the
+ * parameters' bound (cap_s) by (range/left)^(1/4), up to what the caller asks: `left`
+ * is the motion the finger still has to make, the torque out of balance over k (with the
+ * chamber's change over the segment) and the velocity times T, in angle; `range` the
+ * deflection the supply's full span gives. Only where g's explicit slopes stay well below
+ * k and B (settle_range_rad_for returns 0 otherwise: no growth), so that a long step
+ * stays stable; the state-dependent slopes (drag, cubic stiffness) at the state now. Not
+ * with dry friction: a finger held by it creeps, far from settled, with nothing out of
+ * balance (friction_step_s sets its steps). */
+static const double SETTLED_SLOPE_SHARE = 0.5;
+
+static double settle_range_rad_for(const sim_plant *p)
+{
+    const rtcore_sim_finger *f = p->finger;
+    if (!p->nonlinear || p->kinks || f->prbm.effects.coulomb_torque_nm > 0.0 || !(p->linear.stiffness_nm_per_rad > 0.0)
+        || p->stiffness_slope_nm_per_rad >= SETTLED_SLOPE_SHARE * p->linear.stiffness_nm_per_rad
+        || p->damping_slope_nms_per_rad >= SETTLED_SLOPE_SHARE * p->linear.damping_nms_per_rad) {
+        return 0.0;
+    }
+    return fmax(f->prbm.pressure_gain_nm_per_kpa * (f->supply_max_kpa - f->supply_min_kpa), 1e-300)
+           / p->linear.stiffness_nm_per_rad;
+}
+
+static double settled_step_s(const sim_plant *p, const rtcore_sim_finger_state *s, double cap_s,
+                             double request_cap_s, double range_rad, double drive_nm, double drift_nm)
+{
+    const rtcore_effects *e = &p->finger->prbm.effects;
+    const double k = p->linear.stiffness_nm_per_rad;
+    const double motion_per_s = hypot(p->linear.lambda_per_s[0], p->linear.lambda_per_s[1]);
+    const double net_nm = drive_nm - k * s->angle_rad - p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
+    const double left_rad = (fabs(net_nm) + drift_nm) / k
+                            + (motion_per_s > 0.0 ? fabs(s->velocity_rad_per_s) / motion_per_s : 0.0);
+    if (p->state_dependent
+        && (p->stiffness_slope_nm_per_rad + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * s->angle_rad * s->angle_rad
+                >= SETTLED_SLOPE_SHARE * k
+            || p->damping_slope_nms_per_rad
+                       + 2.0 * e->quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s)
+                   >= SETTLED_SLOPE_SHARE * p->linear.damping_nms_per_rad)) {
+        return cap_s;
+    }
+    if (!(left_rad > 0.0)) {
+        return left_rad == 0.0 ? request_cap_s : cap_s;
+    }
+    return fmin(request_cap_s, cap_s * fmax(sqrt(sqrt(range_rad / left_rad)), 1.0));
+}
+
 /* the chamber t after the start of a held segment: its exact first-order solution */
 static double chamber_at(double start_kpa, double input_kpa, double tau_s, double t_s)
 {
@@ -378,7 +426,7 @@ static double chamber_at(double start_kpa, double input_kpa, double tau_s, doubl
  * last step ends the segment exactly and a kink cuts a step where it lies, so the steps
  * and the result move continuously with every parameter. */
 static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                              double input_kpa, double duration_s, double step_cap_s)
+                              double input_kpa, double duration_s, double request_cap_s)
 {
     const rtcore_sim_finger *f = p->finger;
     const double tau_s = f->prbm.effects.valve_lag_tau_s;
@@ -393,6 +441,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rt
     const double lag_span_kpa = fmax(f->supply_max_kpa - f->supply_min_kpa, 1.0);
     const double torque_last = pressure_torque_nm(f, end_kpa);
     double torque_start = pressure_torque_nm(f, start_kpa);
+    const double step_cap_s = fmin(request_cap_s, s->max_step_s);
+    const double settle_range_rad = settle_range_rad_for(p);
     double cap_s = step_cap_s;
     double t_s = 0.0;
     int32_t last = 0;
@@ -414,7 +464,10 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rt
         const double remaining_s = duration_s - t_s;
         int32_t touching = next_touching >= 0 ? next_touching : touches(f, s->angle_rad);
         double g_start = p->nonlinear ? nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
-        double h = cap_s;
+        double h = settle_range_rad > 0.0 && cap_s < request_cap_s
+                       ? settled_step_s(p, s, cap_s, request_cap_s, settle_range_rad,
+                                        torque_start + g_start, fabs(torque_last - torque_start))
+                       : cap_s;
         double slope0 = 0.0; /* the friction's slope here, integrated exactly over the step */
         sim_plant local;
         double torque_mid = torque_start;
@@ -493,7 +546,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rt
 /* A held segment, split where the chamber crosses the dead zone's threshold, so that the
  * torque is smooth within each part. */
 static void integrate_held(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                           double input_kpa, double duration_s, double step_cap_s)
+                           double input_kpa, double duration_s, double request_cap_s)
 {
     const double tau_s = p->finger->prbm.effects.valve_lag_tau_s;
     const double deadzone_kpa = p->finger->prbm.effects.pressure_deadzone_kpa;
@@ -503,12 +556,12 @@ static void integrate_held(const sim_plant *p, rtcore_sim_finger_state *s, rtcor
             || (start_kpa > deadzone_kpa && input_kpa < deadzone_kpa))) {
         const double cross_s = tau_s * log((start_kpa - input_kpa) / (deadzone_kpa - input_kpa));
         if (cross_s > 0.0 && cross_s < duration_s) {
-            integrate_segment(p, s, cache, input_kpa, cross_s, step_cap_s);
-            integrate_segment(p, s, cache, input_kpa, duration_s - cross_s, step_cap_s);
+            integrate_segment(p, s, cache, input_kpa, cross_s, request_cap_s);
+            integrate_segment(p, s, cache, input_kpa, duration_s - cross_s, request_cap_s);
             return;
         }
     }
-    integrate_segment(p, s, cache, input_kpa, duration_s, step_cap_s);
+    integrate_segment(p, s, cache, input_kpa, duration_s, request_cap_s);
 }
 
 /* The valve regulates within its supply; a garbled (NaN) command vents to the floor. */
@@ -527,11 +580,12 @@ static double delayed_command(const rtcore_sim_finger_state *s, int32_t samples_
 
 /* One sample period after pushing command_kpa: the dead time puts at most one breakpoint
  * inside the period, where the older command gives way to the newer one. The step is at
- * most dt/substeps (what the caller asks for) and what the finger's parameters allow. */
+ * most dt/substeps (what the caller asks for) and what the finger's parameters allow
+ * (more, up to dt/substeps, once the finger has settled: settled_step_s). */
 static void advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
                            double command_kpa, double dt_s, int32_t substeps)
 {
-    const double step_cap_s = fmin(dt_s / (double)substeps, s->max_step_s);
+    const double step_cap_s = dt_s / (double)substeps; /* the parameters' bound applies inside */
     sim_plant plant;
     plant_for(f, &plant);
     s->head = (s->head + 1) % RTCORE_SIM_HISTORY;
