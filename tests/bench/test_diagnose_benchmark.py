@@ -20,15 +20,20 @@ def test_diagnose_30_s_at_100_hz(benchmark, effect: str) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("rate_hz", [100.0, 500.0, 1000.0])
+@pytest.mark.parametrize("rate_hz", [0.25, 100.0, 500.0, 1000.0])
 def test_diagnose_30_s_at_each_rate(benchmark, rate_hz: float) -> None:
-    """The same 30 s at a lab's other rates: the cost follows the simulated time (1 ms
-    sub-steps) more than the number of samples (issue 20's target: within 3 × the 100 Hz time)."""
+    """The same recording at a lab's other rates (issue 20's target: within 3 × the 100 Hz
+    time): 30 s, except at 0.25 Hz, where 30 s is 8 samples and diagnose asks for 100, so
+    480 s (120 samples). The simulator's steps follow the dynamics, not the rate: a settled
+    finger takes long steps, a plain one is exact at any step."""
     model = load_profile(None).finger("index").model
-    c = generate(model, {"gravity": None}, "steps", rate_hz=rate_hz, noise_deg=0.5, seed=1, conceal_ratio=0.8)
+    c = generate(model, {"gravity": None}, "steps", duration_s=480.0 if rate_hz < 1.0 else 30.0,
+                 rate_hz=rate_hz, noise_deg=0.5, seed=1, conceal_ratio=0.8)
     result = benchmark.pedantic(diagnose, args=(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, rate_hz),
                                 rounds=1, iterations=1)
-    assert result.effects[0].name == "gravity"
+    benchmark.extra_info["verdict"] = result.verdict
+    if rate_hz >= 1.0:  # at 0.25 Hz every sample is the settled, static finger: a timing case
+        assert result.effects[0].name == "gravity"
 
 
 def _independent(effect: str, excitation: str, family: str, rate_hz: float, tmp_path,
