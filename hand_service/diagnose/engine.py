@@ -18,7 +18,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
-from hand_service.diagnose import excitation, noise, stats
+from hand_service.diagnose import excitation, noise, stability, stats
 from hand_service.diagnose.evidence import Context, sentence
 from hand_service.diagnose.fit import Fit, fit
 from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Prior, Problem, build_problem
@@ -255,6 +255,13 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
                            excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
                                               refit.value("stiffness_nm_per_rad"),
                                               problem.base.prbm.inertia_kgm2).sentence(), explained)
+    if verdict == "missing_physics":
+        unstable = stability.check(problem, final, [e.name for e in found])
+        if unstable:
+            warnings.extend(u.sentence() for u in unstable)
+            warnings.append("so no effect is named: the mismatch lies outside the library "
+                            "(see partial_effects)")
+            verdict, notes = "unexplained", []
     warnings.extend(trade_offs(final, found))
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:

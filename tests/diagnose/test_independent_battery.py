@@ -307,3 +307,22 @@ def test_diagnose_on_an_independent_recording(
         f"{spec.id}: truth {effect} {case.library_equivalent}, visibility "
         f"{case.visibility:.2f}; diagnose said {result['verdict']} {scored['named']}"
     )
+
+
+def test_an_object_met_above_some_angle_is_not_named_a_stiffening_spring(tmp_path: Path) -> None:
+    """A finger that presses into an object above 55° on a ramp (out of the library): a
+    cubic spring and gravity together fit that one-sided stiffening with a white residual
+    (both were named before the posture test), but fitted on the lower and upper half of
+    the angles apart their parameters disagree (k3 0.053 against 0.130): `unexplained`,
+    the pair in partial_effects (hand_service/diagnose/stability.py)."""
+    from hand_service.cli import main
+
+    spec = cs.CaseSpec("contact", "ramp", 0, "evident", "ringing", 500.0)
+    case = cs.build(spec)
+    rec, model = cs.write(case, tmp_path)
+    out = tmp_path / "diagnose.json"
+    assert main(diagnose_argv(rec, model, out)) == 0
+    result = json.loads(out.read_text())
+    assert result["verdict"] == "unexplained" and result["effects"] == []
+    assert {e["name"] for e in result["partial_effects"]} >= {"cubic_stiffness"}
+    assert any("does not hold across the recording's postures" in w for w in result["warnings"])
