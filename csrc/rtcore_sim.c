@@ -61,7 +61,7 @@ static double next_gaussian(rtcore_sim *sim)
  *   plant);
  * - 1/(the shift by g's stiffness-like slopes);
  * - dry friction's slope, taken into the exact part at each step's start, by how fast
- *   the velocity can leave the band where that slope still holds (friction_step_s);
+ *   the velocity can leave the band where that slope still holds (damping_step_s);
  * - the valve lag τ (LAG_STEP_FRACTION·τ at first, see integrate_segment). */
 static const double MOTION_STEP_FRACTION = 0.25;
 static const double DAMPING_STEP_FRACTION = 1.0;
@@ -126,7 +126,7 @@ typedef struct {
     int32_t state_dependent; /* a slope of g grows without bound with the state */
     int32_t kinks; /* g has kinks (before_kink) */
     double damping_slope_nms_per_rad; /* bound on −dg/dθ' (>= 0: g only damps) everywhere,
-                                       * the friction's apart (friction_step_s) */
+                                       * the friction's apart (damping_step_s) */
     double stiffness_slope_nm_per_rad; /* bound on |dg/dθ| everywhere */
 } sim_plant;
 
@@ -211,15 +211,13 @@ static double friction_speed_at(double peak_slope, double slope)
     return acosh(sqrt(peak_slope / slope));
 }
 
-/* How far the velocity may move from ω before the friction's slope leaves
- * c0 ± FRICTION_SLOPE_SHARE·(B + c0), either way (infinite when it never does). */
-static double friction_reach_rad_per_s(const sim_plant *p, double velocity_rad_per_s, double slope0)
+/* How far the velocity may move from ω before the friction's slope leaves c0 ± allowed,
+ * either way (infinite when it never does). */
+static double friction_reach_rad_per_s(const rtcore_effects *e, double velocity_rad_per_s, double slope0,
+                                       double allowed)
 {
-    const rtcore_effects *e = &p->finger->prbm.effects;
     const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
     const double peak = e->coulomb_torque_nm / smoothing_rad_per_s;
-    /* (a floor for a plant without damping, whose slope far from rest is zero) */
-    const double allowed = FRICTION_SLOPE_SHARE * fmax(p->linear.damping_nms_per_rad + slope0, 1e-6 * peak);
     const double x = fabs(velocity_rad_per_s) / smoothing_rad_per_s;
     const double x_low = slope0 - allowed > 0.0 ? friction_speed_at(peak, slope0 - allowed) : INFINITY;
     /* towards rest the slope rises: to its bound, or over the peak and down the far side */
@@ -228,15 +226,39 @@ static double friction_reach_rad_per_s(const sim_plant *p, double velocity_rad_p
     return fmax(fmin(toward, away), 0.0) * smoothing_rad_per_s;
 }
 
-/* The longest step, up to h_cap, over which the velocity stays within
- * friction_reach_rad_per_s. The torque out of balance is net_nm at the start and moves by
- * drift_nm (the chamber's torque) plus k·|θ'|·h (the spring, as the finger moves) within
- * the step; it moves the velocity by at most its size·h/A, and, when the plant with B + c0
- * is over-damped, by no more than its size/(B + c0), where that damping has caught up. */
-static double friction_step_s(const sim_plant *local, double velocity_rad_per_s, double slope0, double net_nm,
-                              double drift_nm, double h_cap_s)
+/* How far the velocity may move before the damping-like slopes taken into the exact part
+ * at the step's start, the friction's c_f and the drag's 2·c2·|θ'|, change by more than
+ * FRICTION_SLOPE_SHARE of the exact damping B + c0 (half of it each when both act). A floor
+ * of 1e-3 of critical damping (and 1e-6 of the friction's peak slope) keeps a plant
+ * without damping, at rest, from steps of nothing. */
+static double velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0)
 {
-    const double reach = friction_reach_rad_per_s(local, velocity_rad_per_s, slope0);
+    const rtcore_effects *e = &local->finger->prbm.effects;
+    const int32_t friction = e->coulomb_torque_nm > 0.0;
+    const int32_t drag = e->quadratic_damping_nms2_per_rad2 > 0.0;
+    const double floor_nms_per_rad
+        = fmax(1e-3 * sqrt(local->linear.stiffness_nm_per_rad * local->linear.inertia_kgm2),
+               friction ? 1e-6 * e->coulomb_torque_nm / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG) : 0.0);
+    const double allowed = FRICTION_SLOPE_SHARE * fmax(local->linear.damping_nms_per_rad, floor_nms_per_rad)
+                           / (friction && drag ? 2.0 : 1.0);
+    double reach = INFINITY;
+    if (friction) {
+        reach = friction_reach_rad_per_s(e, velocity_rad_per_s, friction0, allowed);
+    }
+    if (drag) {
+        reach = fmin(reach, allowed / (2.0 * e->quadratic_damping_nms2_per_rad2));
+    }
+    return reach;
+}
+
+/* The longest step, up to h_cap, over which the velocity stays within `reach`. The torque
+ * out of balance is net_nm at the start and moves by drift_nm (the chamber's torque) plus
+ * k·|θ'|·h (the spring, as the finger moves) within the step; it moves the velocity by at
+ * most its size·h/A, and, when the plant with B + c0 is over-damped, by no more than its
+ * size/(B + c0), where that damping has caught up. */
+static double damping_step_s(const sim_plant *local, double velocity_rad_per_s, double reach, double net_nm,
+                             double drift_nm, double h_cap_s)
+{
     const double spring_nm_per_s = local->linear.stiffness_nm_per_rad * fabs(velocity_rad_per_s);
     const double torque_nm = fabs(net_nm) + fabs(drift_nm);
     double rate;
@@ -264,27 +286,21 @@ static double parameter_step_s(const sim_plant *p)
     return step_s;
 }
 
-/* The step where a slope of g grows with the state, 2·c2·|θ'| and 3·|k3|·θ², taken at
- * the velocity and the angle the finger may reach: the present ones plus what the torque
- * out of balance, accel_torque = A·θ'', drives (a velocity of about accel_torque/(B + √(kA)),
- * over-damped or ringing, and an angle of accel_torque/k). */
-static double state_step_s(const sim_plant *p, double angle_rad, double velocity_rad_per_s,
-                           double accel_torque_nm)
+/* The step where a slope of g grows with the state, 3·|k3|·θ², taken at the angle the
+ * finger may reach: the present one plus what the torque out of balance, accel_torque =
+ * A·θ'', drives (an angle of accel_torque/k). (The drag's slope, 2·c2·|θ'|, is taken into
+ * the exact part at each step: damping_step_s.) */
+static double state_step_s(const sim_plant *p, double angle_rad, double accel_torque_nm)
 {
     const rtcore_effects *e = &p->finger->prbm.effects;
-    const double torque = fabs(accel_torque_nm);
-    const double velocity = fabs(velocity_rad_per_s)
-                            + torque / (p->linear.damping_nms_per_rad
-                                        + sqrt(p->linear.stiffness_nm_per_rad * p->linear.inertia_kgm2));
-    const double angle = fabs(angle_rad) + torque / p->linear.stiffness_nm_per_rad;
-    return slope_step_s(p, p->damping_slope_nms_per_rad + 2.0 * e->quadratic_damping_nms2_per_rad2 * velocity,
-                        p->stiffness_slope_nm_per_rad
-                            + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * angle * angle);
+    const double angle = fabs(angle_rad) + fabs(accel_torque_nm) / p->linear.stiffness_nm_per_rad;
+    return slope_step_s(p, p->damping_slope_nms_per_rad,
+                        p->stiffness_slope_nm_per_rad + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * angle * angle);
 }
 
 /* One step h; the chamber's torque is p_start, p_mid and p_end at t = 0, h/2 and h, and
  * g_start = g(x) + c0·θ'. p is the plant with the damping B + c0, c0 =
- * linearized_nms_per_rad (a friction's slope, friction_step_s), which g gives back. Without g: the exact response to that quadratic. With g, ETDRK4 (Cox &
+ * linearized_nms_per_rad (the friction's and the drag's slopes, damping_step_s), which g gives back. Without g: the exact response to that quadratic. With g, ETDRK4 (Cox &
  * Matthews 2002): stages a and b from x and c from a over h/2, each with the total torque
  * held (at x, at a, and 2·(at b) − (at x)), then the exact response to the quadratic
  * through the torque at x, the mean of those at a and b, and at c. */
@@ -367,7 +383,7 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
  * k and B (settle_range_rad_for returns 0 otherwise: no growth), so that a long step
  * stays stable; the state-dependent slopes (drag, cubic stiffness) at the state now. Not
  * with dry friction: a finger held by it creeps, far from settled, with nothing out of
- * balance (friction_step_s sets its steps). */
+ * balance (damping_step_s sets its steps). */
 static const double SETTLED_SLOPE_SHARE = 0.5;
 
 static double settle_range_rad_for(const sim_plant *p)
@@ -392,11 +408,8 @@ static double settled_step_s(const sim_plant *p, const rtcore_sim_finger_state *
     const double left_rad = (fabs(net_nm) + drift_nm) / k
                             + (motion_per_s > 0.0 ? fabs(s->velocity_rad_per_s) / motion_per_s : 0.0);
     if (p->state_dependent
-        && (p->stiffness_slope_nm_per_rad + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * s->angle_rad * s->angle_rad
-                >= SETTLED_SLOPE_SHARE * k
-            || p->damping_slope_nms_per_rad
-                       + 2.0 * e->quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s)
-                   >= SETTLED_SLOPE_SHARE * p->linear.damping_nms_per_rad)) {
+        && p->stiffness_slope_nm_per_rad + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * s->angle_rad * s->angle_rad
+               >= SETTLED_SLOPE_SHARE * k) {
         return cap_s;
     }
     if (!(left_rad > 0.0)) {
@@ -457,7 +470,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rt
         const double g_nm = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
         const double linear_nm = p->linear.stiffness_nm_per_rad * s->angle_rad + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
         const double accel_nm = fmax(fabs(torque_start + g_nm - linear_nm), fabs(torque_last + g_nm - linear_nm));
-        cap_s = fmin(step_cap_s, fmax(state_step_s(p, s->angle_rad, s->velocity_rad_per_s, accel_nm),
+        cap_s = fmin(step_cap_s, fmax(state_step_s(p, s->angle_rad, accel_nm),
                                       step_cap_s / STATE_STEP_SHRINK));
     }
     while (!last) {
@@ -485,12 +498,17 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rt
                 h = fmin(h, LAG_STEP_FRACTION * tau_s * cbrt(lag_span_kpa / gap_kpa));
             }
         }
-        if (f->prbm.effects.coulomb_torque_nm > 0.0) {
+        if (f->prbm.effects.coulomb_torque_nm > 0.0 || f->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0) {
             const double net_nm = torque_start + g_start - p->linear.stiffness_nm_per_rad * s->angle_rad
                                   - p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
-            slope0 = friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s);
+            const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
+                                         ? friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
+                                         : 0.0;
+            slope0 = friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s);
             with_damping(p, slope0, &local);
-            h = fmin(h, friction_step_s(&local, s->velocity_rad_per_s, slope0, net_nm, torque_last - torque_start, h));
+            h = fmin(h, damping_step_s(&local, s->velocity_rad_per_s,
+                                       velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0), net_nm,
+                                       torque_last - torque_start, h));
             g_start += slope0 * s->velocity_rad_per_s;
         } else {
             local = *p;
