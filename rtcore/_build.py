@@ -22,7 +22,8 @@ HEADER = CSRC / "rtcore.h"  # the umbrella: includes every header of HEADERS, no
 HEADERS = tuple(CSRC / name for name in ("rtcore_step.h", "rtcore_sim.h", "rtcore_clock.h",
                                          "rtcore_ring.h", "rtcore_gate.h", "rtcore_tick.h"))
 SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_step.c", "rtcore_sim.c",
-           "rtcore_exact.c", "rtcore_sim_link.c", "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c", "rtcore_ring.c")
+           "rtcore_exact.c", "rtcore_sim_link.c", "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c",
+           "rtcore_ring.c")
 COMPILE_ARGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"]
 BEGIN, END = "/* BEGIN CDEF */", "/* END CDEF */"
 INCLUDE = re.compile(r'^\s*#\s*include\s+"(rtcore\w*\.h)"', re.M)
