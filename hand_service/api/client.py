@@ -2,7 +2,7 @@
 
     from hand_service.api.client import HandClient
     with HandClient() as hand:                 # the default socket, or HandClient(path)
-        hand.arm()
+        hand.arm()                             # HandClient(tcp_port=P): the token is read for you
         hand.target("index", angle_deg=45)
         hand.start()
         print(hand.status()["fingers"]["index"]["angle_deg"])
@@ -15,7 +15,8 @@ import socket
 from pathlib import Path
 from typing import Any
 
-from hand_service.api.server import default_socket_path
+from hand_service.api.access import read_token, token_path
+from hand_service.api.listen import default_socket_path
 
 
 class ApiError(Exception):
@@ -23,14 +24,19 @@ class ApiError(Exception):
 
 
 class HandClient:
+    """A connection to the daemon: its Unix socket, or its TCP port (then the first request
+    carries the token, read from `token_file`, by default the one beside `socket_path`)."""
+
     def __init__(self, socket_path: str | Path | None = None, tcp_port: int | None = None,
-                 timeout_s: float = 5.0) -> None:
-        self.address = (str(socket_path or default_socket_path()) if tcp_port is None
-                        else f"127.0.0.1:{tcp_port}")
+                 timeout_s: float = 5.0, token_file: str | Path | None = None) -> None:
+        path = Path(socket_path) if socket_path else default_socket_path()
+        self.address = str(path) if tcp_port is None else f"127.0.0.1:{tcp_port}"
+        self._token: str | None = None
         if tcp_port is None:
             self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
             target: Any = self.address
         else:
+            self._token = read_token(Path(token_file) if token_file else token_path(path))
             self.sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
             target = ("127.0.0.1", tcp_port)
         self.sock.settimeout(timeout_s)
@@ -47,6 +53,8 @@ class HandClient:
         """Send one request and return its result; ApiError if the daemon refuses it."""
         self._next_id += 1
         message = {"cmd": cmd, "id": self._next_id, **params}
+        if self._token is not None:  # the first request on the TCP port shows the token
+            message["token"], self._token = self._token, None
         self.sock.sendall(json.dumps(message).encode() + b"\n")
         reply = self._read_reply()
         if not reply.get("ok"):

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from hand_service.api.paths import confine, new_file_in
+from hand_service.api.redact import trajectory_error
 from hand_service.api.server import Deferred
 from hand_service.config.profile import Profile
 from hand_service.config.textfile import show
@@ -107,8 +109,12 @@ def _name(text: object) -> str:
 
 
 def _parse_trajectory(path: str, profile: Profile, rate_hz: float) -> tuple[Trajectory, np.ndarray]:
-    """In the worker: read, resample and check the file; the fingers it drives."""
-    traj = read_trajectory(path, profile, rate_hz)
+    """In the worker: read, resample and check the file; the fingers it drives. A parse
+    error says where and what, never the file's text (redact.py)."""
+    try:
+        traj = read_trajectory(path, profile, rate_hz)
+    except UserError as exc:
+        raise UserError(trajectory_error(str(exc), path, profile)) from None
     return traj, Supervisor.check_trajectory(traj)
 
 
@@ -127,9 +133,12 @@ class _Loading:
 class Api:
     """Request name -> (parameters, handler). `handle(request)` never raises."""
 
-    def __init__(self, supervisor: Supervisor, metadata: Callable[[], dict[str, object]]) -> None:
+    def __init__(self, supervisor: Supervisor, metadata: Callable[[], dict[str, object]],
+                 record_dir: Path | None = None) -> None:
         self.sup = supervisor
         self.metadata = metadata
+        # the real path of the only directory a request's path may name (None: no path is taken)
+        self.record_dir = record_dir
         self.requests = 0
         self.errors = 0
         self._loading: _Loading | None = None
@@ -149,10 +158,12 @@ class Api:
             "target": ({"finger": Param(str, doc="finger name or 'all'"),
                         "angle_deg": Param(float, False), "force_n": Param(float, False),
                         "pressure_kpa": Param(float, False)}, self.target),
-            "load_trajectory": ({"path": Param(PATH, doc="absolute path of a trajectory CSV"),
+            "load_trajectory": ({"path": Param(PATH, doc="absolute path of a trajectory CSV in the "
+                                                         "recording directory"),
                                  "loop": Param(bool, False)}, self.load_trajectory),
             "clear_trajectory": ({}, self.clear_trajectory),
-            "record_start": ({"path": Param(PATH, doc="absolute path of a new CSV")}, self.record_start),
+            "record_start": ({"path": Param(PATH, doc="absolute path of a new CSV in the recording "
+                                                      "directory")}, self.record_start),
             "record_stop": ({}, self.record_stop),
         }
 
@@ -268,9 +279,7 @@ class Api:
         must not stop for while pressurised); poll() applies it between ticks, and the
         reply comes then."""
         self._not_running("load_trajectory")
-        if not Path(path).is_absolute():
-            raise RequestError("load_trajectory: the path must be absolute (the daemon has its own "
-                               "working directory)")
+        path = confine("load_trajectory", path, self.record_dir)
         if self._loading is not None:
             raise RequestError(f"load_trajectory: {self._loading.path} is still loading")
         job = Background(_parse_trajectory, path, self.sup.profile, self.sup.rate_hz, name="trajectory")
@@ -294,9 +303,7 @@ class Api:
         return {"trajectory": None}
 
     def record_start(self, path: str) -> dict[str, Any]:
-        if not Path(path).is_absolute():
-            raise RequestError("record_start: the path must be absolute")
-        self.sup.recorder.start(path, self.metadata())
+        self.sup.recorder.start(new_file_in("record_start", path, self.record_dir), self.metadata())
         return self.sup.recorder.status()
 
     def record_stop(self) -> dict[str, Any]:

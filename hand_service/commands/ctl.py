@@ -18,11 +18,14 @@ reply. Examples:
     hand-service ctl target index --angle-deg 45
     hand-service ctl target all --force-n 1.0
     hand-service ctl mode ring vent
-    hand-service ctl load docs/examples/wave.csv && hand-service ctl start
-    hand-service ctl record-start /tmp/run.csv
+    hand-service ctl load ~/.local/share/hand-service/recordings/wave.csv && hand-service ctl start
+    hand-service ctl record-start ~/.local/share/hand-service/recordings/run.csv
     hand-service ctl estop            # then: ctl reset
+    hand-service ctl --tcp-port 7000 status   # reads the token beside the default socket
 
-A refused request prints the daemon's reason on one line and exits with status 2.
+A path must lie in the daemon's recording directory (run --record-dir). `ctl estop`
+is served even when the daemon has all the connections it takes. A refused request
+prints the daemon's reason on one line and exits with status 2.
 """
 
 SIMPLE = {
@@ -44,7 +47,11 @@ SIMPLE = {
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--socket", type=Path, metavar="PATH", help="the daemon's control socket")
     parser.add_argument("--tcp-port", type=int, metavar="PORT",
-                        help="use 127.0.0.1:PORT (1 to 65535) instead")
+                        help="use 127.0.0.1:PORT (1 to 65535) instead; the token is read from the file "
+                             "the daemon wrote beside its socket (--socket names the socket)")
+    parser.add_argument("--token-file", type=Path, metavar="FILE",
+                        help="with --tcp-port: the daemon's token file (default: <socket dir>/api.token "
+                             "for socket api.sock)")
     parser.add_argument("--json", action="store_true", help="print the reply's result as JSON")
     sub = parser.add_subparsers(dest="request", required=True, metavar="REQUEST")
     for name, doc in SIMPLE.items():
@@ -119,6 +126,8 @@ def check(args: argparse.Namespace) -> None:
     from hand_service.errors import UserError
 
     checks.tcp_port(args.tcp_port)
+    if args.token_file is not None and args.tcp_port is None:
+        raise UserError("--token-file goes with --tcp-port (the Unix socket needs no token)")
     for key, flag in TARGET_FLAGS.items():
         value = getattr(args, key, None)
         if value is not None and not math.isfinite(value):
@@ -132,7 +141,7 @@ def main(args: argparse.Namespace) -> int:
     check(args)
     cmd, params = _request(args)
     try:
-        with HandClient(args.socket, args.tcp_port) as client:
+        with HandClient(args.socket, args.tcp_port, token_file=args.token_file) as client:
             result = client.request(cmd, **params)
     except (ConnectionError, OSError) as exc:
         raise UserError(str(exc)) from None

@@ -12,14 +12,17 @@ HELP = "run the supervisor daemon (default: the simulated hand of sim.yaml); --d
 DESCRIPTION = """\
 Run the supervisor: a control tick at the profile's rate (100 Hz by default, up to
 1 kHz) on an absolute clock_nanosleep schedule, the safety state machine, the control
-API on a Unix socket (0600) and, with --record, one CSV row per tick.
+API on a Unix socket (0600, in a directory only you may write) and, with --record, one
+CSV row per tick. Requests load and record only inside --record-dir. With --tcp-port a
+client must show the token the daemon writes beside its socket (ctl reads it).
 
 The daemon starts in INIT, shakes hands with the firmware and waits DISARMED (vented)
 for requests: `hand-service ctl arm`, `ctl target index --angle-deg 45`, `ctl start`...
 It stops on SIGTERM or SIGINT (vents, flushes the recording, exits 0) or after
---duration. With --demo it arms itself and runs the demo on the simulated hand: the
-paper's 0 -> 90 deg sweep on every finger, then a pinch (thumb and index close on objects
-in force mode), then prints the tracking and timing figures.
+--duration. SIGUSR1 is an emergency stop that needs no socket: ESTOP (vented,
+latched) from the next tick. With --demo it arms itself and runs the demo on the
+simulated hand: the paper's 0 -> 90 deg sweep on every finger, then a pinch (thumb and
+index close on objects in force mode), then prints the tracking and timing figures.
 """
 
 
@@ -35,7 +38,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "$XDG_RUNTIME_DIR/hand-service/api.sock or /tmp/hand-service-UID/api.sock)")
     parser.add_argument("--no-socket", action="store_true", help="no control API")
     parser.add_argument("--tcp-port", type=int, metavar="PORT",
-                        help="also serve the API on 127.0.0.1:PORT (loopback only; 0 picks one)")
+                        help="also serve the API on 127.0.0.1:PORT (loopback only; 0 picks one); a "
+                             "client must show the token the daemon writes beside its socket "
+                             "(api.token beside api.sock, mode 0600; docs/api.md)")
+    parser.add_argument("--record-dir", type=Path, metavar="DIR",
+                        help="the only directory requests (load_trajectory, record_start) may read or "
+                             "record in, created 0700 if absent (default: the directory of --record, "
+                             "else $XDG_DATA_HOME/hand-service/recordings, by default "
+                             "~/.local/share/hand-service/recordings)")
     parser.add_argument("--rate", type=float, metavar="HZ",
                         help=f"control rate ({RATE_MIN_HZ:g} to {RATE_MAX_HZ:g} Hz, above twice the "
                              "filter cutoff; default: the profile's control.rate_hz)")
@@ -97,7 +107,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.api.server import default_socket_path
     options = DaemonOptions(
         socket_path=None if args.no_socket else (args.socket or default_socket_path()),
-        tcp_port=args.tcp_port, record=args.record, recorder=args.recorder,
+        tcp_port=args.tcp_port, record=args.record, record_dir=args.record_dir, recorder=args.recorder,
         record_sync_s=args.record_sync_s, spin_us=args.spin_us,
         realtime_priority=None if args.no_realtime else args.realtime_priority,
         lock_memory=not (args.no_realtime or args.no_mlock),

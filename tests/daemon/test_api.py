@@ -27,7 +27,8 @@ class Running:
         profile = load_profile(None)
         self.socket = tmp_path / "run" / "api.sock"
         self.daemon = Daemon(profile, transport_class("sim")(profile),
-                             DaemonOptions(socket_path=self.socket, tcp_port=0 if tcp else None))
+                             DaemonOptions(socket_path=self.socket, tcp_port=0 if tcp else None,
+                                           record_dir=tmp_path))
         self.daemon.open()
         self.thread = threading.Thread(target=self.daemon.run, kwargs={"install_signals": False})
         self.thread.start()
@@ -157,7 +158,7 @@ def test_trajectory_runs_to_hold(daemon: Running, tmp_path: Path) -> None:
     (b'{"cmd": "start"}\n', "cannot start in DISARMED"),
     (b'{"cmd": "reset"}\n', "cannot reset in DISARMED"),
     (b'{"cmd": "load_trajectory", "path": "relative.csv"}\n', "must be absolute"),
-    (b'{"cmd": "load_trajectory", "path": "/nonexistent/t.csv"}\n', "cannot read"),
+    (b'{"cmd": "load_trajectory", "path": "/nonexistent/t.csv"}\n', "outside the recording directory"),
     (b'{"cmd": "record_start", "path": "rel.csv"}\n', "must be absolute"),
     (b'{"cmd": "record_stop"}\n', "not recording"),
     (b"{" + b" " * 70000 + b"\n", "not JSON"),
@@ -229,7 +230,7 @@ def test_tcp_is_loopback_only(tmp_path: Path) -> None:
     try:
         port = running.daemon.server.tcp_port
         assert running.daemon.server.listeners[1].getsockname()[0] == "127.0.0.1"
-        with HandClient(tcp_port=port) as hand:
+        with HandClient(running.socket, tcp_port=port) as hand:  # the token beside that socket
             assert hand.status()["state"] in ("INIT", "DISARMED")
     finally:
         running.stop()

@@ -25,7 +25,7 @@ def test_a_negative_force_target_is_recorded_and_reported_negative(tmp_path: Pat
     # (while it presses back on it, which it does below kθ/N of pressure)
     rig.transport.sensor_override = np.array(
         [(HELD_DEG - f.sensor_offset_deg) / f.sensor_gain_deg_per_mv for f in rig.profile.fingers])
-    api = Api(rig.sup, metadata=lambda: {"test": "negative force target"})
+    api = Api(rig.sup, metadata=lambda: {"test": "negative force target"}, record_dir=tmp_path)
     record = tmp_path / "force.csv"
 
     def ok(request: dict[str, object]) -> dict[str, object]:

@@ -83,7 +83,7 @@ def api(fuzz_dir: Path) -> Iterator[tuple[Api, ApiServer]]:
     rig = Rig()
     rig.tick()  # the handshake: DISARMED
     rig.sup.recorder.start = _no_recording  # type: ignore[method-assign]
-    api = Api(rig.sup, metadata=lambda: {})
+    api = Api(rig.sup, metadata=lambda: {}, record_dir=fuzz_dir)  # the paths of BASE lie in it
     server = ApiServer(api.handle, None)
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(api_requests, "Background", _Now)
