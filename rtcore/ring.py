@@ -1,10 +1,15 @@
 """The recording ring in shared memory (csrc/rtcore_ring.c): fixed-width rows of doubles
 in a memory-mapped file, one producer (the tick), one consumer (the writer), no lock.
 
-Layout: a header of 8 int64 [magic, n_cols, capacity, count, drained, lost, 0, 0], then
-capacity rows of n_cols float64. `count` is the number of rows ever pushed; row i lives
-in slot i % capacity. `drained` is the consumer's progress and `lost` the rows it found
-overwritten before it could read them, both published for the producer to watch.
+Layout: a header of 8 int64 [magic, n_cols, capacity, count, drained, lost, error,
+failed_at], then capacity rows of n_cols float64. `count` is the number of rows ever
+pushed; row i lives in slot i % capacity. `drained` is the consumer's progress and `lost`
+the rows among them that never reached its file (overwritten before it could read them,
+or a write that failed); `error` is the errno of the consumer's first failure (0: none)
+and `failed_at` the count when it failed: all published for the producer to watch.
+
+The file is allocated when it is made (posix_fallocate): a full /dev/shm is an OSError
+then, never a SIGBUS when a push first touches a page.
 
 The producer writes row `count` into its slot before it publishes `count + 1`, so while
 the count reads n the slot of row n - capacity may be half overwritten already: a reader
@@ -26,7 +31,7 @@ from rtcore._rtcore import ffi, lib
 
 MAGIC = 0x48414E4452494E47  # "HANDRING"
 HEADER_INT64 = 8
-COUNT, DRAINED, LOST = 3, 4, 5
+COUNT, DRAINED, LOST, ERROR, FAILED_AT = 3, 4, 5, 6, 7
 
 
 class Ring:
@@ -37,7 +42,12 @@ class Ring:
         if create:
             size = 8 * (HEADER_INT64 + capacity * n_cols)
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
-            os.ftruncate(fd, size)
+            try:
+                os.posix_fallocate(fd, 0, size)  # every page now, or an OSError (ENOSPC)
+            except OSError:
+                os.close(fd)
+                self.path.unlink(missing_ok=True)
+                raise
         else:
             fd = os.open(self.path, os.O_RDWR)
             size = os.fstat(fd).st_size
@@ -101,6 +111,22 @@ class Ring:
     @lost.setter
     def lost(self, value: int) -> None:
         self.header[LOST] = value
+
+    @property
+    def error(self) -> int:
+        return int(self.header[ERROR])
+
+    @error.setter
+    def error(self, value: int) -> None:
+        self.header[ERROR] = value
+
+    @property
+    def failed_at(self) -> int:
+        return int(self.header[FAILED_AT])
+
+    @failed_at.setter
+    def failed_at(self, value: int) -> None:
+        self.header[FAILED_AT] = value
 
     def read(self, start: int) -> tuple[np.ndarray, int, int]:
         """Copy the rows from `start` to the current count: (rows, first, lost).

@@ -6,6 +6,12 @@ The CSV is docs/formats.md's multi-finger recording: `t`, `state`, then per fing
 suffixed columns angle_ref_deg, pressure_kpa (commanded), pressure_meas_kpa, angle_deg
 (calibrated, unfiltered), angle_filt_deg, velocity_deg_per_s, force_est_n (the signed
 normal force estimate), force_ref_n, mode and flags, after `#` provenance lines.
+
+The ring is allocated in full when a recording starts, so a /dev/shm too small for it is
+a one-line error then (at `run --record`, before the loop; at `record_start`, a refused
+request), never a SIGBUS in a tick. A recording that stops reaching its file (a failed
+write, a full disk, its writer gone) is found on the tick after (check()), and from then
+every row pushed and not written counts as lost (recording_failure).
 """
 
 from __future__ import annotations
@@ -16,7 +22,6 @@ import math
 import os
 import subprocess
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,20 +37,19 @@ from hand_service.service.recorder_writer import (
     csv_header,
     ring_columns,
 )
-from rtcore.ring import Ring
+from hand_service.service.recording_failure import RecordingFailure, row_counts, write_error, writer_gone
+from hand_service.service.recording_ring import RING_SECONDS, allocate_ring
+from hand_service.service.states import State
+from rtcore.ring import ERROR, Ring
 
 log = logging.getLogger(__name__)
 
 __all__ = ["SHUTDOWN_STATE", "Recorder"]
 
-RING_SECONDS = 10.0  # the writer may fall this far behind before rows are lost
 STOP_TIMEOUT_S = 0.5  # how long the daemon's shutdown waits for the writer
 KINDS = ("process", "thread")
-
-
-def ring_dir() -> str:
-    shm = "/dev/shm"
-    return shm if os.path.isdir(shm) and os.access(shm, os.W_OK) else tempfile.gettempdir()
+WRITER_CHECK_S = 0.05  # how often check() asks whether the writer still lives
+MAY_PRESSURISE = frozenset({State.ARMED, State.RUNNING, State.HOLD})  # a failed recording faults again
 
 
 @dataclass
@@ -58,6 +62,7 @@ class _Closing:
     process: subprocess.Popen[bytes] | None
     thread: WriterThread | None
     file: IO[str] | None
+    failure: RecordingFailure | None  # found before it stopped
 
     def finished(self, wait_s: float) -> bool:
         if self.thread is not None:
@@ -92,8 +97,12 @@ class Recorder:
         self.fingers, self.kind, self.sync_every_s = fingers, kind, sync_every_s
         self.n_cols = ring_columns(len(fingers))
         self.capacity = max(1024, int(RING_SECONDS * rate_hz))
+        self._check_every = max(1, round(WRITER_CHECK_S * rate_hz))
+        self._countdown = self._check_every
         self.path: Path | None = None
         self._ring: Ring | None = None
+        self._watch: np.ndarray | None = None  # the ring's header while a failure is not found yet
+        self.failure: RecordingFailure | None = None  # the running recording's
         self._process: subprocess.Popen[bytes] | None = None
         self._thread: WriterThread | None = None
         self._thread_file: IO[str] | None = None
@@ -135,18 +144,17 @@ class Recorder:
             raise UserError(f"already recording to {self.path}; stop first")
         path = Path(path)
         lines = [f"# {k}: {v}" for k, v in metadata.items()] + [",".join(csv_header(self.fingers))]
+        ring, ring_path = allocate_ring(self.n_cols, self.capacity)  # before the file: nothing left
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             with open(path, "x") as f:
                 f.write("\n".join(lines) + "\n")
-        except FileExistsError:
-            raise UserError(f"{path}: exists already; a recording never overwrites one") from None
         except OSError as exc:
+            ring.close()
+            Path(ring_path).unlink(missing_ok=True)
+            if isinstance(exc, FileExistsError):
+                raise UserError(f"{path}: exists already; a recording never overwrites one") from None
             raise UserError(f"{path}: cannot write: {exc.strerror or exc}") from None
-        fd, ring_path = tempfile.mkstemp(prefix="hand-service-ring-", dir=ring_dir())
-        os.close(fd)
-        os.unlink(ring_path)
-        ring = Ring(ring_path, self.n_cols, self.capacity)
         try:
             if self.kind == "process":
                 sync = [] if self.sync_every_s is None else ["--sync-every-s", repr(self.sync_every_s)]
@@ -164,13 +172,61 @@ class Recorder:
                                                     self.sync_every_s))
         except OSError as exc:
             ring.close()
+            Path(ring_path).unlink(missing_ok=True)
             raise UserError(f"cannot start the recording writer: {exc}") from None
         self._ring, self.path = ring, path
+        self._watch, self.failure, self._countdown = ring.header, None, self._check_every
         if self._tick_source is not None:
             self.push_tick = ring.tick_pusher(len(self.fingers), *self._tick_source)
         if self._c_tick is not None:
             ring.publish_to(self._c_tick, len(self.fingers))
         log.info("recording to %s (%s writer)", path, self.kind)
+
+    def after_tick(self, t_s: float, state: State, faults: bool) -> RecordingFailure | None:
+        """The supervisor, after every tick: collect a stopped writer that is done, and
+        check() the running recording. A failure found now is an error in the log, or, with
+        `faults` (recording.on_failure: fault), returned for the supervisor to latch FAULT;
+        so is a failed recording still running in any state that may pressurise."""
+        if self._closing:
+            self.reap()
+        failure = self.check(t_s)
+        if failure is not None and not faults:
+            log.error("%s; control goes on (recording.on_failure: warning)", failure.describe())
+        if not faults:
+            return None
+        return failure or (self.failure if state in MAY_PRESSURISE else None)
+
+    def check(self, t_s: float) -> RecordingFailure | None:
+        """Every tick (the supervisor, after the tick): a failure of the running recording
+        not reported before, else None. It reads one int64 of the ring's header (the
+        writer's errno); every WRITER_CHECK_S it also asks whether the writer still lives."""
+        header = self._watch
+        if header is None:
+            return None
+        if header[ERROR] == 0:
+            self._countdown -= 1
+            if self._countdown > 0:
+                return None
+            self._countdown = self._check_every
+            if self._writer_alive():
+                return None
+        self.failure, self._watch = self._failure_now(t_s), None
+        return self.failure
+
+    def _writer_alive(self) -> bool:
+        if self._process is not None:
+            return self._process.poll() is None
+        return self._thread is not None and not self._thread.done
+
+    def _failure_now(self, t_s: float | None) -> RecordingFailure | None:
+        """The failure the ring's header or the writer shows now, else None."""
+        ring, path = self._ring, self.path
+        assert ring is not None and path is not None
+        failure = write_error(path, ring, ring.count, t_s)
+        if failure is None and not self._writer_alive():
+            code = self._process.returncode if self._process is not None else None
+            failure = writer_gone(path, code, ring.count, t_s)
+        return failure
 
     def _command(self, word: bytes) -> None:
         if self._process is None or self._process.stdin is None:
@@ -194,11 +250,17 @@ class Recorder:
 
     @property
     def rows_lost(self) -> int:
-        """Rows the writer found overwritten (it fell RING_SECONDS behind), as it published
-        them in the ring's header."""
+        """Rows pushed that will never reach the file: overwritten before the writer read
+        them (it fell RING_SECONDS behind), and after a failure every row not written."""
         if self._ring is not None:
-            return self._ring.lost
+            return self._counts()["rows_lost"]
         return int(self.last["rows_lost"]) if self.last else 0  # type: ignore[call-overload]
+
+    def _counts(self) -> dict[str, int]:
+        ring = self._ring
+        assert ring is not None
+        failed = self.failure is not None or ring.error != 0 or not self._writer_alive()
+        return row_counts(ring, ring.count, failed)
 
     @property
     def writer_pid(self) -> int | None:
@@ -208,12 +270,19 @@ class Recorder:
         if not self.active or self._ring is None:
             return {"active": False, "path": str(self.path) if self.path else None,
                     "closing": self.closing, "last": self.last}
-        lost = self._ring.lost  # before drained, which the writer publishes first (recorder_writer)
-        pushed, drained = self._ring.count, self._ring.drained
-        alive = self._process.poll() is None if self._process else True
+        counts = self._counts()
         return {"active": True, "path": str(self.path), "writer": self.kind,
-                "writer_pid": self.writer_pid, "writer_alive": alive, "rows": pushed,
-                "rows_written": drained - lost, "rows_lost": lost, "lag_rows": pushed - drained}
+                "writer_pid": self.writer_pid, "writer_alive": self._writer_alive(), **counts,
+                "failure": self.failure.as_dict() if self.failure else None}  # as check() found it
+
+    def status_text(self) -> str:
+        """The recording's part of the daemon's status line."""
+        if not self.active:
+            return ""
+        counts = self._counts()
+        if self.failure is None:
+            return f" | rec {counts['rows']} rows"
+        return f" | rec FAILED ({self.failure.reason}): {counts['rows_lost']} rows lost"
 
     def stop(self, wait_s: float = 0.0) -> dict[str, object]:
         """Tell the writer to drain everything and close the file; wait at most wait_s
@@ -223,8 +292,9 @@ class Recorder:
         self.push_tick = self._not_recording_tick
         if self._c_tick is not None:
             Ring.unpublish(self._c_tick)
+        failure = self.failure or self._failure_now(None)
         closing = _Closing(self.path, self._ring, self._ring.count, self._process, self._thread,
-                           self._thread_file)
+                           self._thread_file, failure)
         if self._process is not None:
             self._command(b"stop")
             if self._process.stdin:
@@ -232,12 +302,14 @@ class Recorder:
         if self._thread is not None:
             self._thread.request_stop()
         self._ring, self._process, self._thread, self._thread_file = None, None, None, None
+        self._watch, self.failure = None, None
         self._closing.append(closing)
         self.reap(wait_s)
-        if closing in self._closing:
-            return {"active": False, "path": str(closing.path), "rows": closing.rows,
-                    "rows_written": closing.ring.drained - closing.ring.lost,
-                    "rows_lost": closing.ring.lost, "closing": True}
+        if closing in self._closing:  # after a failure the counts are final already
+            counts = row_counts(closing.ring, closing.rows, failure is not None)
+            del counts["lag_rows"]
+            return {"active": False, "path": str(closing.path), **counts, "closing": True,
+                    **({"failure": failure.as_dict()} if failure else {})}
         return {**(self.last or {}), "active": False, "closing": False}
 
     def reap(self, wait_s: float = 0.0) -> None:
@@ -259,20 +331,32 @@ class Recorder:
     def _finish(self, closing: _Closing, finished: bool) -> None:
         self._closing.remove(closing)
         ring = closing.ring
-        drained, lost = ring.drained, ring.lost
+        failure = closing.failure
+        if failure is None and ring.error:  # a write that failed as the writer drained its last rows
+            failure = write_error(closing.path, ring, ring.count, None)
+        lost = ring.lost
+        drained = ring.drained
+        written = drained - lost
+        # a writer that finished wrote all it ever will: every other row is lost
+        rows_lost = closing.rows - written if finished else lost
         exited_ok = finished and (closing.process is None or closing.process.returncode == 0)
-        complete = exited_ok and drained == closing.rows and lost == 0
+        complete = exited_ok and drained == closing.rows and rows_lost == 0 and failure is None
         closers = [c.close for c in (closing.file, ring) if c is not None]
         if closing.thread is not None and not finished:
             closing.thread.leave(*closers)  # it still reads the ring: it closes both as it ends
         else:
             for close in closers:
                 close()
-        self.last = {"path": str(closing.path), "rows": closing.rows, "rows_written": drained - lost,
-                     "rows_lost": lost, "complete": complete}
+        self.last = {"path": str(closing.path), "rows": closing.rows, "rows_written": written,
+                     "rows_lost": rows_lost, "complete": complete}
+        if failure is not None:
+            self.last["failure"] = failure.as_dict()
         if complete:
             log.info("recording %s closed: %d rows", closing.path, drained)
+        elif failure is not None:
+            log.error("recording %s closed after its failure (%s): %d of %d rows written, %d lost",
+                      closing.path, failure.reason, written, closing.rows, rows_lost)
         else:
             log.warning("recording %s closed incomplete: %d of %d rows written, %d lost (the "
-                        "writer fell behind)%s", closing.path, drained - lost, closing.rows, lost,
+                        "writer fell behind)%s", closing.path, written, closing.rows, rows_lost,
                         "" if exited_ok else "; the writer did not finish cleanly")

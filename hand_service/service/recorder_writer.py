@@ -11,11 +11,21 @@ flushes to the OS every FLUSH_INTERVAL_S: what a crash of both processes can los
 fdatasyncs (the rows and the file size) on `flush` (faults, signals) and at the end, and
 every --sync-every-s only if asked: on a virtual machine the disk flush can stop every
 vCPU for 10-20 ms, a deadline miss of the tick (docs/service.md, "Recording").
+
+Rows go to the file through its descriptor, unbuffered, one write per drain. A write that
+fails (a full disk: ENOSPC, a file-size limit: EFBIG, an I/O error) ends the recording's
+writing: a row it cut short is cut off the file again, so the file holds whole rows
+only, and the writer publishes in the ring's header the rows it wrote and, last, the
+errno and the count it failed at. The daemon reads that errno every tick (Recorder.check):
+the failure is in its status and its log on the next tick. From then the writer writes
+nothing more, so the daemon counts every row pushed and not written as lost, exactly.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
+import io
 import os
 import select
 import sys
@@ -54,7 +64,8 @@ def csv_header(fingers: list[str]) -> list[str]:
 
 
 class Drainer:
-    """Ring rows -> CSV lines, appended to an open file."""
+    """Ring rows -> CSV lines, appended to an open file (through its descriptor), or to an
+    in-memory text stream (tests)."""
 
     def __init__(self, ring: Ring, out: IO[str], fingers: list[str],
                  sync_every_s: float | None = None) -> None:
@@ -67,7 +78,13 @@ class Drainer:
         self.order = np.array([len(HEAD) + q * n + f for f in range(n) for q in range(len(QUANTITIES))])
         self.next_row = 0  # the ring is new: from its first row
         self.rows_written = 0
-        self.rows_lost = 0
+        self.rows_lost = 0  # overwritten before they were read, or not written by a failed write
+        self.error: OSError | None = None  # the first failure: nothing is written after it
+        try:
+            self._fd: int | None = out.fileno()
+        except (AttributeError, io.UnsupportedOperation):
+            self._fd = None
+        self._size = os.fstat(self._fd).st_size if self._fd is not None else 0  # whole rows end here
         self._last_sync = time.monotonic()
         mode_at, flags_at = QUANTITIES.index("mode"), QUANTITIES.index("flags")
         self._kinds = [("mode" if q == mode_at else "flags" if q == flags_at else "num")
@@ -94,29 +111,79 @@ class Drainer:
         return ",".join(cells)
 
     def drain(self) -> int:
-        """Write every row pushed since the last drain; returns how many."""
+        """Write every row pushed since the last drain; returns how many reached the file
+        (none once a write has failed)."""
+        if self.error is not None:
+            return 0
         block, first, lost = self.ring.read(self.next_row)
-        if lost:
-            self.rows_lost += lost
-            self.out.write(f"# lost: {lost} rows before row {first} (the writer fell behind)\n")
-        if len(block):
-            self.out.write("\n".join(self._line(row) for row in block) + "\n")
+        lines = [f"# lost: {lost} rows before row {first} (the writer fell behind)"] if lost else []
+        lines.extend(self._line(row) for row in block)
+        whole = self._append(lines) if lines else 0
+        written = whole - 1 if lost and whole else whole  # the `# lost` line is not a row
+        self.rows_lost += lost + len(block) - written
         self.next_row = first + len(block)
-        # published in the ring's header for the daemon: drained, then lost, which the
-        # daemon reads in the other order (Recorder.status), so that rows_written =
-        # drained - lost is never negative
+        self.rows_written += written
+        self._publish()
+        return written
+
+    def _append(self, lines: list[str]) -> int:
+        """Append the lines in one write; how many reached the file whole. A write that
+        fails part way is cut back to its last whole line."""
+        text = "\n".join(lines) + "\n"
+        if self._fd is None:
+            self.out.write(text)
+            return len(lines)
+        data = memoryview(text.encode())
+        done = 0
+        try:
+            while done < len(data):
+                wrote = os.write(self._fd, data[done:])
+                if wrote == 0:
+                    raise OSError(errno.EIO, "the write wrote nothing")
+                done += wrote
+        except OSError as exc:
+            whole = bytes(data[:done]).rfind(b"\n") + 1
+            if whole < done:  # a row cut short: off the file again, it holds whole rows only
+                try:
+                    os.ftruncate(self._fd, self._size + whole)
+                except OSError as cut:
+                    print(f"recording writer: cannot cut a partial row off the file: {cut}",
+                          file=sys.stderr)
+            self._size += whole
+            self._fail(exc)
+            return bytes(data[:whole]).count(b"\n")
+        self._size += done
+        return len(lines)
+
+    def _fail(self, exc: OSError) -> None:
+        if self.error is None:
+            self.error = exc
+            self.ring.failed_at = self.ring.count
+
+    def _publish(self) -> None:
+        """Into the ring's header for the daemon: drained, then lost, which the daemon reads
+        in the other order (Recorder.status), so that rows_written = drained - lost is never
+        negative; the errno of a failure last, so that the daemon that sees it reads the
+        final drained and lost."""
         self.ring.drained = self.next_row
         self.ring.lost = self.rows_lost
-        self.rows_written += len(block)
-        return len(block)
+        if self.error is not None:
+            self.ring.error = self.error.errno or errno.EIO
 
     def flush(self, sync: bool = False) -> None:
         self.drain()
-        self.out.flush()
+        if self._fd is None:
+            self.out.flush()
+            return
         now = time.monotonic()
         if sync or (self.sync_every_s is not None and now - self._last_sync >= self.sync_every_s):
-            os.fdatasync(self.out.fileno())
             self._last_sync = now
+            try:
+                os.fdatasync(self._fd)
+            except OSError as exc:  # the rows the kernel took may not be on the disk
+                if self.error is None:
+                    self._fail(exc)
+                    self._publish()
 
 
 class WriterThread:
@@ -181,7 +248,14 @@ class WriterThread:
 
 def serve(ring: Ring, csv_path: Path, fingers: list[str], commands_fd: int, replies: IO[str],
           sync_every_s: float | None = None) -> int:
-    with open(csv_path, "a") as out:
+    """Drain until `stop` or the end of the commands; 1 if writing failed, else 0."""
+    try:
+        out = open(csv_path, "a")  # noqa: SIM115 - closed below
+    except OSError as exc:  # published as a failed write is: the daemon reports it
+        ring.failed_at, ring.error = ring.count, exc.errno or errno.EIO
+        print(f"recording writer: {csv_path}: {exc.strerror or exc}", file=sys.stderr)
+        return 1
+    with out:
         drainer = Drainer(ring, out, fingers, sync_every_s)
         replies.write("ready\n")
         replies.flush()
@@ -191,7 +265,7 @@ def serve(ring: Ring, csv_path: Path, fingers: list[str], commands_fd: int, repl
             commands = data.split()
             if not data or b"stop" in commands:  # no data: end of file, the daemon is gone
                 drainer.flush(sync=True)
-                return 0
+                return 0 if drainer.error is None else 1
             drainer.flush(sync=b"flush" in commands)
 
 

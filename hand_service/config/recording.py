@@ -1,0 +1,52 @@
+"""What a recording failure does (a profile's `recording:` block), typed.
+
+RECORDING_SECTION validates the block and documents it (docs/profiles.md);
+RecordingSettings holds the validated values. The block is the profile's own: `include`
+does not bring it in.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hand_service.config.schema import Key, Section, expect_mapping, validate
+
+ON_FAILURE = ("warning", "fault")
+
+RECORDING_SECTION = Section(
+    "Recording", "`recording:` — what the daemon does when a recording stops reaching its file "
+    "(not taken from an included profile).", (
+        Key("on_failure", "a failed write, a full disk or a writer that died: `warning` logs an "
+            "error and shows it in `status` while control goes on; `fault` latches FAULT, which "
+            "vents, and faults again at every arm until the recording is stopped (docs/service.md)",
+            "choice", default="warning", choices=ON_FAILURE),
+    ))
+
+
+@dataclass(frozen=True)
+class RecordingSettings:
+    """The validated `recording:` block (RECORDING_SECTION documents each key)."""
+
+    on_failure: str = "warning"  # warning | fault
+
+    @classmethod
+    def from_values(cls, values: dict[str, Any]) -> RecordingSettings:
+        return cls(**{f.name: values[f.name] for f in dataclasses.fields(cls)})
+
+    @classmethod
+    def from_profile(cls, data: Any, source: Path) -> RecordingSettings:
+        """The `recording:` block of a profile's top-level mapping (absent: the defaults)."""
+        block = data.get("recording")
+        block = {} if block is None else expect_mapping(block, source, data, "recording", "recording")
+        return cls.from_values(validate(block, RECORDING_SECTION, source, "recording"))
+
+    @property
+    def faults(self) -> bool:
+        """A recording failure latches FAULT."""
+        return self.on_failure == "fault"
+
+
+__all__ = ["ON_FAILURE", "RECORDING_SECTION", "RecordingSettings"]
