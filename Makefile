@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
                   $(wildcard csrc/*.c csrc/*.h)
 
-.PHONY: run test test-install bench fuzz lint clean
+.PHONY: run test test-install test-faults bench fuzz lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -23,7 +23,7 @@ run: $(STAMP)
 CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/wire tests/packaging \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
-SELECT := -m "not slow and not install and not fuzz"
+SELECT := -m "not slow and not install and not fuzz and not faults"
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
@@ -42,6 +42,11 @@ bench: $(STAMP)
 	$(VENV)/bin/hand-service bench --json bench.json
 	$(PY) -m pytest -q tests/bench --benchmark-enable --benchmark-only
 	$(PY) -m pytest -q -m slow
+
+# the fault matrix (docs/safety.md) on all three links, and a minute of fault-free sweeping on
+# every demo profile, with what each measured (about 6 min; make test runs every kind once)
+test-faults: $(STAMP)
+	$(PY) -m pytest -q -s -p no:cacheprovider -m faults tests/hil/test_fault_matrix.py
 
 # every file reader and the control API fed 5 000 fuzzed inputs each (make test runs 500 each)
 fuzz: $(STAMP)

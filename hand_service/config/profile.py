@@ -21,6 +21,8 @@ from typing import Any
 import rtcore
 from hand_service.config.control import CONTROL_SECTION, ControlSettings, cutoff_problem
 from hand_service.config.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
+from hand_service.config.recording import RECORDING_SECTION, RecordingSettings
+from hand_service.config.safety import SAFETY_SECTION, check_safety
 from hand_service.config.schema import Key, Section, expect_mapping, fail, validate
 from hand_service.config.textfile import printable, show
 from hand_service.config.transports import KINDS
@@ -56,34 +58,7 @@ TOP_SECTION = Section("Profile", "The top level of a profile.", (
         default=None),
     Key("hand", "one block per finger, keyed by finger name (see Finger); required unless "
         "included", "mapping", default=None),
-))
-
-SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces; any breach vents.", (
-    Key("stale_sensor_ticks", "sensor samples lost in a row (by the firmware's sequence, one per tick) "
-        "before a fault", "int", "ticks",
-        5, 1, 1000),
-    Key("angle_min_deg", "lowest plausible angle", "float", "deg", -60.0, -360.0, 360.0),
-    Key("angle_max_deg", "highest plausible angle", "float", "deg", 200.0, -360.0, 360.0),
-    Key("overrun_streak", "consecutive deadline misses before a fault", "int", "ticks", 10, 1,
-        100000),
-    Key("leak_tolerance_kpa", "measured pressure may trail the command by this much", "float",
-        "kPa", 30.0, 0.0, None, True),
-    Key("leak_ticks", "ticks the measured pressure may stay outside the tolerance", "int",
-        "ticks", 50, 1, 100000),
-    Key("firmware_watchdog_ms", "the firmware vents when no valid command comes for this long",
-        "float", "ms", 100.0, 1.0, 10000.0),
-    Key("transport_timeout_ms", "no frame at all (supervisor: no sensor frame) for this long: "
-        "transport lost", "float", "ms",
-        500.0, 1.0, 60000.0),
-    Key("target_angle_min_deg", "lowest angle target the control API accepts", "float", "deg",
-        0.0, -360.0, 360.0),
-    Key("target_angle_max_deg", "highest angle target the control API accepts", "float", "deg",
-        180.0, -360.0, 360.0),
-    Key("target_force_min_n", "smallest force target the control API and trajectories accept; "
-        "0: a finger only presses. Below 0 allows a finger that an object holds bent to press back "
-        "less than its spring would", "float", "N", 0.0, -1000.0, 0.0),
-    Key("target_force_max_n", "largest force target the control API and trajectories accept",
-        "float", "N", 10.0, 0.0, 1000.0, True),
+    Key("recording", "what a recording failure does (see Recording)", "mapping", default=None),
 ))
 
 SIMULATION_SECTION = Section(
@@ -176,6 +151,7 @@ class Profile:
     safety: dict[str, Any]
     simulation: dict[str, Any]
     fingers: list[FingerProfile] = field(default_factory=list)
+    recording: RecordingSettings = field(default_factory=RecordingSettings)
     # file:line of the control keys a rate given on the command line is checked against
     lines: dict[str, str] = field(default_factory=dict, repr=False, compare=False)
 
@@ -301,17 +277,7 @@ def load_profile(path: str | Path | None = None) -> Profile:
     control, lines = _control(data, source) if own("control") else (base.control, base.lines)
     if own("safety"):
         safety = _section(data, "safety", SAFETY_SECTION, source)
-        if safety["angle_min_deg"] >= safety["angle_max_deg"]:
-            raise fail(source, data["safety"], "angle_min_deg",
-                       "safety.angle_min_deg must be below safety.angle_max_deg")
-        if not (safety["angle_min_deg"] <= safety["target_angle_min_deg"]
-                < safety["target_angle_max_deg"] <= safety["angle_max_deg"]):
-            raise fail(source, data["safety"], "target_angle_min_deg",
-                       "safety: the angle targets must lie inside the safe angles, "
-                       "angle_min_deg <= target_angle_min_deg < target_angle_max_deg <= angle_max_deg")
-        if safety["target_force_min_n"] < -safety["target_force_max_n"]:
-            raise fail(source, data["safety"], "target_force_min_n",
-                       "safety.target_force_min_n must not be below -target_force_max_n")
+        check_safety(safety, control.rate_hz, source, data["safety"])
     else:
         safety = base.safety
     simulation = (_section(data, "simulation", SIMULATION_SECTION, source) if own("simulation")
@@ -333,7 +299,8 @@ def load_profile(path: str | Path | None = None) -> Profile:
         _check_command_range(fingers, transport_kind.command_range(transport), source)
     return Profile(path=source, name=top["profile"], description=top["description"],
                    protocol_version=top["protocol_version"], transport=transport, control=control,
-                   safety=safety, simulation=simulation, fingers=fingers, lines=lines)
+                   safety=safety, simulation=simulation, fingers=fingers, lines=lines,
+                   recording=RecordingSettings.from_profile(data, source))
 
 
 def _included(source: Path, data: Any, include: str) -> Profile:
@@ -368,7 +335,7 @@ def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
 
 def all_sections() -> list[Section]:
     return [TOP_SECTION, *(kind.section for kind in KINDS.values()), CONTROL_SECTION, SAFETY_SECTION,
-            SIMULATION_SECTION, FINGER_EXTRA_SECTION, MODEL_SECTION]
+            SIMULATION_SECTION, RECORDING_SECTION, FINGER_EXTRA_SECTION, MODEL_SECTION]
 
 
 __all__ = ["DEFAULT_PROFILE", "MODEL_KEYS", "MODEL_SECTION", "PROFILE_DIR", "FingerProfile",

@@ -1,8 +1,11 @@
 """Faults the mock firmware injects on request from its debug port (FaultRequest).
 
 Link faults act on the frames (or framed bytes) leaving the board: drop, delay, corrupt,
-silence. Sensor faults act on the readings: stuck, out of range. A reboot is handled by
-the firmware itself. Every fault but a reboot lasts `duration_ms` (0: until a clear).
+silence, bus-off (nothing crosses either way). Sensor faults act on the readings: stuck,
+out of range, NaN flex sensor, NaN or frozen chamber pressure. The rest (a reboot, a fault
+of the board's own, valves that ignore commands, a protocol change, a stuck sample
+sequence, CAN error frames, a drifting clock) are the firmware's own doing (mock.py).
+Every fault but a reboot lasts `duration_ms` (0: until a clear).
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ class ActiveFault:
     request: FaultRequest
     until_s: float
     held_mv: np.ndarray | None = None  # STUCK_SENSOR: the readings it froze
+    held_kpa: np.ndarray | None = None  # PRESSURE_STUCK: the pressures it froze
 
     def fingers(self, n: int) -> list[int]:
         index = self.request.finger_index
@@ -78,7 +82,7 @@ class FaultInjector:
 
     def outgoing(self, units: list[Any], now: float) -> list[Any]:
         """What leaves the board now; delayed units come back from release()."""
-        if FaultKind.SILENCE in self.active:
+        if FaultKind.SILENCE in self.active or FaultKind.BUS_OFF in self.active:
             return []
         out = [corrupt(u, self.rng) if self._percent(FaultKind.CORRUPT) else u
                for u in units if not self._percent(FaultKind.DROP)]
@@ -111,4 +115,25 @@ class FaultInjector:
         if wild is not None:
             for i in wild.fingers(self.n_fingers):
                 sensor_mv[i] = wild.request.value or OPEN_CIRCUIT_MV
+        nan = self.active.get(FaultKind.SENSOR_NAN)
+        if nan is not None:
+            sensor_mv[nan.fingers(self.n_fingers)] = math.nan
         return sensor_mv
+
+    def pressures(self, pressure_kpa: np.ndarray) -> np.ndarray:
+        """The chamber pressures as the faulty pressure sensors report them."""
+        stuck = self.active.get(FaultKind.PRESSURE_STUCK)
+        if stuck is not None:
+            if stuck.held_kpa is None:
+                stuck.held_kpa = pressure_kpa.copy()
+            for i in stuck.fingers(self.n_fingers):
+                pressure_kpa[i] = stuck.held_kpa[i]
+        nan = self.active.get(FaultKind.PRESSURE_NAN)
+        if nan is not None:
+            pressure_kpa[nan.fingers(self.n_fingers)] = math.nan
+        return pressure_kpa
+
+    def value(self, kind: FaultKind, default: int = 0) -> int | None:
+        """The active fault's `value` (its default for 0), or None when it is not active."""
+        fault = self.active.get(kind)
+        return None if fault is None else fault.request.value or default

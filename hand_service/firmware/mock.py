@@ -7,7 +7,8 @@ handshake, and runs its own watchdog: when no valid command has come for
 safety.firmware_watchdog_ms it vents every valve (0 kPa) and says so in its status.
 Faults are injected on request from its debug port (faults.py); one of them is a fault of
 the board's own (FIRMWARE_FAULT): it vents, ignores commands and reports the fault code
-in its status, as a board with a failed valve driver would.
+in its status, as a board with a failed valve driver would. It keeps time on its own
+clock (clock.py), which a CLOCK_DRIFT fault makes run fast or slow.
 """
 
 from __future__ import annotations
@@ -21,10 +22,12 @@ import can
 import numpy as np
 
 from hand_service.config.profile import Profile
+from hand_service.firmware.clock import BoardClock
 from hand_service.firmware.faults import FaultInjector
 from hand_service.firmware.ports import CanBusPort, FirmwarePort
 from hand_service.simulator import hand_simulator
 from hand_service.wire.can_codec import CanCodec
+from hand_service.wire.can_errors import bus_error_frame, bus_off_frame
 from hand_service.wire.messages import (
     FaultKind,
     FaultRequest,
@@ -38,6 +41,7 @@ from hand_service.wire.messages import (
     VersionRequest,
     fault_name,
     firmware_fault,
+    signed_value,
 )
 from hand_service.wire.serial_codec import SerialCodec
 
@@ -46,6 +50,9 @@ log = logging.getLogger("hand_service.firmware")
 FIRMWARE_VERSION = (1, 0, 0)
 STATUS_EVERY_SAMPLES = 10
 DEFAULT_BOOT_MS = 200
+CATCH_UP_SAMPLES = 25  # after a stall of this process, at most this many samples in a burst
+DEFAULT_ERROR_FRAMES_PER_S = 100
+DEFAULT_DRIFT_PPM = 20000
 
 
 def codec_for(profile: Profile) -> CanCodec | SerialCodec:
@@ -80,34 +87,43 @@ class MockFirmware:
         self.boot_end_s = 0.0
         self.samples = 0
         self.vent_times_s: list[float] = []  # monotonic time of every watchdog vent
+        self.clock = BoardClock()
+        self._error_frame_credit = 0.0
 
     # -- the main loop ---------------------------------------------------------------------
 
     def run(self, seconds: float | None = None) -> None:
-        start = time.monotonic()
+        clock = self.clock
+        start = clock.now()
         self._announce(start)
         next_sample = start + self.period_s
         while not self.stop_event.is_set():
-            now = time.monotonic()
+            now = clock.now()
             if seconds is not None and now - start >= seconds:
                 break
             deadline = min(t for t in self._deadlines(next_sample) if t is not None)
-            for unit in self.port.read(max(0.0, deadline - now)):
+            for unit in self.port.read(max(0.0, clock.host_seconds(deadline - now))):
                 for message in self.codec.decode(unit):
-                    self._handle(message, time.monotonic())
-            now = time.monotonic()
+                    self._handle(message, clock.now())
+            now = clock.now()
             for kind in self.faults.expire(now):
                 log.info("fault %s ended", kind.name.lower())
+            drift = self.faults.value(FaultKind.CLOCK_DRIFT, DEFAULT_DRIFT_PPM)
+            clock.set_drift_ppm(0 if drift is None else signed_value(drift))
             self._own_fault(now)
             if self.state == FirmwareState.RUNNING and now - self.last_command_s > self.watchdog_s:
                 self._vent(now)
             if self.state == FirmwareState.BOOTING and now >= self.boot_end_s:
                 self._announce(now)
-            if now >= next_sample:
+            # a board's sample timer does not stall: the samples this process missed while it
+            # was held up are taken now, in a burst
+            taken = 0
+            while now >= next_sample and taken < CATCH_UP_SAMPLES:
                 self._sample(now)
                 next_sample += self.period_s
-                if now - next_sample > self.period_s:  # far behind (a stalled machine): skip ahead
-                    next_sample = now + self.period_s
+                taken += 1
+            if now >= next_sample:  # far behind (a stalled machine): skip ahead
+                next_sample = now + self.period_s
             self.port.write(self.faults.release(now))
 
     def _deadlines(self, next_sample: float) -> list[float | None]:
@@ -130,10 +146,13 @@ class MockFirmware:
     def _handle(self, message: Message, now: float) -> None:
         if self.state == FirmwareState.BOOTING:
             return
+        if FaultKind.BUS_OFF in self.faults.active and not isinstance(message, FaultRequest):
+            return  # bus-off: nothing arrives (the debug port is not on the bus)
         if isinstance(message, ValveCommand):
             if self.state == FirmwareState.FAULT:
                 return  # a board at fault keeps its valves vented whatever it is told
-            self.command_kpa[:] = message.pressure_cmd_kpa
+            if FaultKind.VALVES_IGNORED not in self.faults.active:  # else it acknowledges, holds
+                self.command_kpa[:] = message.pressure_cmd_kpa
             self.command_sequence = message.sequence
             self.last_command_s = now
             if self.state != FirmwareState.RUNNING:
@@ -148,13 +167,36 @@ class MockFirmware:
                         message.kind.name.lower(), message.finger_index, message.duration_ms, message.value)
             if message.kind == FaultKind.REBOOT:
                 self._reboot(now, message.value or DEFAULT_BOOT_MS)
+            elif not self._link_carries(message.kind):
+                log.warning("fault %s: this link (%s) cannot carry it; ignored",
+                            message.kind.name.lower(), self.port.description)
             else:
                 self.faults.request(message, now)
+                if message.kind == FaultKind.BUS_OFF:
+                    self.port.write([bus_off_frame()])  # the driver says so, then nothing crosses
                 if not self._own_fault(now):
                     self._status(now)
+                if message.kind == FaultKind.PROTOCOL_CHANGE:
+                    self._send(self._version(), now)
+
+    def _link_carries(self, kind: FaultKind) -> bool:
+        """CAN error frames reach the host where its driver reports them (python-can's
+        SocketCAN-style error frames; SLCAN's Lawicel protocol has none); bus-off exists on
+        CAN only (over SLCAN it is silence); a NaN flex reading crosses where the wire has a
+        value for it (serial-v1's f32; can-v1's flex_mv has none)."""
+        can_link = isinstance(self.codec, CanCodec)
+        if kind == FaultKind.CAN_ERROR_FRAMES:
+            return self.port.carries_error_frames
+        if kind == FaultKind.BUS_OFF:
+            return can_link
+        if kind == FaultKind.SENSOR_NAN:
+            return not can_link or self.codec.carries_nan("flex_mv")  # type: ignore[union-attr]
+        return True
 
     def _version(self) -> VersionInfo:
-        return VersionInfo(self.protocol_version, self.firmware_version, self.n)
+        protocol = self.faults.value(FaultKind.PROTOCOL_CHANGE, self.protocol_version + 1)
+        return VersionInfo(self.protocol_version if protocol is None else protocol,
+                           self.firmware_version, self.n)
 
     def _sample(self, now: float) -> None:
         self.sim.command_kpa[:] = self.command_kpa
@@ -162,18 +204,34 @@ class MockFirmware:
         self.samples += 1
         out = self.sim.outputs
         sensor_mv = self.faults.sensors(np.clip(out.sensor_mv, *self.adc_range_mv))
+        pressure_kpa = self.faults.pressures(out.pressure_meas_kpa.copy())
         self._send(SensorReport(self.sequence, self.command_sequence, sensor_mv.tolist(),
-                                out.pressure_meas_kpa.tolist()), now)
-        self.sequence = (self.sequence + 1) % 256
+                                pressure_kpa.tolist()), now)
+        if FaultKind.SEQUENCE_STUCK not in self.faults.active:
+            self.sequence = (self.sequence + 1) % 256
         if self.samples % STATUS_EVERY_SAMPLES == 0:
             self._status(now)
+        self._error_frames()
+
+    def _error_frames(self) -> None:
+        """CAN_ERROR_FRAMES: error frames at `value` per second, as the host's driver
+        reports errors on a noisy bus (they do not pass through the board's own faults)."""
+        per_s = self.faults.value(FaultKind.CAN_ERROR_FRAMES, DEFAULT_ERROR_FRAMES_PER_S)
+        if per_s is None:
+            self._error_frame_credit = 0.0
+            return
+        self._error_frame_credit += per_s * self.period_s
+        count = int(self._error_frame_credit)
+        self._error_frame_credit -= count
+        self.port.write([bus_error_frame() for _ in range(count)])
 
     def _vent(self, now: float) -> None:
         self.command_kpa[:] = 0.0
         self.state = FirmwareState.WATCHDOG_VENTED
-        self.vent_times_s.append(now)
+        host_s = time.monotonic()  # the machine's clock, shared with the host's processes
+        self.vent_times_s.append(host_s)
         log.warning("watchdog: no valid command for %.0f ms: vented every valve (t_monotonic_s=%.6f)",
-                    (now - self.last_command_s) * 1e3, now)
+                    (now - self.last_command_s) * 1e3, host_s)
         self._status(now)
 
     def _own_fault(self, now: float) -> bool:

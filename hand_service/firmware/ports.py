@@ -24,6 +24,7 @@ import can
 class FirmwarePort(ABC):
     description = ""
     dropped_bytes = 0
+    carries_error_frames = False  # a CAN driver that hands error frames to the host
 
     @abstractmethod
     def read(self, timeout_s: float) -> list[Any]: ...
@@ -37,6 +38,8 @@ class FirmwarePort(ABC):
 
 class CanBusPort(FirmwarePort):
     """Any python-can bus (the virtual bus in a thread, or a real interface)."""
+
+    carries_error_frames = True
 
     def __init__(self, bus: can.BusABC) -> None:
         self.bus = bus
@@ -191,6 +194,8 @@ class SlcanAdapterPort(FirmwarePort):
             return  # a closed channel forwards nothing, as on a real adapter
         lines = []
         for frame in units:
+            if frame.is_error_frame:
+                continue  # the Lawicel SLCAN protocol has no error frame
             ident = f"T{frame.arbitration_id:08X}" if frame.is_extended_id else f"t{frame.arbitration_id:03X}"
             lines.append(f"{ident}{frame.dlc}{bytes(frame.data).hex().upper()}\r".encode())
         self.pty.write_bytes(b"".join(lines))

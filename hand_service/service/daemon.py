@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import signal
 import sys
 import time
 from dataclasses import dataclass
@@ -13,6 +14,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from hand_service.api.paths import default_record_dir, prepare_record_dir
 from hand_service.api.requests import Api
 from hand_service.api.server import ApiServer
 from hand_service.config.control import cutoff_problem
@@ -21,7 +23,7 @@ from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
 from hand_service.errors import UserError
 from hand_service.service.recorder import Recorder
 from hand_service.service.sdnotify import Notifier
-from hand_service.service.states import State
+from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
 from hand_service.service.timing import Realtime, setup_realtime, switch_interval
 from hand_service.transports import Transport
@@ -31,6 +33,7 @@ from rtcore import MODE_POSITION, clock
 log = logging.getLogger(__name__)
 
 STATUS_EVERY_S = 0.25
+API_SHARE = 0.25  # of each period, at most, for the control API's requests
 
 
 @dataclass
@@ -38,6 +41,7 @@ class DaemonOptions:
     socket_path: Path | None = None
     tcp_port: int | None = None
     record: Path | None = None
+    record_dir: Path | None = None  # requests' paths lie in it (default: paths.default_record_dir)
     recorder: str = "process"
     record_sync_s: float | None = None  # the writer also fdatasyncs this often
     spin_us: float = 0.0
@@ -88,6 +92,7 @@ class Daemon:
         self._notify_every = max(1, round(1.0 * self.sup.rate_hz))
         self._line_shown = False
         self._ready_sent = False
+        self._estop_signalled = False  # SIGUSR1: ESTOP in the slack after the next tick
         self.sup.slack.append(self._slack)
         self.sup.on_state.append(self._state_changed)
 
@@ -108,21 +113,34 @@ class Daemon:
         return meta
 
     def open(self) -> None:
-        """Everything that may fail with a clear message, before the loop starts."""
-        self.server.open()
-        if self.options.record is not None:
-            self.sup.recorder.start(self.options.record, self.metadata())
+        """Everything that may fail with a clear message, before the loop starts; a start
+        that fails removes the socket and token file it made."""
+        try:
+            self.server.open()
+            if self.server.listening:  # the directory requests record to and load from
+                self.api.record_dir = prepare_record_dir(
+                    self.options.record_dir or default_record_dir(self.options.record))
+                log.info("requests' paths: in %s", self.api.record_dir)
+            if self.options.record is not None:
+                self.sup.recorder.start(self.options.record, self.metadata())
+        except BaseException:
+            self.server.close()
+            raise
         self.realtime = setup_realtime(self.options.realtime_priority, self.options.lock_memory)
         log.info("%s at %g Hz, %s; realtime: %s", self.profile.name, self.sup.rate_hz,
                  self.profile.transport["kind"], self.realtime.describe())
 
     def run(self, duration_s: float | None = None, install_signals: bool = True) -> dict[str, Any]:
+        old_usr1 = None
         if install_signals:
             self.sup.install_signal_handlers()
+            old_usr1 = signal.signal(signal.SIGUSR1, self._sigusr1)
         try:
             with switch_interval():  # the I/O and worker threads yield the GIL to the tick soon
                 self.sup.run(duration_s)
         finally:
+            if old_usr1 is not None:
+                signal.signal(signal.SIGUSR1, old_usr1)
             self.notifier.stopping()
             self.server.close()
             if self._line_shown:
@@ -130,10 +148,28 @@ class Daemon:
             self.notifier.close()
         return self.summary()
 
-    # -- slack ----------------------------------------------------------------------------
+    # -- signals and slack ---------------------------------------------------------------
+    def _sigusr1(self, _signum: int, _frame: object) -> None:
+        """The out-of-band E-stop, for when no client can reach the API: only a flag here
+        (a handler may run in the middle of a tick's Python); the slack acts on it."""
+        self._estop_signalled = True
+
+    def _estop_if_signalled(self) -> None:
+        if self._estop_signalled:
+            self._estop_signalled = False
+            log.warning("SIGUSR1: emergency stop (%s -> ESTOP)", self.sup.state.name)
+            self.sup.fire(Event.ESTOP)
+
+    def api_budget_ns(self, slack_ns: int) -> int:
+        """The API's work per poll: a share of the period, and at most half of what is left
+        of it (the server serves every urgent request and one other beyond it)."""
+        return max(0, min(int(API_SHARE * self.sup.period_ns), slack_ns // 2))
+
     def _slack(self, slack_ns: int) -> None:
+        self._estop_if_signalled()
         self.api.poll()
-        self.server.poll()
+        self.server.poll(self.api_budget_ns(slack_ns))
+        self._estop_if_signalled()  # a signal during the poll: not a tick later
         ticks = self.sup.stats.ticks
         self.notifier.watchdog(clock.now_ns())
         if ticks % self._status_every == 0 and self.options.status_line:
@@ -155,8 +191,7 @@ class Daemon:
         err = np.abs(outputs.angle_filt_deg - inputs.angle_ref_deg)[position]
         error = f"max |err| {err.max():5.2f} deg" if err.size else "max |err|   -     "
         recent = sup.stats.summary(last=int(sup.rate_hz))
-        rec = sup.recorder.status()
-        recording = f" | rec {rec['rows']} rows" if rec["active"] else ""
+        recording = sup.recorder.status_text()  # rows, or FAILED and the rows lost
         return (f"t {sup.t_s:7.2f} s {sup.state.name:<8} {error} | tick p50 "
                 f"{recent.get('tick_ns_p50', 0) / 1e3:5.0f} us | jitter p99 "
                 f"{recent.get('jitter_us_p99', 0) / 1e3:5.2f} ms | misses {sup.stats.misses} | faults "

@@ -17,7 +17,8 @@ import numpy as np
 
 from hand_service.config.effects import effect_value
 from hand_service.config.profile import FingerProfile, Profile
-from hand_service.transports.base import FirmwareStatus
+from hand_service.service.plausibility import Mismatch, ModelCheck
+from hand_service.transports.base import FirmwareStatus, LinkProblem
 from rtcore.gate import (
     CAUSE_ANGLE_OUT_OF_RANGE,
     CAUSE_NON_FINITE,
@@ -41,6 +42,18 @@ class Cause(str, enum.Enum):
     FIRMWARE_VENTED = "firmware_vented"
     LEAK_OR_BURST = "leak_or_burst"
     SENSOR_REJECTED = "sensor_rejected"
+    # the bus transport's own checks of the link (transports/checks.py)
+    SAMPLE_LATE = "sample_late"
+    SAMPLE_LOSS = "sample_loss"
+    SEQUENCE_STUCK = "sequence_stuck"
+    CLOCK_DRIFT = "clock_drift"
+    BUS_ERROR = "bus_error"
+    PROTOCOL_CHANGED = "protocol_changed"
+    # the model check (service/plausibility.py)
+    PRESSURE_LOST = "pressure_lost"
+    IMPLAUSIBLE = "implausible"
+    # a recording that stopped reaching its file, with recording.on_failure: fault
+    RECORDING_FAILED = "recording_failed"
 
 
 @dataclass
@@ -103,6 +116,7 @@ class SafetyGate:
             follow_alpha=[1.0 - math.exp(-1.0 / (rate_hz * max(_valve_delay_s(f), 1e-9)))
                           for f in profile.fingers]))
         self.firmware_vents: int | None = None  # FirmwareStatus.vents when last seen
+        self.model_check = ModelCheck(profile)  # run by the supervisor after each tick
 
     @property
     def config(self) -> GateConfig:
@@ -116,6 +130,7 @@ class SafetyGate:
         """Forget the history (after a re-handshake)."""
         self.firmware_vents = None
         self.core.reset()
+        self.model_check.reset()
 
     # -- the wording of what a check found -----------------------------------------------
     def first_fault(self, tick: Tick, events: int, hand: Any, transport_fault: Fault | None = None,
@@ -195,6 +210,16 @@ class SafetyGate:
         return Fault(Cause.LEAK_OR_BURST, f"{kind}: chamber at {value:.1f} kPa where {limit:.1f} "
                      f"kPa was expected, for {config.leak_ticks} ticks "
                      f"(leak_tolerance_kpa {config.leak_tolerance_kpa:g})", self.names[r.finger])
+
+    # -- the link's own checks and the model check ------------------------------------
+    @staticmethod
+    def link_fault(problem: LinkProblem | None) -> Fault | None:
+        """A problem the bus transport's checks found on the link (transports/checks.py)."""
+        return None if problem is None else Fault(Cause(problem.kind), problem.detail)
+
+    def model_fault(self, mismatch: Mismatch) -> Fault:
+        """What the model check found (plausibility.py) on a finger."""
+        return Fault(Cause(mismatch.cause), mismatch.detail, self.names[mismatch.finger])
 
     # -- firmware --------------------------------------------------------------------
     def firmware(self, status: FirmwareStatus, commanding: bool) -> Fault | None:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import signal
+import time
 from collections.abc import Callable
 
 import numpy as np
@@ -46,6 +47,7 @@ class Supervisor:
         self.spin_ns = int(spin_us * 1000)
         self.hand = rtcore.Hand(profile.hand_config())
         self.gate = SafetyGate(profile)
+        self.model_check = self.gate.model_check
         # the tick between sensors and valves in C (csrc/rtcore_tick.c)
         self._ts = Tick(self.hand, self.gate.core, n)
         self.faults = FaultLog()
@@ -194,7 +196,7 @@ class Supervisor:
         self._ts.bind_trajectory(traj, loop, driven)
 
     # -- the tick ------------------------------------------------------------------------
-    def tick(self, woke_ns: int) -> None:
+    def tick(self, woke_ns: int, check_model: bool = True) -> None:
         state = self.machine.state
         if state is State.INIT:
             self.handshake()
@@ -207,6 +209,8 @@ class Supervisor:
         else:
             self._tick_over_transport(state, woke_ns)
         self._record(self.machine.state)
+        if check_model:  # run_one checks after it timed the tick
+            self.check_model(state)
 
     def _tick_over_transport(self, state: State, woke_ns: int) -> None:
         """A tick on a transport in Python (a bus): read, the C control half, send, the C
@@ -217,6 +221,7 @@ class Supervisor:
             self.transport.on_tick(self.tick_index)
             sample = self.transport.latest()
             status = self.transport.status()
+            transport_fault = self.gate.link_fault(self.transport.link_problem())
         except Exception as exc:  # any failure of the link is a lost transport
             sample, status = None, None
             transport_fault = Fault(Cause.TRANSPORT_LOST, f"latest(): {type(exc).__name__}: {exc}")
@@ -224,6 +229,7 @@ class Supervisor:
         if sample is not None:
             inputs.sensor_mv[:] = sample.sensor_mv
             inputs.pressure_meas_kpa[:] = sample.pressure_meas_kpa
+            self.model_check.newest = sample.sequence
         if status is not None:
             firmware_fault = self.gate.firmware(status, state in ACTIVE)
         ours = transport_fault or firmware_fault
@@ -266,6 +272,17 @@ class Supervisor:
         if events & FOUND_LEAK:
             self.fault(self.gate.follow_fault(self._ts.follow_result))
 
+    def check_model(self, ticked: State) -> None:
+        """The model check (plausibility.py) on a new sample; a fault vents at once over a bus."""
+        link = self.tick_path.link  # `ticked`: the state the tick began in (INIT: no sample read)
+        if ticked is not State.INIT and self.link_open and (found := self.model_check.sample(
+                link and round(link.simulator.time_s * self.rate_hz), self.machine.state in ACTIVE,
+                self.hand, self.sent_kpa)):
+            self.fault(self.gate.model_fault(found))
+            if link is None:
+                with contextlib.suppress(Exception):  # a link that failed: its own fault says so
+                    self.transport.vent()
+
     def _vent_and_record(self, state: int) -> None:
         """A tick without control (INIT, shutdown): vent, record zeros, and `state` (a
         State, or SHUTDOWN_STATE for the shutdown's last row)."""
@@ -279,9 +296,7 @@ class Supervisor:
         self._record(state)
 
     def _record(self, state: int) -> None:
-        # one C call builds the row from the step's structs and sent_kpa (the writer blanks
-        # the references a finger's mode does not use)
-        self.recorder.push_tick(self.t_s, state)
+        self.recorder.push_tick(self.t_s, state)  # one C call: the row from the step's structs
 
     # -- the loop -------------------------------------------------------------------------
     def request_stop(self, reason: str) -> None:
@@ -345,9 +360,11 @@ class Supervisor:
                 if self.stop_reason is not None:
                     return
                 woke = clock.sleep_until_ns(deadline, self.spin_ns)
-            self.tick(woke)
+            self.tick(woke, check_model=False)
             end = clock.now_ns()
+            time.sleep(0)  # the transport's writer thread sends the command before the model check
         self._last_missed = self.stats.add(deadline, woke, end)
+        self.check_model(state)  # after the command went out, outside the tick's time
         skipped = schedule.advance(clock.now_ns())  # a deadline already gone is skipped
         if skipped:
             self.stats.skipped += skipped
@@ -358,8 +375,9 @@ class Supervisor:
         slack_ns = schedule.deadline_ns - clock.now_ns()
         for job in self.slack:
             job(slack_ns)
-        if self.recorder.closing:  # a stopped recording's writer: collect it once it is done
-            self.recorder.reap()
+        failure = self.recorder.after_tick(self.t_s, self.state, self.profile.recording.faults)
+        if failure is not None:  # with recording.on_failure: fault (Recorder.after_tick)
+            self.fault(Fault(Cause.RECORDING_FAILED, failure.describe()))
         self.gc.maybe_collect(self.stats.ticks, schedule.deadline_ns - clock.now_ns())
 
     def shutdown(self) -> None:

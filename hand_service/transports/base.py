@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -87,8 +88,37 @@ class TransportHealth:
                 "reconnects": self.reconnects, **self.extra}
 
 
+@dataclass(frozen=True)
+class LinkProblem:
+    """What a transport's own checks found wrong with the link (transports/checks.py): the
+    supervisor faults on it. `kind` is the name of the supervisor's fault cause."""
+
+    kind: str  # sample_late, sample_loss, sequence_stuck, clock_drift, bus_error, protocol_changed
+    detail: str
+
+
 class HandshakeError(Exception):
     """The firmware did not answer, or reported a protocol version the profile refuses."""
+
+
+class Link(ABC):
+    """One connection to a board. Only a bus transport's I/O threads call it (link.py)."""
+
+    description = ""
+
+    @abstractmethod
+    def connect(self) -> None:
+        """Open the port or bus; raise OSError (or the bus library's error) if it cannot."""
+
+    @abstractmethod
+    def close(self) -> None: ...
+
+    @abstractmethod
+    def read(self, timeout_s: float) -> list[Any]:
+        """Whatever arrived (frames or byte chunks), waiting at most timeout_s for the first."""
+
+    @abstractmethod
+    def write(self, units: list[Any]) -> None: ...
 
 
 class Transport(ABC):
@@ -120,6 +150,13 @@ class Transport(ABC):
     @abstractmethod
     def health(self) -> TransportHealth:
         """Frame counters and error counts."""
+
+    def link_problem(self) -> LinkProblem | None:
+        """The first problem the transport's own checks found on the link since open() (a
+        late sample on the board's clock, lost samples, a stuck sequence, a drifting clock,
+        CAN errors, a protocol change), or None. Reading it costs the tick nothing: the
+        checks run in the transport's I/O threads. A link without such checks has none."""
+        return None
 
     def on_tick(self, tick_index: int) -> None:
         """The supervisor's schedule index for the tick about to read. A board on a bus

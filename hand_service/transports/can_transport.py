@@ -4,18 +4,22 @@ Any python-can interface works (SocketCAN, PCAN, Kvaser, ...). Two are tested he
 `virtual` (in-process; the mock firmware runs in a thread) and `slcan` on a pseudo-
 terminal (the mock firmware plays the adapter in another process). With `raw_log`,
 every frame in and out is written with can.Logger (.asc, .blf, ...) for lab tools.
+Error frames from the driver and the interface's bus state go to the link checks
+(checks.py): bus-off and error-passive fault at once, a burst of error frames too.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
 import can
 
 from hand_service.transports.base import FirmwareStatus
+from hand_service.transports.checks import LinkChecks
 from hand_service.transports.link import Link, LinkTransport
 from hand_service.wire.can_codec import CanCodec
 
@@ -40,6 +44,7 @@ class CanLink(Link):
         self.codec = codec
         self.description = f"CAN {settings['interface']}:{settings['channel']}"
         self.bus: can.BusABC | None = None
+        self.checks: LinkChecks | None = None  # told of error frames and the bus state
 
     def connect(self) -> None:
         self.bus = can.Bus(**self.kwargs)
@@ -62,9 +67,23 @@ class CanLink(Link):
                 continue
             if frame is None:
                 break
-            frames.append(frame)
+            if frame.is_error_frame and self.checks is not None:
+                self.checks.bus_error(frame, time.monotonic())
+            frames.append(frame)  # an error frame too, for the raw log (the codec ignores it)
             wait = 0.0
+        self._check_state()
         return frames
+
+    def _check_state(self) -> None:
+        """The bus state, where the interface keeps one (python-can's default: active)."""
+        if self.checks is None or self.bus is None:
+            return
+        try:
+            state = self.bus.state
+        except (can.CanError, NotImplementedError):
+            return
+        if state is not can.BusState.ACTIVE:
+            self.checks.bus_state(state)
 
     def _garbled(self, exc: Exception) -> bool:
         """A garbled SLCAN line (count it, read on), or a real failure of the port (False).
@@ -98,6 +117,7 @@ class CanTransport(LinkTransport):
 
     def __init__(self, profile: Any, **options: Any) -> None:
         super().__init__(profile, **options)
+        self.link.checks = self.monitor.checks  # type: ignore[attr-defined]
         self._raw_log: can.Listener | None = None
         self._raw_lock = threading.Lock()
 

@@ -15,7 +15,7 @@ import copy
 import logging
 import threading
 import time
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 from typing import Any
 
 import numpy as np
@@ -25,13 +25,17 @@ from hand_service.errors import UserError
 from hand_service.transports.base import (
     FirmwareStatus,
     HandshakeError,
+    Link,
+    LinkProblem,
     SensorSample,
     Transport,
     TransportHealth,
 )
+from hand_service.transports.checks import LinkLimits
 from hand_service.transports.monitor import SampleMonitor
 from hand_service.wire.messages import (
     ALL_FINGERS,
+    FAULT_VALUE_MODULO,
     FaultKind,
     FaultRequest,
     FirmwareState,
@@ -48,26 +52,6 @@ log = logging.getLogger("hand_service.transports")
 
 READ_TIMEOUT_S = 0.01
 HANDSHAKE_RETRY_S = 0.1
-
-
-class Link(ABC):
-    """One connection to the board. Only the transport's I/O threads call it."""
-
-    description = ""
-
-    @abstractmethod
-    def connect(self) -> None:
-        """Open the port or bus; raise OSError (or the bus library's error) if it cannot."""
-
-    @abstractmethod
-    def close(self) -> None: ...
-
-    @abstractmethod
-    def read(self, timeout_s: float) -> list[Any]:
-        """Whatever arrived (frames or byte chunks), waiting at most timeout_s for the first."""
-
-    @abstractmethod
-    def write(self, units: list[Any]) -> None: ...
 
 
 class LinkTransport(Transport):
@@ -88,7 +72,8 @@ class LinkTransport(Transport):
         self.link = self._make_link()
         self.monitor = SampleMonitor(profile.finger_names, self.settings,
                                      profile.safety["stale_sensor_ticks"] / profile.control.rate_hz,
-                                     self._health)
+                                     self._health, LinkLimits.from_profile(profile.safety,
+                                                                           profile.control.rate_hz))
         self._lock = threading.Lock()
         self._link_lock = threading.Lock()
         self._wake = threading.Event()
@@ -199,13 +184,17 @@ class LinkTransport(Transport):
                        frame_gaps=stats.frame_gaps, ignored_frames=stats.ignored)
         return h
 
+    def link_problem(self) -> LinkProblem | None:
+        return self.monitor.checks.problem
+
     def inject_fault(self, kind: FaultKind | str, finger_index: int = ALL_FINGERS, duration_ms: int = 0,
                      value: int = 0) -> None:
-        """Ask the (mock) firmware's debug port for a fault; see FaultKind."""
+        """Ask the (mock) firmware's debug port for a fault; see FaultKind. `value` is 16 bits
+        on the wire: a negative one (a slow CLOCK_DRIFT) crosses as its two's complement."""
         fault = FaultKind[kind.upper()] if isinstance(kind, str) else kind
         log.info("asking the firmware for fault %s (finger %s, %d ms, value %d)", fault.name.lower(),
                  finger_index, duration_ms, value)
-        self._queue(FaultRequest(fault, finger_index, duration_ms, value))
+        self._queue(FaultRequest(fault, finger_index, duration_ms, value % FAULT_VALUE_MODULO))
 
     # -- I/O threads -----------------------------------------------------------------------
 
@@ -283,6 +272,8 @@ class LinkTransport(Transport):
     def _watch(self, now: float) -> None:
         """Timeouts and handshake retries."""
         phase = self._phase
+        if phase == "running":
+            self.monitor.watch(now)
         if phase == "running" and now - self._last_rx_s > self.timeout_s:
             with self._lock:
                 self._health.timeouts += 1
@@ -343,7 +334,7 @@ class LinkTransport(Transport):
                             sample.lost_in_a_row = max(sample.lost_in_a_row, self._latest.lost_in_a_row)
                         self._latest = sample
         elif isinstance(message, Status):
-            self.monitor.status(message)
+            self.monitor.status(message, now)
             self._firmware_state = message
             with self._lock:
                 self._apply_state(self._status)
@@ -374,6 +365,8 @@ class LinkTransport(Transport):
             problem = (f"{self.link.description}: the firmware drives {info.finger_count} fingers, but "
                        f"profile '{self.profile.name}' has {self.n_fingers}")
         if problem:
+            if self._phase == "running":  # a board that changes its protocol mid-run
+                self.monitor.checks.protocol_changed(problem)
             if self._phase != "failed":
                 log.error("%s", problem)
             self._set_phase("failed", problem)

@@ -2,7 +2,8 @@
 
 Sequence gaps (lost samples), late samples (the firmware's stream stalled), sensors
 outside the board's ADC range or stuck on one reading, firmware reboots and vents. The
-transport only counts and logs; deciding to stop is the supervisor's job.
+counters only count and log. The link checks (checks.py) it feeds name a LinkProblem
+for the supervisor to fault on: deciding to stop is the supervisor's job.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hand_service.transports.base import SensorSample, TransportHealth
+from hand_service.transports.checks import LinkChecks, LinkLimits
 from hand_service.wire.messages import FirmwareState, SensorReport, Status, fault_name, sequence_delta
 
 log = logging.getLogger("hand_service.transports")
@@ -41,8 +43,9 @@ class SampleMonitor:
     """Turns SensorReports into SensorSamples, counting everything that looks wrong."""
 
     def __init__(self, finger_names: list[str], settings: dict, stale_s: float,
-                 health: TransportHealth) -> None:
+                 health: TransportHealth, limits: LinkLimits | None = None) -> None:
         self.names = finger_names
+        self.checks = LinkChecks(limits or LinkLimits.defaults())
         self.sensor_min_mv = settings["sensor_min_mv"]
         self.sensor_max_mv = settings["sensor_max_mv"]
         self.stuck_samples = settings["stuck_samples"]
@@ -68,11 +71,13 @@ class SampleMonitor:
         """The host opens the link: nothing before counts."""
         self._last_sequence = None
         self._last_sample_s = None
+        self.checks.begin()
 
     def restart(self) -> None:
         """The stream starts over (a reconnect or a reboot): no sequence gap is counted across
         it, but the wait for the next sample still is: a late sample is late however it ends."""
         self._last_sequence = None
+        self.checks.restart()
 
     def sample(self, report: SensorReport, now: float, last_command: int) -> SensorSample | None:
         h = self.health
@@ -81,6 +86,8 @@ class SampleMonitor:
             delta = sequence_delta(report.sequence, self._last_sequence)
             if delta == 0 or delta >= 128:
                 h.extra["duplicate_samples"] += 1
+                if delta == 0:
+                    self.checks.same_sequence(report.sequence)
                 return None
             lost = delta - 1
             if delta > 1:
@@ -96,6 +103,7 @@ class SampleMonitor:
                              f"(stale after {self.stale_s * 1e3:.0f} ms)")
         self._last_sequence = report.sequence
         self._last_sample_s = now
+        self.checks.sample(self._sequence, lost, now)
         mv = np.array(report.sensor_mv, dtype=np.float64)
         self._check_sensors(mv)
         acked = (last_command - sequence_delta(last_command, report.command_sequence)
@@ -119,7 +127,11 @@ class SampleMonitor:
                             self.stuck_samples + 1)
         self._previous_mv = mv
 
-    def status(self, status: Status) -> None:
+    def watch(self, now: float) -> None:
+        """Every turn of the reader thread while the link runs."""
+        self.checks.watch(now)
+
+    def status(self, status: Status, now: float) -> None:
         rebooted = self._uptime_ms is not None and status.uptime_ms < self._uptime_ms
         if rebooted or (status.state != FirmwareState.RUNNING and self._state == FirmwareState.RUNNING):
             self.vents += 1  # it stopped applying the host's setpoints on its own
@@ -138,3 +150,4 @@ class SampleMonitor:
         self._fault_code = status.fault_code
         self._uptime_ms = status.uptime_ms
         self._state = status.state
+        self.checks.status(status.uptime_ms, now)

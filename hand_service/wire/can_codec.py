@@ -127,6 +127,11 @@ class CanCodec:
         """The pressure commands this DBC's ValveCommand carries (kPa)."""
         return self.signal_range("ValveCommand", "pressure_cmd_kpa")
 
+    def carries_nan(self, signal: str) -> bool:
+        """A NaN reading of this SensorFinger signal can cross (its value table has not_reported)."""
+        sig = self._msg["SensorFinger"].get_signal_by_name(signal)
+        return NOT_REPORTED in (sig.choices or {}).values()
+
     def _reading(self, signal: str, value: float) -> float | str:
         """A sensor reading as the board sends it: NaN as the signal's not_reported raw value,
         anything beyond the range at the range's end (the sensor is off the scale)."""

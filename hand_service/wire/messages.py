@@ -56,6 +56,24 @@ class FaultKind(IntEnum):
     SILENCE = 6  # send nothing at all
     REBOOT = 7  # reset now: vent, go silent for `value` ms (default 200), announce again
     FIRMWARE_FAULT = 8  # the board finds a fault of its own: FirmwareFault `value` (default 1)
+    PRESSURE_NAN = 9  # the finger's chamber pressure reads NaN (not reported)
+    PRESSURE_STUCK = 10  # the finger's chamber pressure repeats its last reading
+    VALVES_IGNORED = 11  # the valves hold their pressure, whatever the commands; status says running
+    PROTOCOL_CHANGE = 12  # announce protocol `value` (default: its own + 1) and go on
+    SEQUENCE_STUCK = 13  # every sample carries the same sequence number
+    CAN_ERROR_FRAMES = 14  # CAN error frames beside the traffic, `value` per second (default 100)
+    BUS_OFF = 15  # the CAN controller reports bus-off, then nothing crosses either way
+    CLOCK_DRIFT = 16  # the board's clock runs fast by `value` ppm (signed 16-bit: above 32767 is slow)
+    SENSOR_NAN = 17  # the finger's flex sensor reads NaN (serial-v1 only: can-v1 cannot carry it)
+
+
+FAULT_VALUE_MODULO = 1 << 16  # `value` is 16 bits on the wire
+
+
+def signed_value(value: int) -> int:
+    """A fault request's 16-bit `value` read as signed (CLOCK_DRIFT: a slow clock is negative)."""
+    value %= FAULT_VALUE_MODULO
+    return value - FAULT_VALUE_MODULO if value >= FAULT_VALUE_MODULO // 2 else value
 
 
 @dataclass

@@ -8,10 +8,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hand_service.config.profile import PROFILE_DIR, load_profile
 from hand_service.service.safety import Cause
 from hand_service.service.states import Event, State
+from hand_service.transports.base import LinkProblem
 from rtcore import MODE_PRESSURE
 from tests.daemon.conftest import Rig
 
@@ -142,7 +144,13 @@ def test_pressure_over_limit_even_if_the_core_is_wrong(rig: Rig) -> None:
     rig.assert_faulted("pressure_over_limit")
 
 
-def test_leak(rig: Rig) -> None:
+def test_leak() -> None:
+    """The chamber stops holding pressure (the measured pressure falls away from the
+    command). Only the measured pressure is changed here, not the angle the finger keeps,
+    which the model check finds implausible first (tests/daemon/test_plausibility.py): it
+    is held off, so that the leak check is what this test sees."""
+    profile = load_profile(None)
+    rig = Rig(dataclasses.replace(profile, safety={**profile.safety, "model_mismatch_ms": 10_000.0}))
     rig.tick()
     rig.sup.fire(Event.ARM)
     rig.sup.targets.mode[:] = MODE_PRESSURE
@@ -269,3 +277,18 @@ def test_a_command_the_transport_refuses_faults_and_vents(rig: Rig) -> None:
     assert rig.sup.sent_kpa.max() == 0.0
     rig.assert_faulted("pressure_over_limit")
     assert "send()" in rig.sup.faults.faults[-1].detail
+
+
+@pytest.mark.parametrize("kind", ["sample_late", "sample_loss", "sequence_stuck", "clock_drift",
+                                  "bus_error", "protocol_changed"])
+def test_a_problem_the_link_checks_found_faults_and_vents_in_the_tick_that_reads_it(
+        rig: Rig, kind: str) -> None:
+    """A bus transport's own checks (transports/checks.py) name a problem; the tick reads it
+    (one reference) and vents instead of sending its command."""
+    rig.running()
+    vents = rig.transport.vents
+    rig.transport.link_problem = lambda: LinkProblem(kind, "what the check saw")  # type: ignore[method-assign]
+    rig.tick()
+    assert rig.transport.vents == vents + 1 and rig.transport.sent[-1].max() == 0.0
+    rig.assert_faulted(kind)
+    assert rig.sup.faults.faults[-1].detail == "what the check saw"

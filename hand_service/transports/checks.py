@@ -1,0 +1,174 @@
+"""The bus transport's own checks of the link, run in its reader thread: each names a
+LinkProblem the supervisor faults on (Transport.link_problem()), so the tick only reads
+one reference.
+
+    sample_late       a sample older than safety.sample_age_max_ms on the board's clock,
+                      or none newer for that long (board_clock.SampleAge)
+    sample_loss       more than safety.sample_loss_max_percent of the board's samples lost
+                      (dropped, or failed their CRC) over the last LOSS_WINDOW_S
+    sequence_stuck    safety.stale_sensor_ticks samples in a row with the same sequence
+    clock_drift       the board's clock runs faster or slower than the host's by more than
+                      safety.clock_drift_max_ppm (board_clock.ClockDrift)
+    bus_error         CAN: bus-off or error-passive at once; more than
+                      safety.bus_error_frames_max error frames in any second
+    protocol_changed  the board announced another protocol version mid-run
+
+The first problem stays until the link is opened again (begin()).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import can
+
+from hand_service.config.safety import SAFETY_SECTION
+from hand_service.transports.base import LinkProblem
+from hand_service.transports.board_clock import ClockDrift, SampleAge
+from hand_service.wire import can_errors
+
+log = logging.getLogger("hand_service.transports")
+
+LOSS_WINDOW_S = 0.5
+DEFAULT_RATE_HZ = 100.0
+BUS_ERROR_WINDOW_S = 1.0
+
+
+@dataclass(frozen=True)
+class LinkLimits:
+    """The profile's safety limits the link checks enforce."""
+
+    period_s: float
+    stale_sensor_ticks: int
+    sample_age_max_s: float
+    sample_loss_max_percent: float
+    clock_drift_max_ppm: float
+    bus_error_frames_max: int
+
+    @staticmethod
+    def from_profile(safety: dict[str, Any], rate_hz: float) -> LinkLimits:
+        return LinkLimits(1.0 / rate_hz, int(safety["stale_sensor_ticks"]),
+                          safety["sample_age_max_ms"] / 1e3, float(safety["sample_loss_max_percent"]),
+                          float(safety["clock_drift_max_ppm"]), int(safety["bus_error_frames_max"]))
+
+    @staticmethod
+    def defaults(rate_hz: float = DEFAULT_RATE_HZ) -> LinkLimits:
+        """The profile schema's default limits (for a monitor tested on its own)."""
+        return LinkLimits.from_profile({k.name: k.default for k in SAFETY_SECTION.keys}, rate_hz)
+
+
+class LinkChecks:
+    def __init__(self, limits: LinkLimits) -> None:
+        self.limits = limits
+        self.problem: LinkProblem | None = None
+        self.age = SampleAge(limits.period_s)
+        self.drift = ClockDrift()
+        self.loss_window = max(1, round(LOSS_WINDOW_S / limits.period_s))
+        self._losses: deque[tuple[int, int]] = deque()  # (sample index, samples lost before it)
+        self._lost = 0
+        self._first_index: int | None = None
+        self._same_sequence = 0
+        self._error_times: deque[float] = deque()
+        self.worst_age_s = 0.0  # the oldest sample seen since begin(), for the log and the tests
+        self.drift_ppm: float | None = None  # the newest estimate
+
+    def begin(self) -> None:
+        """The host opens the link: no problem yet."""
+        self.problem = None
+        self.worst_age_s = 0.0
+        self._error_times.clear()
+        self.restart()
+
+    def restart(self) -> None:
+        """The board's counts start over (a reconnect, a reboot)."""
+        self.age.reset()
+        self.drift.reset()
+        self.drift_ppm = None
+        self._losses.clear()
+        self._lost = 0
+        self._first_index = None
+        self._same_sequence = 0
+
+    def found(self, kind: str, detail: str) -> None:
+        if self.problem is None:
+            self.problem = LinkProblem(kind, detail)
+            log.error("link: %s: %s", kind, detail)
+
+    # -- samples ------------------------------------------------------------------------
+
+    def sample(self, index: int, lost: int, host_s: float) -> None:
+        """The board's index-th sample (unwrapped) arrived at host_s; `lost` never did before it."""
+        self._same_sequence = 0
+        age_s = self.age.sample(index, host_s)
+        self.worst_age_s = max(self.worst_age_s, age_s)
+        if age_s > self.limits.sample_age_max_s:
+            self.found("sample_late", f"a sample arrived {age_s * 1e3:.0f} ms after the board took it "
+                       f"(sample_age_max_ms {self.limits.sample_age_max_s * 1e3:g})")
+        self._count_loss(index, lost)
+
+    def _count_loss(self, index: int, lost: int) -> None:
+        if self._first_index is None:
+            self._first_index = index
+        losses = self._losses
+        losses.append((index, lost))
+        self._lost += lost
+        while losses[0][0] <= index - self.loss_window:
+            self._lost -= losses.popleft()[1]
+        if index - self._first_index < self.loss_window:
+            return  # not a whole window yet
+        percent = 100.0 * self._lost / self.loss_window
+        if percent > self.limits.sample_loss_max_percent:
+            self.found("sample_loss", f"{self._lost} of the board's last {self.loss_window} samples "
+                       f"never arrived ({percent:.0f} %, sample_loss_max_percent "
+                       f"{self.limits.sample_loss_max_percent:g})")
+
+    def same_sequence(self, sequence: int) -> None:
+        """A sample came with the sequence of the one before it."""
+        self._same_sequence += 1
+        if self._same_sequence >= self.limits.stale_sensor_ticks:
+            self.found("sequence_stuck", f"{self._same_sequence} samples in a row carried sequence "
+                       f"{sequence} (stale_sensor_ticks {self.limits.stale_sensor_ticks})")
+
+    def watch(self, host_s: float) -> None:
+        """Every turn of the reader: the newest sample grows old while nothing arrives."""
+        age_s = self.age.age_now(host_s)
+        if age_s is not None and age_s > self.limits.sample_age_max_s:
+            self.found("sample_late", f"no sample newer than {age_s * 1e3:.0f} ms on the board's "
+                       f"clock (sample_age_max_ms {self.limits.sample_age_max_s * 1e3:g})")
+
+    # -- the board's clock, its protocol, the bus ----------------------------------------
+
+    def status(self, uptime_ms: int, host_s: float) -> None:
+        drift_ppm = self.drift.status(uptime_ms / 1e3, host_s)
+        self.drift_ppm = drift_ppm
+        if drift_ppm is not None and abs(drift_ppm) > self.limits.clock_drift_max_ppm:
+            pace = "fast" if drift_ppm > 0 else "slow"
+            self.found("clock_drift", f"the board's clock runs {abs(drift_ppm):.0f} ppm {pace} against "
+                       f"the host's (clock_drift_max_ppm {self.limits.clock_drift_max_ppm:g})")
+
+    def protocol_changed(self, detail: str) -> None:
+        self.found("protocol_changed", detail)
+
+    def bus_error(self, frame: can.Message, host_s: float) -> None:
+        """A CAN error frame from the host's driver."""
+        if can_errors.is_bus_off(frame) or can_errors.is_error_passive(frame):
+            state = "bus-off" if can_errors.is_bus_off(frame) else "error-passive"
+            self.found("bus_error", f"the CAN controller went {state} ({can_errors.describe(frame)})")
+            return
+        times = self._error_times
+        times.append(host_s)
+        while times[0] < host_s - BUS_ERROR_WINDOW_S:
+            times.popleft()
+        if len(times) > self.limits.bus_error_frames_max:
+            self.found("bus_error", f"{len(times)} CAN error frames within {BUS_ERROR_WINDOW_S:g} s "
+                       f"({can_errors.describe(frame)}; bus_error_frames_max "
+                       f"{self.limits.bus_error_frames_max})")
+
+    def bus_state(self, state: can.BusState) -> None:
+        """The bus state the interface keeps (python-can BusState), where it keeps one."""
+        if state is not can.BusState.ACTIVE:
+            self.found("bus_error", f"the CAN bus state is {state.name.lower()}"
+                       f"{' (bus-off)' if state is can.BusState.ERROR else ''}")

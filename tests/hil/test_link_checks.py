@@ -1,0 +1,154 @@
+"""The bus transports' own checks of the link (transports/checks.py, board_clock.py), fed
+samples, statuses and error frames at chosen host times: each names its problem when the
+link breaks its limit, and stays quiet over a link that keeps it. The fault matrix
+(test_fault_matrix.py) drives the same checks through the mock firmware."""
+
+from __future__ import annotations
+
+import random
+
+import can
+import pytest
+
+from hand_service.config.profile import load_profile
+from hand_service.transports.base import TransportHealth
+from hand_service.transports.board_clock import ClockDrift, SampleAge
+from hand_service.transports.checks import LinkChecks, LinkLimits
+from hand_service.transports.monitor import SampleMonitor
+from hand_service.wire import can_errors
+from hand_service.wire.messages import SensorReport
+
+PERIOD_S = 0.01
+LIMITS = LinkLimits.from_profile(load_profile(None).safety, 1.0 / PERIOD_S)
+
+
+def checks() -> LinkChecks:
+    link = LinkChecks(LIMITS)
+    link.begin()
+    return link
+
+
+def kind(link: LinkChecks) -> str | None:
+    return None if link.problem is None else link.problem.kind
+
+
+# -- the board's clock ------------------------------------------------------------------
+
+def test_a_sample_s_age_is_its_delay_beyond_the_fastest() -> None:
+    age = SampleAge(PERIOD_S)
+    offset_s = 123.4  # the clocks' offset: unknown, and it does not matter
+    rng = random.Random(1)
+    ages = [age.sample(i, offset_s + i * PERIOD_S + rng.uniform(0.0, 0.004)) for i in range(200)]
+    assert max(ages) < 0.0045
+    assert age.sample(200, offset_s + 200 * PERIOD_S + 0.25) == pytest.approx(0.25, abs=0.005)
+    # nothing newer: the newest grows old on the host's clock
+    assert age.age_now(offset_s + 200 * PERIOD_S + 0.35) == pytest.approx(0.35, abs=0.005)
+
+
+def test_a_slow_board_clock_is_not_a_growing_delay() -> None:
+    """A board 1 % slow: its samples come ever later against their sequence, but the age
+    (over a sliding window of smallest delays) stays at what the drift adds in a window."""
+    age = SampleAge(PERIOD_S)
+    worst = max(age.sample(i, i * PERIOD_S * 1.01) for i in range(3000))  # 30 s
+    assert worst < 0.01 * 2.0 + 0.001
+
+
+@pytest.mark.parametrize("drift_ppm", [20000.0, -20000.0, 3000.0])
+def test_the_drift_of_the_board_s_clock_is_measured_from_its_status_uptime(drift_ppm: float) -> None:
+    drift = ClockDrift()
+    rng = random.Random(2)
+    estimate = None
+    for i in range(40):  # 10 Hz statuses for 4 s, up to 5 ms late each
+        host_s = 0.1 * i
+        estimate = drift.status(host_s * (1 + drift_ppm * 1e-6), host_s + rng.uniform(0.0, 0.005))
+    assert estimate == pytest.approx(drift_ppm, abs=3000.0)  # 5 ms of jitter over 2-3 s
+
+
+def test_one_late_status_is_no_drift() -> None:
+    drift = ClockDrift()
+    estimates = [drift.status(0.1 * i, 0.1 * i + (0.05 if i == 25 else 0.0)) for i in range(40)]
+    assert max(abs(e) for e in estimates if e is not None) < 1.0
+
+
+# -- the checks ---------------------------------------------------------------------------
+
+def test_a_late_sample_and_a_silent_board_are_sample_late() -> None:
+    link = checks()
+    for i in range(100):
+        link.sample(i, 0, i * PERIOD_S)
+        link.watch(i * PERIOD_S + 0.005)
+    assert link.problem is None
+    link.watch(99 * PERIOD_S + LIMITS.sample_age_max_s * 0.9)
+    assert link.problem is None
+    link.watch(99 * PERIOD_S + LIMITS.sample_age_max_s * 1.1)
+    assert kind(link) == "sample_late"
+    assert "sample_age_max_ms 100" in link.problem.detail  # type: ignore[union-attr]
+
+
+def test_lost_samples_beyond_their_share_are_sample_loss() -> None:
+    rng = random.Random(3)
+    for share, lost_expected in ((0.02, False), (0.30, True)):
+        link = checks()
+        index = 0
+        for step in range(300):
+            lost = 0
+            while rng.random() < share:  # samples dropped before this one
+                lost += 1
+            index += lost + 1
+            link.sample(index, lost, step * PERIOD_S)
+        assert (kind(link) == "sample_loss") == lost_expected, (share, link.problem)
+
+
+def test_a_repeated_sequence_is_sequence_stuck() -> None:
+    link = checks()
+    link.sample(0, 0, 0.0)
+    for _ in range(LIMITS.stale_sensor_ticks - 1):
+        link.same_sequence(0)
+    assert link.problem is None
+    link.same_sequence(0)
+    assert kind(link) == "sequence_stuck"
+
+
+def test_a_drifting_board_clock_is_clock_drift() -> None:
+    link = checks()
+    for i in range(40):
+        link.status(round(100 * i * 1.02), 0.1 * i)  # uptime in ms, 2 % fast
+    assert kind(link) == "clock_drift"
+    assert "fast" in link.problem.detail  # type: ignore[union-attr]
+
+
+def test_can_error_frames_beyond_their_rate_and_bus_off_are_bus_errors() -> None:
+    link = checks()
+    for i in range(LIMITS.bus_error_frames_max):
+        link.bus_error(can_errors.bus_error_frame(), 0.09 * i)
+    assert link.problem is None  # a few errors in a second: a bus lives with them
+    link.bus_error(can_errors.bus_error_frame(), 0.95)
+    assert kind(link) == "bus_error"
+    link = checks()
+    link.bus_error(can_errors.bus_off_frame(), 0.0)
+    assert kind(link) == "bus_error" and "bus-off" in link.problem.detail  # type: ignore[union-attr]
+    link = checks()
+    link.bus_state(can.BusState.PASSIVE)
+    assert kind(link) == "bus_error"
+
+
+def test_the_first_problem_stays_until_the_link_opens_again() -> None:
+    link = checks()
+    link.protocol_changed("protocol 2")
+    link.same_sequence(0)
+    link.same_sequence(0)
+    assert kind(link) == "protocol_changed"
+    link.begin()
+    assert link.problem is None
+
+
+def test_the_monitor_feeds_the_checks() -> None:
+    profile = load_profile(None)
+    settings = {"sensor_min_mv": 0.0, "sensor_max_mv": 5000.0, "stuck_samples": 0}
+    monitor = SampleMonitor(profile.finger_names, settings, 0.05, TransportHealth(), LIMITS)
+    monitor.begin()
+    report = SensorReport(7, 0, [1000.0] * 5, [0.0] * 5)
+    monitor.sample(report, 0.0, 0)
+    for i in range(LIMITS.stale_sensor_ticks):
+        assert monitor.sample(report, 0.01 * (i + 1), 0) is None  # a duplicate: no sample
+    assert kind(monitor.checks) == "sequence_stuck"
