@@ -58,15 +58,19 @@ def test_the_drift_of_the_board_s_clock_is_measured_from_its_status_uptime(drift
     drift = ClockDrift()
     rng = random.Random(2)
     estimate = None
-    for i in range(40):  # 10 Hz statuses for 4 s, up to 5 ms late each
+    for i in range(50):  # 10 Hz statuses for 5 s, up to 5 ms late each
         host_s = 0.1 * i
         estimate = drift.status(host_s * (1 + drift_ppm * 1e-6), host_s + rng.uniform(0.0, 0.005))
-    assert estimate == pytest.approx(drift_ppm, abs=3000.0)  # 5 ms of jitter over 2-3 s
+    assert estimate == pytest.approx(drift_ppm, abs=2000.0)  # 5 ms of jitter over 3-5 s
 
 
 def test_one_late_status_is_no_drift() -> None:
+    """Nor a whole second of statuses 10 ms late (a loaded machine): under 5000 ppm."""
+    late = ClockDrift()
+    worst = [late.status(0.1 * i, 0.1 * i + (0.01 if 30 <= i < 40 else 0.0)) for i in range(80)]
+    assert max(abs(e) for e in worst if e is not None) < 5000.0
     drift = ClockDrift()
-    estimates = [drift.status(0.1 * i, 0.1 * i + (0.05 if i == 25 else 0.0)) for i in range(40)]
+    estimates = [drift.status(0.1 * i, 0.1 * i + (0.05 if i == 25 else 0.0)) for i in range(50)]
     assert max(abs(e) for e in estimates if e is not None) < 1.0
 
 
@@ -111,7 +115,7 @@ def test_a_repeated_sequence_is_sequence_stuck() -> None:
 
 def test_a_drifting_board_clock_is_clock_drift() -> None:
     link = checks()
-    for i in range(40):
+    for i in range(50):
         link.status(round(100 * i * 1.02), 0.1 * i)  # uptime in ms, 2 % fast
     assert kind(link) == "clock_drift"
     assert "fast" in link.problem.detail  # type: ignore[union-attr]
