@@ -28,8 +28,14 @@ OPEN_CIRCUIT_MV = 65535.0  # the default out-of-range reading: clipped to what t
 class ActiveFault:
     request: FaultRequest
     until_s: float
-    held_mv: np.ndarray | None = None  # STUCK_SENSOR: the readings it froze
-    held_kpa: np.ndarray | None = None  # PRESSURE_STUCK: the pressures it froze
+    held: np.ndarray | None = None  # STUCK_SENSOR, PRESSURE_STUCK: the readings it froze
+
+    def freeze(self, values: np.ndarray, n: int) -> None:
+        """Its fingers' values as they were when it began (kept from the first call)."""
+        if self.held is None:
+            self.held = values.copy()
+        for i in self.fingers(n):
+            values[i] = self.held[i]
 
     def fingers(self, n: int) -> list[int]:
         index = self.request.finger_index
@@ -107,10 +113,7 @@ class FaultInjector:
         """The readings as the faulty sensors report them."""
         stuck = self.active.get(FaultKind.STUCK_SENSOR)
         if stuck is not None:
-            if stuck.held_mv is None:
-                stuck.held_mv = sensor_mv.copy()
-            for i in stuck.fingers(self.n_fingers):
-                sensor_mv[i] = stuck.held_mv[i]
+            stuck.freeze(sensor_mv, self.n_fingers)
         wild = self.active.get(FaultKind.SENSOR_OUT_OF_RANGE)
         if wild is not None:
             for i in wild.fingers(self.n_fingers):
@@ -124,10 +127,7 @@ class FaultInjector:
         """The chamber pressures as the faulty pressure sensors report them."""
         stuck = self.active.get(FaultKind.PRESSURE_STUCK)
         if stuck is not None:
-            if stuck.held_kpa is None:
-                stuck.held_kpa = pressure_kpa.copy()
-            for i in stuck.fingers(self.n_fingers):
-                pressure_kpa[i] = stuck.held_kpa[i]
+            stuck.freeze(pressure_kpa, self.n_fingers)
         nan = self.active.get(FaultKind.PRESSURE_NAN)
         if nan is not None:
             pressure_kpa[nan.fingers(self.n_fingers)] = math.nan
