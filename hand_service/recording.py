@@ -1,9 +1,14 @@
 """Recordings: the CSV of docs/formats.md, read and written.
 
+    t,pressure_kpa,angle_deg
     # finger: index
     # sample_rate_hz: 100
-    t,pressure_kpa,angle_deg
     0.000,0.00,0.050
+
+The header comes first and the `# key: value` metadata after it, so that
+`numpy.genfromtxt(f, delimiter=",", names=True, comments="#")` (which takes its names from
+the first line) and `pandas.read_csv(f, comment="#")` both read the file. Files with the
+metadata above the header (written before) are read the same.
 
 Required numeric columns are `t`, `pressure_kpa` and `angle_deg`; others are optional and
 found by name. A multi-finger recording from the daemon suffixes every per-finger column
@@ -208,11 +213,11 @@ def _looks_truncated(last: list[str], previous: list[str] | None, header: list[s
 
 def write_recording(path: str | Path, columns: Mapping[str, np.ndarray | list],
                     metadata: Mapping[str, object] | None = None, digits: int = 6) -> None:
-    """Write a recording: `# key: value` lines, then the header, then the rows."""
+    """Write a recording: the header, then `# key: value` lines, then the rows."""
     names = list(columns)
     n = len(next(iter(columns.values()))) if columns else 0
-    out = [f"# {k}: {v}" for k, v in (metadata or {}).items()]
-    out.append(",".join(names))
+    out = [",".join(names)]
+    out += [f"# {k}: {v}" for k, v in (metadata or {}).items()]
     formatted = []
     for name in names:
         values = columns[name]

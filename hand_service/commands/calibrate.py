@@ -83,7 +83,7 @@ def _write_back(args: argparse.Namespace, model: Any, changes: dict[str, Any], f
                 header: str) -> None:
     from hand_service.config.model import save_model
     from hand_service.config.profile import load_profile
-    from hand_service.config.yamledit import update_values
+    from hand_service.config.yamlupdate import update_values
 
     if args.write_model is not None:
         save_model(model.with_changes(**changes), args.write_model, header=header)
@@ -137,7 +137,7 @@ def _gain(args: argparse.Namespace) -> dict[str, Any]:
 
 def _sensor(args: argparse.Namespace) -> dict[str, Any]:
     from hand_service.config.profile import load_profile
-    from hand_service.config.yamledit import update_values
+    from hand_service.config.yamlupdate import update_values
     from hand_service.errors import UserError
     from hand_service.identification.calibration import fit_sensor_map
     from hand_service.recording import read_recording

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from typing import Any
 
 HELP = "find where a model and a recording disagree, and name the missing physics"
@@ -52,12 +51,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "an offset that drifts, estimated from the recording (an analog sensor "
                              "chain's noise: a clean recording then comes out clean); white, "
                              "independent samples (see docs/diagnose.md)")
-    parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress on stderr (else a bar on a terminal, a line every few "
+                             "seconds elsewhere)")
 
 
 def main(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from hand_service.commands.progress import Progress
     from hand_service.config.profile import load_model
     from hand_service.diagnose.engine import diagnose
     from hand_service.diagnose.timebase import regular_grid
@@ -82,17 +84,10 @@ def main(args: argparse.Namespace) -> int:
     if np.ptp(recording.angle_deg) == 0.0:  # the refit's residual would be exactly zero
         raise UserError(f"{args.recording}: angle_deg is {recording.angle_deg[0]:g} deg throughout: nothing "
                         "moved, so there is nothing to compare with the model (is the sensor connected?)")
-    started = time.perf_counter()
-
-    def progress(message: str) -> None:
-        if not args.quiet:
-            print(f"\r[{time.perf_counter() - started:5.1f} s] {message:<70}", end="", file=sys.stderr,
-                  flush=True)
-
-    result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress, grid.missing,
-                      args.input_hold, args.noise_model)
-    if not args.quiet:
-        print(file=sys.stderr)
+    with Progress("diagnose", quiet=args.quiet) as progress:
+        result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress,
+                          grid.missing, args.input_hold, args.noise_model)
+        progress.done()
     with tables_out(args.json):  # `--json -`: the JSON alone on stdout
         print_summary(result)
         _write_files(args, result)
@@ -124,13 +119,15 @@ def _write_files(args: argparse.Namespace, result: Any) -> None:
 
 
 def print_summary(result) -> None:
+    from hand_service.diagnose.evidence import uncertainty
+
     j = result.to_json()
     print(f"verdict: {j['verdict']}")
     model = result.model
-    print(f"{'parameter':<28} {'nominal':>11} {'refit':>11} {'±':>9}")
+    print(f"{'parameter':<28} {'nominal':>11} {'refit':>11}  ±")
     for name in ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa"):
-        print(f"{name:<28} {getattr(model, name):11.5g} {j['refit'][name]:11.5g} "
-              f"{j['refit_std'].get(name, float('nan')):9.2g}")
+        std = uncertainty(j["refit_std"].get(name, float("nan")))
+        print(f"{name:<28} {getattr(model, name):11.5g} {j['refit'][name]:11.5g}  {std:<16}".rstrip())
     for i, effect in enumerate(result.effects, start=1):
         print(f"{i}. {effect.name}: {effect.evidence}")
     rm = j["rmse_deg"]
@@ -140,4 +137,4 @@ def print_summary(result) -> None:
         print("windows (s): " + ", ".join(f"{a:.2f}-{b:.2f}" for a, b in j["windows"]))
     for warning in j["warnings"]:
         print(f"warning: {warning}")
-    print(f"({result.seconds:.1f} s)")
+    print(f"(the fits took {result.seconds:.1f} s)")

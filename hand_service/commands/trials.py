@@ -35,12 +35,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"recordings per finger (1 to {MAX_COUNT}; default 1)")
     parser.add_argument("--seed", type=int, default=1, help="seed (default 1)")
     parser.add_argument("--rate", type=float, default=None, help="sample rate in Hz (default: the profile's)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress on stderr (else a bar on a terminal, a line every few "
+                             "seconds elsewhere)")
 
 
 def main(args: argparse.Namespace) -> int:
     import numpy as np
 
     from hand_service.commands import checks
+    from hand_service.commands.progress import Progress
     from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
     from hand_service.identification import trials
@@ -56,16 +60,21 @@ def main(args: argparse.Namespace) -> int:
     fingers = [profile.finger(name) for name in args.finger] if args.finger else profile.fingers
     make_directory(args.out)
     sim = profile.simulation
-    for f_index, finger in enumerate(fingers):
-        seeds = np.random.SeedSequence([args.seed, f_index]).generate_state(args.count)
-        if args.kind == "release":
-            made = trials.release_trials(finger, sim, args.count, int(seeds[0]), rate_hz=rate)
-        elif args.kind == "pairs":
-            made = [trials.sensor_pairs(finger, sim, int(s)) for s in seeds]
-        else:
-            make = {"sweep": trials.pressure_sweep, "valve": trials.valve_steps}[args.kind]
-            made = [make(finger, sim, int(s), rate_hz=rate) for s in seeds]
-        for i, trial in enumerate(made):
-            trial.write(args.out / f"{finger.name}_{args.kind}_{i:02d}.csv")
-        print(f"{finger.name}: {len(made)} {args.kind} recording(s) in {args.out}")
+    with Progress("trials", total=len(fingers) * args.count, quiet=args.quiet) as progress:
+        for f_index, finger in enumerate(fingers):
+            progress.say(f"simulating {finger.name}'s {args.kind} trials")
+            seeds = np.random.SeedSequence([args.seed, f_index]).generate_state(args.count)
+            if args.kind == "release":
+                made = trials.release_trials(finger, sim, args.count, int(seeds[0]), rate_hz=rate)
+            elif args.kind == "pairs":
+                made = [trials.sensor_pairs(finger, sim, int(s)) for s in seeds]
+            else:
+                make = {"sweep": trials.pressure_sweep, "valve": trials.valve_steps}[args.kind]
+                made = [make(finger, sim, int(s), rate_hz=rate) for s in seeds]
+            for i, trial in enumerate(made):
+                name = f"{finger.name}_{args.kind}_{i:02d}.csv"
+                trial.write(args.out / name)
+                progress.advance(message=f"wrote {name}")
+            progress.write(f"{finger.name}: {len(made)} {args.kind} recording(s) in {args.out}")
+        progress.done()
     return 0

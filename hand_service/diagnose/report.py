@@ -12,6 +12,7 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.diagnose import stats
 from hand_service.diagnose.engine import Diagnosis
+from hand_service.diagnose.evidence import estimate, uncertainty
 from hand_service.errors import UserError
 
 COLOURS = {"recording": "#9a9a9a", "nominal": "#d62728", "refit": "#1f77b4", "augmented": "#2ca02c"}
@@ -137,7 +138,7 @@ def evidence_rows(d: Diagnosis) -> list[list[str]]:
         partial = {e.name for e in d.partial_effects}
         verdict = ("found" if c.name in accepted else "partial" if c.name in partial
                    else "significant alone" if c.significant else "no")
-        rows.append([html.escape(c.name), f"{c.estimate:.4g} ± {c.std:.2g} {html.escape(spec.unit)}",
+        rows.append([html.escape(c.name), html.escape(estimate(c.estimate, c.std, spec.unit)),
                      f"{c.delta_bic:.1f}", f"{c.z_heldout:.1f}", f"{c.signature_corr:+.2f}",
                      f"{c.separability:.2f}", f"{c.rmse_heldout_deg:.3f}", verdict])
     return rows
@@ -170,7 +171,7 @@ def render(d: Diagnosis, recording_name: str) -> str:
     model = d.model
     refit = j["refit"]
     rows = [[name, f"{getattr(model, name):.5g}", f"{refit[name]:.5g}",
-             f"{j['refit_std'].get(name, float('nan')):.2g}"]
+             uncertainty(j["refit_std"].get(name, float("nan")))]
             for name in ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa")]
     parts.append(f"<h2>Parameters (A held at {model.inertia_kgm2:.4g} kg·m²)</h2>"
                  + _table(["parameter", "nominal", "refit", "±"], rows))

@@ -143,7 +143,9 @@ class Recorder:
         if self.active:
             raise UserError(f"already recording to {self.path}; stop first")
         path = Path(path)
-        lines = [f"# {k}: {v}" for k, v in metadata.items()] + [",".join(csv_header(self.fingers))]
+        # the header first, then the `#` metadata: numpy.genfromtxt(names=True) takes its names
+        # from the first line, a comment or not (docs/formats.md §1)
+        lines = [",".join(csv_header(self.fingers))] + [f"# {k}: {v}" for k, v in metadata.items()]
         ring, ring_path = allocate_ring(self.n_cols, self.capacity)  # before the file: nothing left
         try:
             path.parent.mkdir(parents=True, exist_ok=True)

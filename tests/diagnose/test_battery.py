@@ -12,20 +12,24 @@ import sys
 
 import pytest
 
+from hand_service.commands.progress import Progress
 from hand_service.diagnose.concealed.battery import markdown, plan, run_case, summarise
 
 
 @pytest.mark.slow
 def test_battery_meets_the_targets(capsys: pytest.CaptureFixture[str]) -> None:
     cases = plan(seeds=3, excitations=("steps", "sweep"), clean_seeds=6)
-    for i, case in enumerate(cases, start=1):
+    with capsys.disabled():  # a bar on a terminal, a line every few seconds in a log
+        progress = Progress("battery", total=len(cases), stream=sys.stderr)
+    for case in cases:
         run_case(case)
         with capsys.disabled():
-            print(f"\r  battery {i}/{len(cases)}: {case.effect} {case.excitation} seed {case.seed} -> "
-                  f"{case.verdict} {case.named}".ljust(100), end="", file=sys.stderr, flush=True)
+            progress.advance(message=f"{case.effect} {case.excitation} seed {case.seed} -> "
+                                     f"{case.verdict} {case.named}")
     summary = summarise(cases)
     with capsys.disabled():
-        print("\n" + markdown(summary, cases), file=sys.stderr)
+        progress.close()
+        print(markdown(summary, cases), file=sys.stderr)
     assert summary["top1_rate"] >= 0.9
     assert summary["false_positive_rate"] == 0.0
     assert summary["wrong_name_rate"] <= 0.05

@@ -28,3 +28,28 @@ def test_a_release_is_a_free_swing() -> None:
     velocity = 200.0 * np.exp(-T) * np.sin(2 * np.pi * 9.5 * T)  # ringing at rest pressure
     text = _coulomb(_context(np.zeros(T.size), velocity))
     assert "free swings lose about 4 deg" in text
+
+
+def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None:
+    """The evidence sentence, the report's tables and the command's parameter table."""
+    from hand_service.commands.diagnose import print_summary
+    from hand_service.diagnose.evidence import estimate, sentence, uncertainty
+
+    assert uncertainty(0.00213, "s") == "± 0.0021 s" and estimate(0.0312, 0.0021, "s") == "0.0312 ± 0.0021 s"
+    for std in (np.inf, np.nan):
+        assert uncertainty(std) == "not identifiable"
+        assert estimate(0.0312, std, "s") == "0.0312 s (not identifiable)"
+    context = _context(np.zeros(T.size), np.zeros(T.size))
+    text = sentence("valve_lag", context, np.inf, 12.0, 3.0, 0.5, 0.4)
+    assert "(not identifiable)" in text and "inf" not in text.replace("information", "")
+    model = SimpleNamespace(stiffness_nm_per_rad=0.57, damping_nms_per_rad=0.003,
+                            pressure_gain_nm_per_kpa=0.009)
+    refit = {"stiffness_nm_per_rad": 0.571, "damping_nms_per_rad": 0.0031, "pressure_gain_nm_per_kpa": 0.0091}
+    result = SimpleNamespace(model=model, effects=[], noise_deg=0.3, seconds=1.5, to_json=lambda: {
+        "verdict": "insufficient_excitation", "refit": refit, "rmse_deg": dict.fromkeys(
+            ("nominal", "refit", "augmented"), 0.4), "windows": [], "warnings": [],
+        "refit_std": {"stiffness_nm_per_rad": np.inf, "damping_nms_per_rad": 1e-4}})
+    print_summary(result)
+    out = capsys.readouterr().out
+    assert "inf" not in out and "not identifiable" in out.splitlines()[2]
+    assert out.splitlines()[3].endswith("± 0.0001") and "(the fits took 1.5 s)" in out

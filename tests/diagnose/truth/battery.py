@@ -35,6 +35,7 @@ from collections import Counter, defaultdict  # noqa: E402
 from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from pathlib import Path  # noqa: E402
 
+from hand_service.commands.progress import Progress  # noqa: E402
 from tests.diagnose.truth import cases as cs  # noqa: E402
 from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
 
@@ -368,6 +369,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--timeout", type=float, default=600.0, help="seconds one diagnose may take (then: timeout)"
     )
+    ap.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress on stderr (else a bar on a terminal, a line every few seconds elsewhere); "
+        "the line of each case still goes to stdout",
+    )
     args = ap.parse_args(argv)
     if args.table:
         print(render(tables(json.loads(args.out.read_text())["cases"])))
@@ -418,28 +425,33 @@ def main(argv: list[str] | None = None) -> int:
             )
         )
 
+    progress = Progress("battery", total=len(todo), quiet=args.quiet)
+
     def note(row: dict) -> None:
         rows.append(row)
         if len(rows) % 10 == 0:
             save(False)
         mark = "ok " if row["right"] else "BAD"
-        print(
+        progress.write(
             f"[{len(rows):4d}/{len(todo)}] {mark} {row['id']:62s} v={row['visibility']:5.2f} "
             f"{'obs' if row['observable'] else 'unobs'} -> {row['verdict']} {row['named'][:2]} "
-            f"({row['generate_s']:.1f}+{row['diagnose_s']:.1f} s)",
-            flush=True,
+            f"({row['generate_s']:.1f}+{row['diagnose_s']:.1f} s)"
         )
+        progress.advance(message=f"{row['id']} -> {row['verdict']}")
 
-    if args.jobs <= 1:
-        for spec in todo:
-            note(run_case(spec, str(folder), args.noise_model, args.timeout))
-    else:
-        with ProcessPoolExecutor(max_workers=args.jobs) as pool:
-            futures = [
-                pool.submit(run_case, spec, str(folder), args.noise_model, args.timeout) for spec in todo
-            ]
-            for fut in futures:
-                note(fut.result())
+    with progress:
+        if args.jobs <= 1:
+            for spec in todo:
+                progress.say(f"running {spec.id}")
+                note(run_case(spec, str(folder), args.noise_model, args.timeout))
+        else:
+            with ProcessPoolExecutor(max_workers=args.jobs) as pool:
+                futures = [
+                    pool.submit(run_case, spec, str(folder), args.noise_model, args.timeout) for spec in todo
+                ]
+                for fut in futures:
+                    note(fut.result())
+        progress.done()
     save(True)
     print(render(tables(rows)))
     return 0
