@@ -20,7 +20,7 @@ from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose import excitation, noise, stability, stats
 from hand_service.diagnose.evidence import Context, sentence
-from hand_service.diagnose.fit import Fit, fit
+from hand_service.diagnose.fit import FAR_FACTOR, Fit, far_from_nominal, fit
 from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Prior, Problem, build_problem
 from hand_service.diagnose.search import Candidate, Progress, Selection, select
 from hand_service.diagnose.verdict import (
@@ -133,18 +133,7 @@ def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> l
     return params
 
 
-FAR_FACTOR = 3.0  # a plain refit this many times off the nominal is checked against the prior
-REPORT_FACTOR = 2.0  # and one this far off is said
-
-
-def far_from_nominal(problem: Problem, refit: Fit, factor: float) -> list[tuple[str, float]]:
-    """Plain parameters of the refit more than `factor` times above or below the nominal."""
-    nominal = problem.values(refit.params)
-    far = []
-    for p, value, centre in zip(refit.params, refit.values, nominal, strict=True):
-        if not p.is_effect and centre > 0.0 and value > 0.0 and abs(np.log(value / centre)) > np.log(factor):
-            far.append((p.label, float(value / centre)))
-    return far
+REPORT_FACTOR = 2.0  # a plain refit this many times off the nominal is said
 
 
 def refit_with_prior(problem: Problem, params: list[Param], refit: Fit,
@@ -208,13 +197,13 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
         # refit far from the nominal is checked against the prior too: a slow finger can
         # mimic a dead time on a ramp; the data must ask for the distance, not merely allow it.
         refit = refit_with_prior(problem, params, refit, progress)
-    for label, factor in far_from_nominal(problem, refit, REPORT_FACTOR):
-        warnings.append(f"the refitted {label} is {factor:.3g} times the nominal's: this rig is far from "
-                        "its model (the fit is not bounded near the nominal; check the model's units)")
         refit_e = problem.innovations(refit.angle_deg)
         refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     selection = select(problem, refit, missing, progress)
     final = selection.final or refit
+    for label, factor in far_from_nominal(problem, final, REPORT_FACTOR):  # what the report shows
+        warnings.append(f"the refitted {label} is {factor:.3g} times the nominal's: this rig is far from "
+                        "its model (the fit is not bounded near the nominal; check the model's units)")
     found = [found_effect(problem, c, selection) for c in selection.accepted]
     sigma = final.sigma_deg
     residual = refit.residual(problem)
@@ -296,5 +285,6 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundE
     measured = problem.measured_deg[held]
     base_angle = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
     rmse_before = stats.rmse(measured - base_angle[held])
-    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, rmse_before, c.rmse_heldout_deg)
+    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, rmse_before, c.rmse_heldout_deg,
+                    c.prior_gain)
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)

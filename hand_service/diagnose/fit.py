@@ -140,3 +140,16 @@ def sensitivity(problem: Problem, param: Param, finger: SimFinger, angle_deg: np
         step = -step
     moved = problem.simulate(problem.finger([param], [value + step], finger))
     return (moved - angle_deg) / step
+
+
+FAR_FACTOR = 3.0  # a plain refit this many times off the nominal is checked against the prior
+
+
+def far_from_nominal(problem: Problem, refit: Fit, factor: float = FAR_FACTOR) -> list[tuple[str, float]]:
+    """Plain parameters of the refit more than `factor` times above or below the nominal."""
+    nominal = problem.values(refit.params)
+    far = []
+    for p, value, centre in zip(refit.params, refit.values, nominal, strict=True):
+        if not p.is_effect and centre > 0.0 and value > 0.0 and abs(np.log(value / centre)) > np.log(factor):
+            far.append((p.label, float(value / centre)))
+    return far

@@ -24,7 +24,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose import stats
-from hand_service.diagnose.fit import Fit, fit, sensitivity
+from hand_service.diagnose.fit import Fit, far_from_nominal, fit, sensitivity
 from hand_service.diagnose.problem import Param, Problem
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
@@ -34,6 +34,7 @@ MAX_EFFECTS = 3
 THOROUGH_TOP = 3  # the screen's best three are fitted from every start, the rest from one
 LATER_TOP = 3  # after the first round, only the screen's best three are fitted
 DETERMINED_Z = 3.0  # an effect's estimate must stand this many standard errors from neutral
+PRIOR_EVIDENCE_FACTOR = 10.0  # a refit this many times off the nominal makes its prior evidence
 
 Progress = Callable[[str], None]
 
@@ -46,9 +47,10 @@ class Candidate:
     separability: float  # share of the signature the model's own parameters cannot absorb
     start: float
     fit: Fit
-    delta_bic: float  # against the model of this round
+    delta_bic: float  # against the model of this round, the nominal's prior included
     z_heldout: float
     rmse_heldout_deg: float
+    prior_gain: float = 0.0  # how much closer to the nominal (prior's χ²) the effect lets k, B, N stay
 
     @property
     def estimate(self) -> float:
@@ -78,9 +80,16 @@ class Candidate:
         return bool(abs(self.estimate - neutral) > DETERMINED_Z * self.std)
 
     @property
+    def predicts(self) -> bool:
+        """The held-out data favour it; or, where the plain refit had to go far from the
+        nominal to fit (beyond its stated uncertainty), the effect brings k, B and N back
+        (the prior's χ² drops by SIGNIFICANT_BIC) without predicting the held-out data
+        worse: a slow valve that the refit mimicked by scaling k, B and N together."""
+        return self.z_heldout > SIGNIFICANT_Z or (self.prior_gain > SIGNIFICANT_BIC and self.z_heldout > -1.0)
+
+    @property
     def significant(self) -> bool:
-        return (self.delta_bic > SIGNIFICANT_BIC and self.z_heldout > SIGNIFICANT_Z and not self.at_bound
-                and self.determined)
+        return self.delta_bic > SIGNIFICANT_BIC and self.predicts and not self.at_bound and self.determined
 
 
 @dataclass
@@ -202,14 +211,29 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
         starts.append([*reset, screened.starts[-1]])
     if not thorough:
         starts = starts[-1:] if len(screened.starts) > 1 else starts[:1]  # the scan's best point
-    joint = min((fit(problem, params, start, base=base.finger) for start in starts), key=lambda f: f.rss_deg2)
+    fits = [fit(problem, params, start, base=base.finger) for start in starts]
+    joint = min(fits, key=lambda f: f.cost_deg2)  # what the fit minimised: the data and the prior
     held = problem.held_mask
     measured = problem.measured_deg[held]
     before, after = problem.innovations(base.angle_deg), problem.innovations(joint.angle_deg)
-    bic = stats.delta_bic(problem.fit_rss(before), problem.fit_rss(after), problem.n_fit)
+    # the nominal's prior counts as evidence where the data asked for a refit an order of
+    # magnitude from it (9 widths of its log-normal prior, a χ² of 85); nearer, it holds k, B
+    # and N but decides nothing (hysteresis on a ramp pulled B 4× off, and a valve lag
+    # pulled it back)
+    far = bool(far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR))
+    prior_gain = prior_chi2(problem, base) - prior_chi2(problem, joint) if far else 0.0
+    bic = stats.delta_bic(problem.fit_rss(before), problem.fit_rss(after), problem.n_fit) + prior_gain
     z = stats.heldout_z_innovations(before[held], after[held], sigma)
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
-                     screened.starts[0], joint, bic, z, stats.rmse(measured - joint.angle_deg[held]))
+                     screened.starts[0], joint, bic, z, stats.rmse(measured - joint.angle_deg[held]),
+                     prior_gain)
+
+
+def prior_chi2(problem: Problem, f: Fit) -> float:
+    """The nominal's log-normal prior as a χ² (−2 ln prior, up to a constant): the term it
+    adds to the BIC of a fit that held k, B and N near the nominal."""
+    weight = problem.prior.weight_deg
+    return f.prior_cost_deg2 / weight**2 if weight > 0.0 else 0.0
 
 
 def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None,

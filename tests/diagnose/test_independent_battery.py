@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 from scipy import signal
 
 from tests.diagnose.truth import cases as cs
@@ -326,3 +327,25 @@ def test_an_object_met_above_some_angle_is_not_named_a_stiffening_spring(tmp_pat
     assert result["verdict"] == "unexplained" and result["effects"] == []
     assert {e["name"] for e in result["partial_effects"]} >= {"cubic_stiffness"}
     assert any("does not hold across the recording's postures" in w for w in result["warnings"])
+
+
+def test_a_slow_valve_that_the_refit_mimics_by_scaling_k_b_n_is_named(tmp_path: Path) -> None:
+    """On an over-damped finger a valve lag of 33 ms is fitted as well by k, B and N all
+    scaled down ~150× (the inertia then makes the second pole): the data alone cannot tell
+    them apart, but that refit lies far beyond the nominal's stated uncertainty. The valve
+    lag keeps k, B and N at the nominal and is named, its estimate within 20 % of the
+    truth, with the sentence saying that the recording alone cannot tell it from the refit
+    (search.Candidate.predicts)."""
+    from hand_service.cli import main
+
+    spec = cs.CaseSpec("valve_lag", "steps", 0, "concealed", "overdamped", 100.0, 0.033, 30.0)
+    case = cs.build(spec)
+    rec, model = cs.write(case, tmp_path)
+    out = tmp_path / "diagnose.json"
+    assert main(diagnose_argv(rec, model, out)) == 0
+    result = json.loads(out.read_text())
+    assert [e["name"] for e in result["effects"]] == ["valve_lag"], result["verdict"]
+    assert abs(result["effects"][0]["params"]["tau_s"] / 0.033 - 1.0) < 0.2
+    assert "cannot tell it from that refit" in result["effects"][0]["evidence"]
+    nominal_k = yaml.safe_load(model.read_text())["stiffness_nm_per_rad"]
+    assert abs(result["refit"]["stiffness_nm_per_rad"] / nominal_k - 1.0) < 0.2
