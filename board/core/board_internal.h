@@ -1,0 +1,38 @@
+/* What the wire codecs (wire_serial.c, wire_can.c) and the core (board.c) call of each
+ * other; not part of the core's public interface (board.h). */
+#ifndef BOARD_INTERNAL_H
+#define BOARD_INTERNAL_H
+
+#include <stdint.h>
+
+#include "board.h"
+
+/* decoded from the wire */
+void board_on_valve_command(struct board *b, uint8_t sequence, const float *pressure_kpa, uint8_t n);
+void board_on_version_request(struct board *b, uint16_t protocol_version);
+void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint16_t duration_ms,
+                            uint16_t value);
+void board_on_bad_frame(struct board *b);
+
+/* one outgoing frame, through the test image's faults, to the HAL */
+void board_emit(struct board *b, struct board_unit *unit);
+
+/* the protocol version the board announces (a test image's PROTOCOL_CHANGE changes it) */
+uint16_t board_announced_protocol(const struct board *b);
+
+/* the receive side and the encoders of each wire */
+void wire_serial_receive(struct board *b);
+void wire_serial_sensor(struct board *b, const float *flex_mv, const float *pressure_kpa);
+void wire_serial_status(struct board *b);
+void wire_serial_version(struct board *b);
+
+void wire_can_receive(struct board *b, int bus_off);
+void wire_can_sensor(struct board *b, const float *flex_mv, const float *pressure_kpa);
+void wire_can_status(struct board *b);
+void wire_can_version(struct board *b);
+
+/* AUTOSAR E2E profile-2 CRC-8 (poly 0x2F, init 0xFF, xor-out 0xFF) over data[1..len) and the
+ * data id (the frame id's low byte), as the host's cantools.autosar computes it. */
+uint8_t wire_can_e2e_crc(const uint8_t *data, uint8_t len, uint8_t data_id);
+
+#endif
