@@ -1,0 +1,126 @@
+"""A conversation with the board: send as a host does, record everything that comes back.
+
+The session numbers valve commands as the host does (the first is 1, +1 per command,
+sent modulo 256) and remembers when each left, so a sample's command_sequence gives the
+command -> sample echo time. pump() receives for a while, optionally sending a command
+at the profile's rate, and returns what arrived in that time.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from hand_service.boardcheck.link import BoardLink, Received
+from hand_service.wire.messages import (
+    SEQUENCE_MODULO,
+    FirmwareState,
+    SensorReport,
+    Status,
+    ValveCommand,
+    VersionInfo,
+)
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the check expects of the board (the profile's) and how long it looks."""
+
+    protocol_version: int
+    n_fingers: int
+    rate_hz: float
+    watchdog_ms: float
+    handshake_timeout_ms: float
+    stale_ms: float  # the host's stale_sensor_ticks, as time
+    loss_max_percent: float
+    clock_drift_max_ppm: float
+    window_s: float  # how long the stream check listens
+    pressure_kpa: float  # the setpoint the valve checks command
+    latency_ms: float  # what the link and this host may add to any time the board keeps
+
+    @property
+    def period_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+@dataclass
+class Session:
+    link: BoardLink
+    settings: Settings
+    progress: Callable[[str], None] = lambda text: None
+    command_sequence: int = 0  # unwrapped, as the host counts; the first command is 1
+    sent_s: dict[int, float] = field(default_factory=dict)  # wrapped sequence -> time sent
+    log: list[Received] = field(default_factory=list)
+    last_status: Status | None = None
+    command_times_s: list[float] = field(default_factory=list)  # when each valid command left
+
+    def command(self, pressure_kpa: float) -> ValveCommand:
+        """Send a valve command of `pressure_kpa` on every finger."""
+        self.command_sequence += 1
+        command = ValveCommand(self.command_sequence % SEQUENCE_MODULO,
+                               [pressure_kpa] * self.settings.n_fingers)
+        self.sent_s[command.sequence] = time.monotonic()
+        self.link.send(command)
+        self.command_times_s.append(self.sent_s[command.sequence])
+        return command
+
+    def next_command(self, pressure_kpa: float) -> ValveCommand:
+        """The command command() would send next, not sent (to send it behind rubbish)."""
+        self.command_sequence += 1
+        command = ValveCommand(self.command_sequence % SEQUENCE_MODULO,
+                               [pressure_kpa] * self.settings.n_fingers)
+        self.sent_s[command.sequence] = time.monotonic()
+        self.command_times_s.append(self.sent_s[command.sequence])
+        return command
+
+    def pump(self, seconds: float, pressure_kpa: float | None = None,
+             until: Callable[[Received], bool] | None = None) -> list[Received]:
+        """Receive for `seconds` (or until `until` is true of a message); with `pressure_kpa`,
+        send that command every sample period meanwhile."""
+        start = time.monotonic()
+        end = start + seconds
+        next_command = start
+        got: list[Received] = []
+        while True:
+            now = time.monotonic()
+            if now >= end:
+                return got
+            if pressure_kpa is not None and now >= next_command:
+                self.command(pressure_kpa)
+                next_command += self.settings.period_s
+                if next_command < now:  # this process stalled: no burst of stale commands
+                    next_command = now + self.settings.period_s
+            wait = end - now if pressure_kpa is None else min(end, next_command) - now
+            done = False
+            for item in self.link.receive(min(max(wait, 0.0), 0.05 if pressure_kpa is None else wait)):
+                self.log.append(item)
+                got.append(item)
+                if isinstance(item.message, Status):
+                    self.last_status = item.message
+                done = done or (until is not None and until(item))
+            if done:  # the rest of what arrived with it is kept too
+                return got
+
+    def longest_pause_ms(self, since: int) -> float:
+        """The longest time between two valid commands this host sent, from command `since`
+        on (unwrapped count): a busy host can pause longer than the watchdog time, and
+        then the board is right to vent."""
+        times = self.command_times_s[max(0, since - 1):]
+        return max((1e3 * (b - a) for a, b in itertools.pairwise(times)), default=0.0)
+
+    def state(self) -> FirmwareState | None:
+        return None if self.last_status is None else self.last_status.state
+
+
+def samples(items: list[Received]) -> list[tuple[float, SensorReport]]:
+    return [(r.t_s, r.message) for r in items if isinstance(r.message, SensorReport)]
+
+
+def statuses(items: list[Received]) -> list[tuple[float, Status]]:
+    return [(r.t_s, r.message) for r in items if isinstance(r.message, Status)]
+
+
+def versions(items: list[Received]) -> list[tuple[float, VersionInfo]]:
+    return [(r.t_s, r.message) for r in items if isinstance(r.message, VersionInfo)]

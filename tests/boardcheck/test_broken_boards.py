@@ -1,0 +1,40 @@
+"""board-check fails, with a line that says what is wrong, against boards that each break
+one rule (hand_service/firmware/broken.py). The checks that cannot see the broken rule
+are left out with --only, to keep each test short."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hand_service import cli
+from hand_service.firmware.broken import VARIANTS
+from tests.boardcheck.conftest import TEST_OPTIONS, board
+
+CASES = [
+    # variant, link, checks to run, the failing check, words its line must hold
+    ("no-watchdog", "virtual", "watchdog", "watchdog", "no watchdog_vented Status within"),
+    ("wrong-crc", "serial", None, "handshake", "came with a bad CRC"),
+    ("wrong-crc", "virtual", None, "handshake", "came with a bad CRC"),
+    ("stuck-sequence", "virtual", "sequence", "sequence", "must go up by one with every sample"),
+    ("echo-version", "virtual", "version-refusal", "version-refusal", "must not claim a protocol"),
+    ("silent-reboot", "virtual", "reboot-announce", "reboot-announce", "no VersionInfo before"),
+    ("quiet-idle", "virtual", "report-rate", "report-rate", "whether or not it is commanded"),
+    ("counts-rubbish", "serial", "crc-and-garbage", "crc-and-garbage", "rubbish with no frame in it"),
+]
+
+
+@pytest.mark.parametrize(("variant", "link", "only", "check", "words"), CASES,
+                         ids=[f"{c[0]}-{c[1]}" for c in CASES])
+def test_a_broken_board_fails_with_a_clear_line(variant: str, link: str, only: str | None, check: str,
+                                                words: str, tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    with board(link, tmp_path, VARIANTS[variant]) as target:
+        status = cli.main(["board-check", *target, *TEST_OPTIONS, *(["--only", only] if only else [])])
+    out = capsys.readouterr().out
+    assert status == 1, out
+    failing = [line for line in out.splitlines() if line.startswith("FAIL") and line.split()[1] == check]
+    assert len(failing) == 1, out
+    assert words in failing[0], out
+    assert out.strip().splitlines()[-1].startswith("FAIL: ")

@@ -1,0 +1,37 @@
+"""Every broken variant on every link, with every check run (`make test-boardcheck`, marker
+boardcheck; make test runs each variant once, on one link, test_broken_boards.py): the
+broken rule fails its check whatever else runs before it, and nothing else fails but
+the checks that follow from the same rule."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from hand_service import cli
+from hand_service.firmware.broken import VARIANTS
+from tests.boardcheck.conftest import TEST_OPTIONS, board
+
+FAILS = {  # the variant -> the checks it must fail (with every check run)
+    "no-watchdog": {"watchdog", "heartbeat"},  # the command after the version refusal never ends
+    "wrong-crc": {"handshake"},
+    "stuck-sequence": {"sequence"},
+    "echo-version": {"version-refusal"},
+    "silent-reboot": {"reboot-announce"},
+    "quiet-idle": {"report-rate", "sequence", "watchdog"},  # silent idle, and silent once vented
+    "counts-rubbish": {"crc-and-garbage"},
+}
+
+
+@pytest.mark.boardcheck
+@pytest.mark.parametrize("link", ["serial", "slcan", "virtual"])
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_each_broken_rule_fails_its_check_on_each_link(variant: str, link: str, tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    with board(link, tmp_path, VARIANTS[variant]) as target:
+        status = cli.main(["board-check", *target, *TEST_OPTIONS])
+    out = capsys.readouterr().out
+    assert status == 1, out
+    failed = {line.split()[1] for line in out.splitlines() if line.startswith("FAIL  ")} - {"stopped"}
+    assert failed == FAILS[variant], out
