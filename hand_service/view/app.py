@@ -1,0 +1,98 @@
+"""`hand-service view` wired together: the daemon's token, the link to its API, the
+stream and the HTTP server, until SIGTERM, Ctrl-C or --duration."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import signal
+import threading
+import webbrowser
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from hand_service.api.access import read_token, token_path
+from hand_service.api.client import ApiError
+from hand_service.api.listen import default_socket_path
+from hand_service.errors import UserError
+from hand_service.view.daemon_link import DaemonLink, LinkOptions
+from hand_service.view.server import ViewServer
+from hand_service.view.stream import Stream
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class ViewOptions:
+    socket_path: Path | None = None  # the daemon's; default: as `run`
+    tcp_port: int | None = None  # the daemon's TCP port; None: its Unix socket
+    token_file: Path | None = None  # default: beside the socket
+    port: int = 0  # the page's port on 127.0.0.1 (0: a free one)
+    record: Path | None = None  # start a recording here if none runs
+    open_browser: bool = False
+    duration_s: float | None = None
+
+
+def daemon_token(options: ViewOptions) -> str:
+    socket_path = options.socket_path or default_socket_path()
+    path = options.token_file or token_path(socket_path)
+    try:
+        return read_token(path)
+    except ConnectionError as exc:
+        raise UserError(f"{exc}; the daemon writes its token when it runs with --tcp-port") from None
+
+
+def start_recording(link: DaemonLink, record: Path) -> bool:
+    """Start a recording to `record` unless one runs; whether this view started it."""
+    if link.status()["recording"]["active"]:
+        log.info("view: the daemon records already; --record %s is not used", record)
+        return False
+    try:
+        link.request("record_start", path=str(record.resolve()))
+    except ApiError as exc:
+        raise UserError(f"--record {record}: the daemon refused: {exc}") from None
+    return True
+
+
+def serve(options: ViewOptions, out: TextIO) -> int:
+    token = daemon_token(options)
+    socket_path = options.socket_path or default_socket_path()
+    link = DaemonLink(LinkOptions(socket_path, options.tcp_port, options.token_file))
+    try:
+        link.status()
+    except (ConnectionError, ApiError) as exc:
+        raise UserError(f"cannot reach the daemon: {exc}") from None
+    recording = options.record is not None and start_recording(link, options.record)
+    stream = Stream(link)
+    try:
+        server = ViewServer(stream, link, token, options.port)
+    except OSError as exc:
+        link.close()
+        raise UserError(f"--port {options.port}: cannot serve on 127.0.0.1: {exc.strerror or exc}") from None
+    done = threading.Event()
+    old = signal.signal(signal.SIGTERM, lambda *_: done.set())
+    serving = threading.Thread(target=server.serve_forever, name="view-http", daemon=True)
+    try:
+        stream.start()
+        serving.start()
+        out.write(f"view: open {server.url}#token={token}\n")
+        out.flush()
+        log.info("view on %s (loopback only)", server.url)
+        if options.open_browser:
+            webbrowser.open(f"{server.url}#token={token}")
+        with contextlib.suppress(KeyboardInterrupt):
+            done.wait(options.duration_s)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+        server.close()
+        stream.stop()
+        if recording:
+            with contextlib.suppress(ConnectionError, ApiError):
+                link.request("record_stop")
+        link.close()
+    out.write(f"view: stopped after {stream.frames_sent} frames\n")
+    return 0
+
+
+__all__ = ["ViewOptions", "daemon_token", "serve"]

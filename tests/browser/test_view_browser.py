@@ -1,0 +1,93 @@
+"""The page in a real browser (make test-browser; marker `browser`): Debian's Chromium,
+headless, driven by Playwright against a real daemon on the simulated hand. The page loads,
+its plots advance with the daemon's clock, the E-stop button vents the hand (ESTOP on the
+page and through the API), a wrong token is refused, and docs/img/view.png is written."""
+
+from __future__ import annotations
+
+import importlib.util
+import shutil
+import threading
+import time
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from tests.browser.viewproc import CHROMIUM, FLAGS, ViewProcess, started_daemon, sweep, wait_state
+
+pytestmark = pytest.mark.browser
+
+SCREENSHOT = Path(__file__).resolve().parents[2] / "docs" / "img" / "view.png"
+
+
+def browser_driver() -> ModuleType:
+    """Playwright and Debian's Chromium, which `make test-browser` installs: missing, a failure."""
+    if importlib.util.find_spec("playwright") is None or not Path(CHROMIUM).exists():
+        pytest.fail(f"Playwright or {CHROMIUM} is missing: `make test-browser` installs both")
+    import playwright.sync_api
+
+    return playwright.sync_api
+
+
+def test_the_page_plots_live_and_its_estop_vents_the_hand(tmp_path: Path) -> None:
+    playwright = browser_driver()
+    daemon, hand = started_daemon(tmp_path, realtime=True)  # as deployed: SCHED_FIFO if permitted
+    view = None
+    stop = threading.Event()
+    mover = threading.Thread(target=sweep, args=(daemon.socket, stop), daemon=True)
+    try:
+        view = ViewProcess(daemon, tmp_path)
+        hand.arm()
+        hand.target("all", angle_deg=30.0)
+        hand.start()
+        mover.start()
+        with playwright.sync_playwright() as p:
+            context = p.chromium.launch_persistent_context(
+                str(tmp_path / "chromium-profile"), executable_path=CHROMIUM, headless=True,
+                args=FLAGS, viewport={"width": 1400, "height": 1000},
+                bypass_csp=True)  # the page's CSP forbids eval; the test evaluates its probes
+            try:
+                page = context.new_page()
+                page.goto(f"{view.url}#token={view.token}")
+                page.wait_for_function("window.hsView && window.hsView.auth === 'ok'", timeout=20_000)
+                assert "token" not in page.url  # the link's token left the address bar
+                page.wait_for_function("window.hsView.frames > 10 && window.hsView.draws > 5",
+                                       timeout=20_000)
+                assert page.locator("section.finger").count() == 5
+                assert page.locator("section.finger canvas").count() == 15  # 5 fingers x 3 plots
+                before = page.evaluate("[hsView.lastT, hsView.draws, hsView.plots[0].plot.scales.x.max]")
+                time.sleep(1.5)
+                after = page.evaluate("[hsView.lastT, hsView.draws, hsView.plots[0].plot.scales.x.max]")
+                assert after[0] - before[0] > 0.5, (before, after)  # the daemon's time, 1.5 s later
+                assert after[1] > before[1] and after[2] > before[2]  # redrawn, and scrolled
+                assert page.locator("#state").inner_text() == "RUNNING"
+                time.sleep(6.0)  # the sweep's steps fill the plots' 10 s
+                SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
+                page.screenshot(path=str(tmp_path / "view.png"), full_page=True)
+                shutil.copyfile(tmp_path / "view.png", SCREENSHOT)
+
+                assert page.locator("#estop").is_visible()
+                page.mouse.wheel(0, 5000)  # scrolled down, the E-stop stays in view
+                assert page.locator("#estop").is_visible()
+                page.click("#estop")
+                page.wait_for_function("document.getElementById('state').textContent === 'ESTOP'",
+                                       timeout=10_000)
+                status = wait_state(hand, "ESTOP")
+                assert status["state"] == "ESTOP"
+                assert all(f["mode"] == "vent" and f["pressure_cmd_kpa"] == 0.0
+                           for f in status["fingers"].values())
+
+                wrong = context.new_page()
+                wrong.goto(f"{view.url}#token={'0' * 64}")
+                wrong.wait_for_function("document.body.dataset.auth === 'refused'", timeout=20_000)
+                assert "refused" in wrong.locator("#message").inner_text()
+                assert wrong.evaluate("hsView.frames") == 0
+            finally:
+                context.close()
+    finally:
+        stop.set()
+        if view is not None:
+            view.close()
+        daemon.close()
+    assert SCREENSHOT.stat().st_size > 10_000
