@@ -92,6 +92,8 @@ void rtcore_finger_reset(rtcore_hand *hand, int32_t finger)
     s->jerk_ref_deg_per_s3 = 0.0;
     s->force_ref_n = 0.0;
     s->pressure_ref_kpa = 0.0;
+    s->impedance_stiffness_n_per_deg = 0.0;
+    s->impedance_damping_n_s_per_deg = 0.0;
 }
 
 void rtcore_hand_reset(rtcore_hand *hand)
@@ -153,6 +155,16 @@ int32_t rtcore_hand_configure(rtcore_hand *hand, const rtcore_hand_config *confi
 static uint32_t hold_reference(double *held, double value)
 {
     if (isfinite(value) && fabs(value) <= RTCORE_SANE_LIMIT) {
+        *held = value;
+        return 0u;
+    }
+    return 1u;
+}
+
+/* Keep value as the held impedance gain when it is usable and not negative. */
+static uint32_t hold_gain(double *held, double value)
+{
+    if (isfinite(value) && value >= 0.0 && value <= RTCORE_SANE_LIMIT) {
         *held = value;
         return 0u;
     }
@@ -223,6 +235,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
     uint32_t rejected_position;
     uint32_t rejected_force;
     uint32_t rejected_pressure;
+    uint32_t rejected_impedance;
     double angle_deg;
     double angle_rad;
     double chamber_kpa;
@@ -232,7 +245,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
     double command_kpa = 0.0;
     int32_t changed;
 
-    if (mode < RTCORE_MODE_VENT || mode > RTCORE_MODE_FORCE) {
+    if (mode < RTCORE_MODE_VENT || mode > RTCORE_MODE_IMPEDANCE) {
         mode = RTCORE_MODE_VENT;
         flags |= (uint32_t)RTCORE_FLAG_MODE_REJECTED;
     }
@@ -251,7 +264,10 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
                         | hold_reference(&s->jerk_ref_deg_per_s3, in->jerk_ref_deg_per_s3[i]);
     rejected_force = hold_reference(&s->force_ref_n, in->force_ref_n[i]);
     rejected_pressure = hold_reference(&s->pressure_ref_kpa, in->pressure_ref_kpa[i]);
+    rejected_impedance = hold_gain(&s->impedance_stiffness_n_per_deg, in->impedance_stiffness_n_per_deg[i])
+                         | hold_gain(&s->impedance_damping_n_s_per_deg, in->impedance_damping_n_s_per_deg[i]);
     if ((mode == RTCORE_MODE_POSITION && rejected_position)
+        || (mode == RTCORE_MODE_IMPEDANCE && (rejected_position || rejected_impedance))
         || (mode == RTCORE_MODE_FORCE && rejected_force)
         || (mode == RTCORE_MODE_PRESSURE && rejected_pressure)) {
         flags |= (uint32_t)RTCORE_FLAG_REFERENCE_REJECTED;
@@ -302,8 +318,15 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
             derivative_kpa = c->kd_kpa_s_per_deg * s->derivative_deg_per_s;
             integral_gain = c->ki_kpa_per_deg_s;
         } else {
-            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, s->force_ref_n);
-            error = s->force_ref_n - force_n;
+            /* force, or impedance: force control on a virtual spring and damper's force */
+            const double force_ref_n =
+                mode == RTCORE_MODE_FORCE
+                    ? s->force_ref_n
+                    : s->impedance_stiffness_n_per_deg * (s->angle_ref_deg - s->angle_filt_deg)
+                          + s->impedance_damping_n_s_per_deg
+                                * (s->velocity_ref_deg_per_s - s->velocity_deg_per_s);
+            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n);
+            error = force_ref_n - force_n;
             proportional_kpa = c->force_kp_kpa_per_n * error;
             s->derivative_deg_per_s = 0.0;
             integral_gain = c->force_ki_kpa_per_n_s;

@@ -5,7 +5,8 @@
  * One call, rtcore_hand_step(), runs for every finger:
  *   sensor mV -> deg (linear calibration) -> Butterworth low-pass (order 2 or 4)
  *   -> filtered velocity and acceleration -> feedforward (PRBM model inversion)
- *   + PID (position) or PI on the signed normal force (force)
+ *   + PID (position) or PI on the signed normal force (force; impedance, whose force
+ *   reference is a virtual spring and damper about the angle reference)
  *   -> saturation and rate limit -> pressure command, and the Moore-Penrose
  *   force estimate.
  *
@@ -37,6 +38,11 @@ extern "C" {
 #define RTCORE_MODE_PRESSURE 1
 #define RTCORE_MODE_POSITION 2
 #define RTCORE_MODE_FORCE 3
+/* Impedance: the finger follows angle_ref_deg (and velocity_ref_deg_per_s) with a virtual
+ * stiffness and damping about it, by force control on the force estimate:
+ *   F_ref = K (angle_ref - angle) + D (velocity_ref - velocity)
+ * K and D are rtcore_inputs.impedance_stiffness_n_per_deg and impedance_damping_n_s_per_deg. */
+#define RTCORE_MODE_IMPEDANCE 4
 
 /* Feedforward kinds (rtcore_finger_config.feedforward). */
 #define RTCORE_FF_NONE 0
@@ -177,6 +183,8 @@ typedef struct {
     double jerk_ref_deg_per_s3;
     double force_ref_n;
     double pressure_ref_kpa;
+    double impedance_stiffness_n_per_deg;
+    double impedance_damping_n_s_per_deg;
 } rtcore_finger_state;
 
 /* Allocate one of these (static, stack or ffi.new) and call rtcore_hand_configure. */
@@ -201,6 +209,10 @@ typedef struct {
     /* signed normal force at the force point, positive pressing in the bending direction */
     double force_ref_n[RTCORE_MAX_FINGERS];
     double pressure_ref_kpa[RTCORE_MAX_FINGERS];
+    /* impedance mode: virtual stiffness (N of tip force per deg short of angle_ref_deg)
+     * and damping (N per deg/s); finite and >= 0, else the last usable value is held */
+    double impedance_stiffness_n_per_deg[RTCORE_MAX_FINGERS];
+    double impedance_damping_n_s_per_deg[RTCORE_MAX_FINGERS];
 } rtcore_inputs;
 
 typedef struct {

@@ -23,6 +23,8 @@ class Inputs:
     jerk_ref_deg_per_s3: np.ndarray
     force_ref_n: np.ndarray
     pressure_ref_kpa: np.ndarray
+    impedance_stiffness_n_per_deg: np.ndarray
+    impedance_damping_n_s_per_deg: np.ndarray
 
 
 @dataclass

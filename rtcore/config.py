@@ -18,8 +18,9 @@ MODE_VENT = 0
 MODE_PRESSURE = 1
 MODE_POSITION = 2
 MODE_FORCE = 3
+MODE_IMPEDANCE = 4
 MODE_NAMES = {MODE_VENT: "vent", MODE_PRESSURE: "pressure", MODE_POSITION: "position",
-              MODE_FORCE: "force"}
+              MODE_FORCE: "force", MODE_IMPEDANCE: "impedance"}
 MODES_BY_NAME = {name: mode for mode, name in MODE_NAMES.items()}
 
 FF_NONE = 0

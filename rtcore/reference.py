@@ -19,6 +19,7 @@ SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT
 POSITION_REFERENCES = ("angle_ref_deg", "velocity_ref_deg_per_s", "accel_ref_deg_per_s2",
                        "jerk_ref_deg_per_s3")
 REFERENCES = (*POSITION_REFERENCES, "force_ref_n", "pressure_ref_kpa")
+IMPEDANCE_GAINS = ("impedance_stiffness_n_per_deg", "impedance_damping_n_s_per_deg")
 
 
 def usable(x: float) -> bool:
@@ -218,6 +219,8 @@ class FingerState:
     jerk_ref_deg_per_s3: float = 0.0
     force_ref_n: float = 0.0
     pressure_ref_kpa: float = 0.0
+    impedance_stiffness_n_per_deg: float = 0.0
+    impedance_damping_n_s_per_deg: float = 0.0
 
 
 class ReferenceHand:
@@ -287,10 +290,10 @@ class ReferenceHand:
 
     def _hold_references(self, i: int, s: FingerState) -> dict[str, bool]:
         rejected = {}
-        for name in REFERENCES:
+        for name in (*REFERENCES, *IMPEDANCE_GAINS):
             value = float(getattr(self.inputs, name)[i])
-            rejected[name] = not usable(value)
-            if usable(value):
+            rejected[name] = not usable(value) or (name in IMPEDANCE_GAINS and value < 0.0)
+            if not rejected[name]:
                 setattr(s, name, value)
         return rejected
 
@@ -312,7 +315,9 @@ class ReferenceHand:
 
         rejected = self._hold_references(i, s)
         position_rejected = any(rejected[name] for name in POSITION_REFERENCES)
+        impedance_rejected = position_rejected or any(rejected[name] for name in IMPEDANCE_GAINS)
         if ((mode == cfg.MODE_POSITION and position_rejected)
+                or (mode == cfg.MODE_IMPEDANCE and impedance_rejected)
                 or (mode == cfg.MODE_FORCE and rejected["force_ref_n"])
                 or (mode == cfg.MODE_PRESSURE and rejected["pressure_ref_kpa"])):
             flags |= cfg.FLAG_REFERENCE_REJECTED
@@ -348,8 +353,12 @@ class ReferenceHand:
                 derivative_kpa = c.kd_kpa_s_per_deg * s.derivative_deg_per_s
                 integral_gain = c.ki_kpa_per_deg_s
             else:
-                feedforward_kpa = force_feedforward(c, angle_rad, s.force_ref_n)
-                error = s.force_ref_n - force_n
+                # force, or impedance: force control on a virtual spring and damper's force
+                force_ref_n = s.force_ref_n if mode == cfg.MODE_FORCE else (
+                    s.impedance_stiffness_n_per_deg * (s.angle_ref_deg - s.angle_filt_deg)
+                    + s.impedance_damping_n_s_per_deg * (s.velocity_ref_deg_per_s - s.velocity_deg_per_s))
+                feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n)
+                error = force_ref_n - force_n
                 proportional_kpa = c.force_kp_kpa_per_n * error
                 s.derivative_deg_per_s = 0.0
                 integral_gain = c.force_ki_kpa_per_n_s

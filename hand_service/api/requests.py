@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from hand_service.api.impedance import impedance_gains
 from hand_service.api.paths import confine, new_file_in
 from hand_service.api.redact import trajectory_error
 from hand_service.api.server import Deferred
@@ -28,7 +29,7 @@ from hand_service.service.supervisor import Supervisor
 from hand_service.service.trajectory import Trajectory
 from hand_service.service.trajectory_csv import read_trajectory
 from hand_service.version import software_version
-from rtcore import MODE_FORCE, MODE_POSITION, MODE_PRESSURE
+from rtcore import MODE_FORCE, MODE_IMPEDANCE, MODE_POSITION, MODE_PRESSURE
 from rtcore.config import MODE_NAMES, MODES_BY_NAME, flag_names
 
 log = logging.getLogger(__name__)
@@ -154,7 +155,10 @@ class Api:
             "estop": ({}, lambda: self._event(Event.ESTOP)),
             "reset": ({}, self.reset),
             "mode": ({"finger": Param(str, doc="finger name or 'all'"),
-                      "mode": Param(str, doc="vent | pressure | position | force")}, self.mode),
+                      "mode": Param(str, doc="vent | pressure | position | force | impedance"),
+                      "stiffness_n_per_deg": Param(float, False, doc="impedance: virtual stiffness"),
+                      "damping_n_s_per_deg": Param(float, False, doc="impedance: virtual damping")},
+                     self.mode),
             "target": ({"finger": Param(str, doc="finger name or 'all'"),
                         "angle_deg": Param(float, False), "force_n": Param(float, False),
                         "pressure_kpa": Param(float, False)}, self.target),
@@ -238,13 +242,20 @@ class Api:
         self.sup.reset()
         return {"state": self.sup.state.name}
 
-    def mode(self, finger: str, mode: str) -> dict[str, Any]:
+    def mode(self, finger: str, mode: str, stiffness_n_per_deg: float | None = None,
+             damping_n_s_per_deg: float | None = None) -> dict[str, Any]:
         fingers = self._fingers(finger)
         if mode not in MODES_BY_NAME:
             raise RequestError(f"mode must be one of {', '.join(MODES_BY_NAME)}, not {show(mode)}")
+        gains = impedance_gains(mode, stiffness_n_per_deg, damping_n_s_per_deg)
         self._not_driven(fingers, "mode")
+        reply: dict[str, Any] = {"fingers": [self.sup.names[i] for i in fingers], "mode": mode}
+        if gains is not None:  # the step holds these inputs (the tick leaves them be)
+            self.sup.hand.inputs.impedance_stiffness_n_per_deg[fingers] = gains[0]
+            self.sup.hand.inputs.impedance_damping_n_s_per_deg[fingers] = gains[1]
+            reply.update(stiffness_n_per_deg=gains[0], damping_n_s_per_deg=gains[1])
         self.sup.targets.mode[fingers] = MODES_BY_NAME[mode]
-        return {"fingers": [self.sup.names[i] for i in fingers], "mode": mode}
+        return reply
 
     def target(self, finger: str, angle_deg: float | None = None, force_n: float | None = None,
                pressure_kpa: float | None = None) -> dict[str, Any]:
@@ -347,7 +358,8 @@ class Api:
                 "target_mode": MODE_NAMES.get(int(sup.targets.mode[i]), "?"),
                 "angle_deg": float(outputs.angle_deg[i]),
                 "angle_filt_deg": float(outputs.angle_filt_deg[i]),
-                "angle_ref_deg": float(inputs.angle_ref_deg[i]) if mode == MODE_POSITION else None,
+                "angle_ref_deg": (float(inputs.angle_ref_deg[i]) if mode in (MODE_POSITION, MODE_IMPEDANCE)
+                                  else None),
                 "force_ref_n": float(inputs.force_ref_n[i]) if mode == MODE_FORCE else None,
                 "pressure_cmd_kpa": float(sup.sent_kpa[i]),
                 "pressure_meas_kpa": finite_or_none(float(inputs.pressure_meas_kpa[i])),

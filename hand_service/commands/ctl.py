@@ -18,11 +18,14 @@ reply. Examples:
     hand-service ctl target index --angle-deg 45
     hand-service ctl target all --force-n 1.0
     hand-service ctl mode ring vent
+    hand-service ctl mode index impedance --stiffness 0.1 --damping 0.0003
     hand-service ctl load ~/.local/share/hand-service/recordings/wave.csv && hand-service ctl start
     hand-service ctl record-start ~/.local/share/hand-service/recordings/run.csv
     hand-service ctl estop            # then: ctl reset
     hand-service ctl --tcp-port 7000 status   # reads the token beside the default socket
 
+Every reply prints as `key: value` lines (status as a table); --json prints the reply's
+result as one line of JSON instead, for scripts (docs/api.md lists every reply's keys).
 A path must lie in the daemon's recording directory (run --record-dir). `ctl estop`
 is served even when the daemon has all the connections it takes. A refused request
 prints the daemon's reason on one line and exits with status 2.
@@ -52,13 +55,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--token-file", type=Path, metavar="FILE",
                         help="with --tcp-port: the daemon's token file (default: <socket dir>/api.token "
                              "for socket api.sock)")
-    parser.add_argument("--json", action="store_true", help="print the reply's result as JSON")
+    parser.add_argument("--json", action="store_true",
+                        help="print the reply's result as JSON on one line, for scripts (default: "
+                             "`key: value` lines, and a table for status)")
     sub = parser.add_subparsers(dest="request", required=True, metavar="REQUEST")
     for name, doc in SIMPLE.items():
         sub.add_parser(name, help=doc, description=doc)
     mode = sub.add_parser("mode", help="set a finger's mode", description="set a finger's mode")
     mode.add_argument("finger", help="finger name, or all")
-    mode.add_argument("mode", choices=["vent", "pressure", "position", "force"])
+    mode.add_argument("mode", choices=["vent", "pressure", "position", "force", "impedance"])
+    mode.add_argument("--stiffness", type=float, metavar="N_PER_DEG",
+                      help="impedance: virtual stiffness, N of tip force per deg short of the target angle")
+    mode.add_argument("--damping", type=float, metavar="N_S_PER_DEG",
+                      help="impedance: virtual damping, N per deg/s (default 0)")
     target = sub.add_parser("target", help="set a finger's target (its mode follows)",
                             description="set one target; the finger's mode follows it")
     target.add_argument("finger", help="finger name, or all")
@@ -78,7 +87,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _request(args: argparse.Namespace) -> tuple[str, dict[str, Any]]:
     name = args.request
     if name == "mode":
-        return "mode", {"finger": args.finger, "mode": args.mode}
+        gains = {"stiffness_n_per_deg": args.stiffness, "damping_n_s_per_deg": args.damping}
+        return "mode", {"finger": args.finger, "mode": args.mode,
+                        **{k: v for k, v in gains.items() if v is not None}}
     if name == "target":
         for key in ("angle_deg", "force_n", "pressure_kpa"):
             if getattr(args, key) is not None:
@@ -115,6 +126,48 @@ def _show_status(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _text(value: Any) -> str:
+    """One value as a person reads it: numbers short, nothing as '-', lists joined."""
+    if value is None or value == {} or value == []:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    if isinstance(value, list):
+        return ", ".join(_text(v) for v in value)
+    if isinstance(value, dict):  # a small mapping inside a list item
+        return "{" + ", ".join(f"{k} {_text(v)}" for k, v in value.items()) + "}"
+    return str(value)
+
+
+def _lines(value: Any, indent: int = 0) -> list[str]:
+    """`key: value` lines, a nested mapping indented under its key, a list of mappings one
+    `- key value, ...` line per item."""
+    pad = "  " * indent
+    if not isinstance(value, dict):
+        return [f"{pad}{_text(value)}"]
+    lines = []
+    for key, item in value.items():
+        if isinstance(item, dict) and item:
+            lines.append(f"{pad}{key}:")
+            lines += _lines(item, indent + 1)
+        elif isinstance(item, list) and item and all(isinstance(i, dict) for i in item):
+            lines.append(f"{pad}{key}:")
+            lines += [f"{pad}  - " + ", ".join(f"{k} {_text(v)}" for k, v in i.items()) for i in item]
+        else:
+            lines.append(f"{pad}{key}: {_text(item)}")
+    return lines
+
+
+def show(cmd: str, result: Any) -> str:
+    """A reply as ctl prints it: `status` as a table, every other reply as `key: value`
+    lines (the JSON's keys, units in their names)."""
+    if cmd == "status":
+        return _show_status(result)
+    return "\n".join(_lines(result if result is not None else {"done": True}))
+
+
 TARGET_FLAGS = {"angle_deg": "--angle-deg", "force_n": "--force-n", "pressure_kpa": "--pressure-kpa"}
 
 
@@ -147,8 +200,5 @@ def main(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     except ApiError as exc:
         raise UserError(str(exc)) from None
-    if args.json or cmd not in ("status",):
-        print(json.dumps(result, indent=None if cmd not in ("status", "params", "faults") else 2))
-    else:
-        print(_show_status(result))
+    print(json.dumps(result) if args.json else show(cmd, result))
     return 0

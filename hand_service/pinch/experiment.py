@@ -1,0 +1,145 @@
+"""The pinch experiment: tune each controller once per object, then run the four finger
+pairs x three objects x two controllers, the same placements for both controllers."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from hand_service.config.profile import Profile
+from hand_service.pinch.objects import OBJECTS, PinchObject, Placements
+from hand_service.pinch.plant import HELD, OUTCOME_NAMES
+from hand_service.pinch.stats import wilson_interval
+from hand_service.pinch.trials import CONTROLLERS, PAIRS, Cell, Traces, run_cells
+from hand_service.pinch.tuning import Tuned, tune
+
+TRACED_TRIALS = 25  # recorded per object and controller, for the figure
+
+# The paper's Tables 3 (force control) and 4 (constant pressure): (successes, trials).
+PAPER_PINCH: dict[str, dict[tuple[str, str], tuple[int, int]]] = {
+    "force": {
+        ("index", "chip"): (8, 13), ("index", "screwdriver"): (8, 12), ("index", "coin"): (8, 11),
+        ("middle", "chip"): (9, 11), ("middle", "screwdriver"): (11, 11), ("middle", "coin"): (8, 12),
+        ("ring", "chip"): (10, 10), ("ring", "screwdriver"): (6, 8), ("ring", "coin"): (5, 12),
+        ("little", "chip"): (11, 11), ("little", "screwdriver"): (5, 9), ("little", "coin"): (10, 13),
+    },
+    "pressure": {
+        ("index", "chip"): (7, 10), ("index", "screwdriver"): (7, 10), ("index", "coin"): (4, 10),
+        ("middle", "chip"): (8, 10), ("middle", "screwdriver"): (8, 10), ("middle", "coin"): (3, 10),
+        ("ring", "chip"): (8, 10), ("ring", "screwdriver"): (7, 10), ("ring", "coin"): (3, 10),
+        ("little", "chip"): (10, 10), ("little", "screwdriver"): (6, 10), ("little", "coin"): (4, 10),
+    },
+}
+
+
+@dataclass
+class CellResult:
+    pair: tuple[str, str]
+    obj: str
+    controller: str
+    successes: int
+    trials: int
+    failures: dict[str, int]
+    held_force_n: float  # median true normal force over the hold, trials held
+
+    @property
+    def rate(self) -> float:
+        return self.successes / self.trials if self.trials else float("nan")
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        return wilson_interval(self.successes, self.trials)
+
+    def to_json(self) -> dict[str, Any]:
+        low, high = self.interval
+        return {"pair": list(self.pair), "object": self.obj, "controller": self.controller,
+                "successes": self.successes, "trials": self.trials, "rate": self.rate,
+                "wilson95": [low, high], "failures": self.failures, "held_force_n": self.held_force_n}
+
+
+@dataclass
+class PinchResult:
+    trials_per_cell: int
+    seed: int
+    tuned: dict[tuple[str, str], Tuned]
+    cells: list[CellResult]
+    # (object, controller): the first trials of the first pair, the same placements for both
+    traces: dict[tuple[str, str], list[Traces]] = field(default_factory=dict)
+    trace_held: dict[tuple[str, str], list[bool]] = field(default_factory=dict)
+    seconds: float = 0.0
+
+    def shown_trial(self, obj: str) -> int:
+        """The recorded trial to plot: the first where the two controllers differ, else the first."""
+        force, pressure = self.trace_held[(obj, "force")], self.trace_held[(obj, "pressure")]
+        return next((k for k, (a, b) in enumerate(zip(force, pressure, strict=True)) if a != b), 0)
+
+    def cell(self, controller: str, finger: str, obj: str) -> CellResult:
+        return next(c for c in self.cells
+                    if c.controller == controller and c.pair[1] == finger and c.obj == obj)
+
+    def pooled(self, controller: str, obj: str) -> tuple[int, int]:
+        mine = [c for c in self.cells if c.controller == controller and c.obj == obj]
+        return sum(c.successes for c in mine), sum(c.trials for c in mine)
+
+    def to_json(self) -> dict[str, Any]:
+        pooled = {}
+        for controller in CONTROLLERS:
+            for obj in (o.name for o in OBJECTS):
+                s, n = self.pooled(controller, obj)
+                pooled[f"{controller}/{obj}"] = {"successes": s, "trials": n, "rate": s / n if n else None,
+                                                 "wilson95": list(wilson_interval(s, n))}
+        return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
+                "tuned": [vars(t) for t in self.tuned.values()], "cells": [c.to_json() for c in self.cells],
+                "pooled": pooled}
+
+
+def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int, seed: int,
+              progress: Callable[[str], None] | None = None,
+              objects: tuple[PinchObject, ...] = OBJECTS,
+              pairs: tuple[tuple[str, str], ...] = PAIRS) -> PinchResult:
+    say = progress or (lambda _: None)
+    started = time.perf_counter()
+    tune_seed, place_seed, run_seed = (int(s) for s in np.random.SeedSequence([seed, 18]).generate_state(3))
+    say("pinch: tuning each controller's setpoint once per object (thumb and index, centred)")
+    tuned = tune(truth, controller_profile, tune_seed, objects)
+    for t in tuned.values():
+        say(f"pinch: {t.obj} {t.controller}: holds from {t.lowest_holding:g} to "
+            f"{t.highest_holding:g} {t.unit}, "
+            f"set to {t.setpoint:g} {t.unit}")
+    rng = np.random.default_rng(place_seed)
+    placements = {(pair, obj.name): Placements.draw(obj, trials_per_cell, rng)
+                  for pair in pairs for obj in objects}
+    cells: list[Cell] = []
+    record: dict[tuple[str, str], list[int]] = {}
+    shown = min(trials_per_cell, TRACED_TRIALS)
+    for controller in CONTROLLERS:
+        for pair in pairs:
+            for obj in objects:
+                if pair == pairs[0]:
+                    first = sum(c.n for c in cells)
+                    record[(obj.name, controller)] = list(range(first, first + shown))
+                setpoint = tuned[(obj.name, controller)].setpoint
+                cells.append(Cell(pair, obj, controller, np.full(trials_per_cell, setpoint),
+                                  placements[(pair, obj.name)]))
+    total = sum(c.n for c in cells)
+    say(f"pinch: {total} trials ({trials_per_cell} a cell), 2 s closing and 5 s hold each, stepped together")
+    recorded = tuple(i for rows in record.values() for i in rows)
+    batch = run_cells(truth, controller_profile, cells, run_seed, recorded)
+    results = []
+    for k, cell in enumerate(cells):
+        mine = batch.cell_of_trial == k
+        outcome = batch.outcome[mine]
+        successes, trials = batch.successes(k)
+        failures = {name: int(np.count_nonzero(outcome == code)) for code, name in OUTCOME_NAMES.items()
+                    if name != "held" and np.any(outcome == code)}
+        held = batch.held_force_n[mine]
+        held_force = float(np.nanmedian(held)) if np.any(np.isfinite(held)) else float("nan")
+        results.append(CellResult(cell.pair, cell.obj.name, cell.controller, successes, trials, failures,
+                                  held_force))
+    traces = {key: [batch.traces[i] for i in rows] for key, rows in record.items()}
+    held = {key: [bool(batch.outcome[i] == HELD) for i in rows] for key, rows in record.items()}
+    return PinchResult(trials_per_cell, seed, tuned, results, traces, held, time.perf_counter() - started)

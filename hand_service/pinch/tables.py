@@ -1,0 +1,86 @@
+"""The pinch run's markdown: Tables 3 and 4 beside the paper's, and the pooled rates with
+their 95 % Wilson intervals."""
+
+from __future__ import annotations
+
+from hand_service.pinch.experiment import PAPER_PINCH, PinchResult
+from hand_service.pinch.objects import OBJECT_NAMES, PAPER_LABELS
+from hand_service.pinch.stats import wilson_interval
+from hand_service.pinch.trials import CONTROLLERS, PAIRS
+
+TITLES = {"force": "Table 3: PRBM+LDM force control", "pressure": "Table 4: constant pressure"}
+
+
+def _row(cells: list[str]) -> str:
+    return "| " + " | ".join(cells) + " |"
+
+
+def _pct(successes: int, trials: int) -> str:
+    return f"{100.0 * successes / trials:.0f} % ({successes}/{trials})" if trials else "-"
+
+
+def _ci(successes: int, trials: int) -> str:
+    low, high = wilson_interval(successes, trials)
+    return f"[{100 * low:.0f}, {100 * high:.0f}]"
+
+
+def controller_table(result: PinchResult, controller: str) -> str:
+    fingers = [pair[1] for pair in PAIRS if any(c.pair == pair for c in result.cells)]
+    header = ["finger pair"] + [f"{PAPER_LABELS[o]}: sim (95 % CI) / paper" for o in OBJECT_NAMES]
+    lines = [f"### {TITLES[controller]} ({result.trials_per_cell} trials a cell)", "",
+             _row(header), _row(["---"] * len(header))]
+    for finger in fingers:
+        cells = []
+        for obj in OBJECT_NAMES:
+            c = result.cell(controller, finger, obj)
+            paper = PAPER_PINCH[controller][(finger, obj)]
+            cells.append(f"{_pct(c.successes, c.trials)} {_ci(c.successes, c.trials)} / {_pct(*paper)}")
+        lines.append(_row([f"thumb & {finger}", *cells]))
+    pooled = []
+    for obj in OBJECT_NAMES:
+        s, n = result.pooled(controller, obj)
+        paper = [PAPER_PINCH[controller][(f, obj)] for f in fingers]
+        paper_pooled = _pct(sum(p[0] for p in paper), sum(p[1] for p in paper))
+        pooled.append(f"{_pct(s, n)} {_ci(s, n)} / {paper_pooled}")
+    lines.append(_row(["all pairs", *pooled]))
+    return "\n".join(lines)
+
+
+def comparison_table(result: PinchResult) -> str:
+    header = ["object", "force control", "constant pressure", "difference (points)", "setpoints (N; kPa)",
+              "failures: force; pressure"]
+    lines = ["### Force control against constant pressure, all pairs pooled", "", _row(header),
+             _row(["---"] * len(header))]
+    for obj in OBJECT_NAMES:
+        (sf, nf), (sp, np_) = result.pooled("force", obj), result.pooled("pressure", obj)
+        failures = []
+        for controller in CONTROLLERS:
+            counts: dict[str, int] = {}
+            for c in result.cells:
+                if c.controller == controller and c.obj == obj:
+                    for name, k in c.failures.items():
+                        counts[name] = counts.get(name, 0) + k
+            failures.append(", ".join(f"{k} {name}" for name, k in sorted(counts.items())) or "none")
+        diff = 100.0 * (sf / nf - sp / np_) if nf and np_ else float("nan")
+        setpoints = f"{result.tuned[(obj, 'force')].setpoint:g}; {result.tuned[(obj, 'pressure')].setpoint:g}"
+        lines.append(_row([PAPER_LABELS[obj], f"{_pct(sf, nf)} {_ci(sf, nf)}",
+                           f"{_pct(sp, np_)} {_ci(sp, np_)}",
+                           f"{diff:+.1f}",
+                           setpoints,
+                           "; ".join(failures)]))
+    return "\n".join(lines)
+
+
+def tuning_table(result: PinchResult) -> str:
+    header = ["object", "controller", "holds from", "to", "set to"]
+    lines = ["### Setpoints tuned once per object (thumb & index, centred placement)", "", _row(header),
+             _row(["---"] * len(header))]
+    for t in result.tuned.values():
+        lines.append(_row([PAPER_LABELS[t.obj], t.controller, f"{t.lowest_holding:g} {t.unit}",
+                           f"{t.highest_holding:g} {t.unit}", f"{t.setpoint:g} {t.unit}"]))
+    return "\n".join(lines)
+
+
+def markdown(result: PinchResult) -> str:
+    return "\n\n".join([controller_table(result, "force"), controller_table(result, "pressure"),
+                        comparison_table(result), tuning_table(result)]) + "\n"

@@ -1,0 +1,40 @@
+"""`replicate --pinch`: the paper's pinch test (Tables 3 and 4) on the simulated hand.
+
+As for the other tables, the controller knows only what the lab measured on simulated
+recordings (hand_service.identification.measured_hand); the truth is the profile's hand,
+driven by the pinch plant of hand_service.pinch with the daemon's C control step.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from hand_service.config.profile import load_profile
+from hand_service.identification.measured_hand import controller_profile, measure_finger
+from hand_service.pinch.experiment import PinchResult, run_pinch
+from hand_service.replicate.run import check_truth
+
+PAPER_TRIALS_PER_CELL = 10
+
+
+def replicate_pinch(profile: Path | None, seed: int, trials_per_cell: int, trials_per_finger: int,
+                    progress: Callable[[str], None] | None = None) -> PinchResult:
+    say = progress or (lambda _: None)
+    truth = load_profile(profile)
+    check_truth(truth)
+    seeds = [int(s) for s in np.random.SeedSequence([seed]).generate_state(len(truth.fingers))]
+    missing = {"thumb", "index", "middle", "ring", "little"} - set(truth.finger_names)
+    if missing:
+        from hand_service.errors import UserError
+
+        raise UserError(f"{truth.path}: the pinch needs the fingers thumb, index, middle, ring and little "
+                        f"(missing: {', '.join(sorted(missing))})")
+    with tempfile.TemporaryDirectory(prefix="replicate-pinch-") as scratch:
+        say(f"measuring the simulated hand ({trials_per_finger} releases a finger)")
+        measured = [measure_finger(f, truth.simulation, Path(scratch), trials_per_finger, seeds[i], say)
+                    for i, f in enumerate(truth.fingers)]
+    return run_pinch(truth, controller_profile(truth, measured), trials_per_cell, seed, say)
