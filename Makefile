@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
                   $(wildcard csrc/*.c csrc/*.h)
 
-.PHONY: run test test-install test-faults bench fuzz lint clean
+.PHONY: run test test-install test-faults test-boardcheck test-browser test-board-host bench fuzz lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -20,10 +20,10 @@ run: $(STAMP)
 # The tests that keep time (daemon, HIL, CLI, bench) run at normal priority; the CPU-bound
 # ones (diagnose, tools, model, rtcore, wire, packaging, fuzz) beside them at nice 19, in the time
 # the first leave idle waiting on real time, so they cannot delay a deadline.
-CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/wire tests/packaging \
+CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/pinch tests/wire tests/packaging \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
-SELECT := -m "not slow and not install and not fuzz and not faults"
+SELECT := -m "not slow and not install and not fuzz and not faults and not boardcheck and not browser and not board"
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
@@ -47,6 +47,27 @@ bench: $(STAMP)
 # every demo profile, with what each measured (about 6 min; make test runs every kind once)
 test-faults: $(STAMP)
 	$(PY) -m pytest -q -s -p no:cacheprovider -m faults tests/hil/test_fault_matrix.py
+
+# the HIL suite and the fault matrix against the reference firmware's host build (board/) over
+# serial-v1 and SLCAN, the daemon over it, and host SIGKILL -> vent, 30 trials per link, with
+# what it measured (about 3 min; make test runs a quick part of it)
+test-board-host: $(STAMP)
+	$(PY) -m pytest -q -s -p no:cacheprovider -m board tests/board
+
+# board-check against the mock over SLCAN, and every broken mock variant on all three links
+# with every check run (about 2 min; make test runs the mock on serial and virtual CAN and
+# each broken variant once)
+test-boardcheck: $(STAMP)
+	$(PY) -m pytest -q -p no:cacheprovider -m boardcheck tests/boardcheck
+
+# the live view (docs/view.md) in headless Chromium against a real daemon: the page, its plots,
+# its E-stop, a wrong token, docs/img/view.png, and what the view costs the tick (about 3 min;
+# make test runs the view's server without a browser). Debian's chromium is installed if missing.
+test-browser: $(STAMP)
+	@test -x /usr/bin/chromium || { SUDO=$$(test "$$(id -u)" = 0 || echo sudo); \
+	  $$SUDO apt-get install -y chromium || { $$SUDO apt-get update && $$SUDO apt-get install -y chromium; }; }
+	@$(PY) -c "import playwright" 2>/dev/null || $(PY) -m pip install --quiet 'playwright>=1.40'
+	$(PY) -m pytest -q -s -p no:cacheprovider -m browser tests/browser
 
 # every file reader and the control API fed 5 000 fuzzed inputs each (make test runs 500 each)
 fuzz: $(STAMP)

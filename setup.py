@@ -15,5 +15,5 @@ setup(
     cffi_modules=["rtcore/_build.py:ffibuilder"],
     packages=[*find_packages(include=["rtcore", "rtcore.*", "hand_service", "hand_service.*"]), PROFILES],
     package_dir={PROFILES: "firmware_profiles"},
-    package_data={PROFILES: ["*.yaml", "*.dbc"]},
+    package_data={PROFILES: ["*.yaml", "*.dbc"], "hand_service.view": ["static/*"]},
 )

@@ -25,6 +25,9 @@ COMMANDS: dict[str, str] = {
     "mock-firmware": "hand_service.commands.mock_firmware",
     "diagnose": "hand_service.commands.diagnose",
     "simulate": "hand_service.commands.simulate",
+    "board-check": "hand_service.commands.board_check",
+    "view": "hand_service.commands.view",
+    "export": "hand_service.commands.export",
 }
 
 DESCRIPTION = """\
