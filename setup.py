@@ -10,10 +10,12 @@ another folder cannot be found by [tool.setuptools.packages.find], hence the lis
 from setuptools import find_packages, setup
 
 PROFILES = "hand_service.firmware_profiles"
+VIEW_STATIC = "hand_service.view.static"  # the live view's page: a data-only package
 
 setup(
     cffi_modules=["rtcore/_build.py:ffibuilder"],
-    packages=[*find_packages(include=["rtcore", "rtcore.*", "hand_service", "hand_service.*"]), PROFILES],
+    packages=[*find_packages(include=["rtcore", "rtcore.*", "hand_service", "hand_service.*"]), PROFILES,
+              VIEW_STATIC],
     package_dir={PROFILES: "firmware_profiles"},
-    package_data={PROFILES: ["*.yaml", "*.dbc"], "hand_service.view": ["static/*"]},
+    package_data={PROFILES: ["*.yaml", "*.dbc"], VIEW_STATIC: ["*"]},
 )
