@@ -596,6 +596,30 @@ static double delayed_command(const rtcore_sim_finger_state *s, int32_t samples_
     return s->command_kpa[(s->head - samples_back + RTCORE_SIM_HISTORY) % RTCORE_SIM_HISTORY];
 }
 
+/* The pneumatic valve mode (rtcore_pneumatic.h): the chamber's physics and the board's
+ * regulator replace the lag and the dead time. The period is cut into pieces of the
+ * regulator's period; over each the finger is driven by the chamber's mean pressure there,
+ * the chamber by the finger's volume at the piece's start. */
+static void advance_pneumatic(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
+                              double command_kpa, double dt_s, double step_cap_s)
+{
+    rtcore_sim_finger held = *f;
+    sim_plant plant;
+    const double piece_s = (double)f->pneumatic.regulator_period_us * 1e-6;
+    const int32_t pieces = (int32_t)ceil(dt_s / piece_s - 1e-9);
+    int32_t k;
+    held.prbm.effects.valve_lag_tau_s = 0.0; /* the segment's input is the chamber itself */
+    plant_for(&held, &plant);
+    for (k = 0; k < pieces; ++k) {
+        const double mean_kpa = rtcore_pneumatic_advance(&f->pneumatic, f->prbm.pressure_gain_nm_per_kpa,
+                                                         &s->pneumatic, command_kpa, s->angle_rad,
+                                                         s->velocity_rad_per_s, dt_s / (double)pieces);
+        integrate_segment(&plant, s, cache, mean_kpa, dt_s / (double)pieces, step_cap_s);
+    }
+    s->chamber_kpa = s->pneumatic.chamber_kpa;
+    s->contact_force_n = contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
+}
+
 /* One sample period after pushing command_kpa: the dead time puts at most one breakpoint
  * inside the period, where the older command gives way to the newer one. The step is at
  * most dt/substeps (what the caller asks for) and what the finger's parameters allow
@@ -605,6 +629,10 @@ static void advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *
 {
     const double step_cap_s = dt_s / (double)substeps; /* the parameters' bound applies inside */
     sim_plant plant;
+    if (f->pneumatic.valve_model == RTCORE_VALVE_PNEUMATIC) {
+        advance_pneumatic(f, s, cache, command_kpa, dt_s, step_cap_s);
+        return;
+    }
     plant_for(f, &plant);
     s->head = (s->head + 1) % RTCORE_SIM_HISTORY;
     s->command_kpa[s->head] = saturate(f, command_kpa);
@@ -631,6 +659,9 @@ static int32_t validate_sim_finger(const rtcore_sim_finger *f)
     }
     if (!rtcore_effects_valid(&m->effects)) {
         return RTCORE_ERR_EFFECTS;
+    }
+    if (!rtcore_pneumatic_valid(&f->pneumatic)) {
+        return RTCORE_ERR_MODEL;
     }
     if (!isfinite(f->supply_min_kpa) || !isfinite(f->supply_max_kpa)
         || f->supply_min_kpa > f->supply_max_kpa) {
@@ -676,6 +707,7 @@ static void place(rtcore_sim_finger_state *s, double angle_rad, double velocity_
     s->angle_rad = angle_rad;
     s->velocity_rad_per_s = velocity_rad_per_s;
     s->chamber_kpa = chamber_kpa;
+    rtcore_pneumatic_reset(&s->pneumatic, chamber_kpa);
     for (k = 0; k < RTCORE_SIM_HISTORY; ++k) {
         s->command_kpa[k] = chamber_kpa;
     }

@@ -7,7 +7,8 @@
  * effects, the object) by ETDRK4, in steps of at most sample_period/substeps and of what
  * those terms and the valve lag need (csrc/rtcore_sim.c); the plain linear finger takes
  * one step per sample at any stiffness. The valve is a first-order lag behind a dead time,
- * integrated exactly (the dead time's breakpoints split the period); an optional object is
+ * integrated exactly (the dead time's breakpoints split the period), or, for a finger whose
+ * pneumatic.valve_model asks for it, the valve board's pneumatics (rtcore_pneumatic.h); an optional object is
  * a spring-damper at the force point; the flex sensor reads the angle through the inverse
  * calibration with noise and ADC quantisation.
  *
@@ -20,6 +21,7 @@
 
 #include <stdint.h>
 
+#include "rtcore_pneumatic.h"
 #include "rtcore_step.h"
 
 #ifdef __cplusplus
@@ -45,6 +47,8 @@ typedef struct {
     double sensor_noise_deg;
     double adc_step_mv;
     double pressure_noise_kpa;
+    /* the valve: first-order lag + dead time (the effects'), or pneumatic (rtcore_pneumatic.h) */
+    rtcore_pneumatic_config pneumatic;
 } rtcore_sim_finger;
 
 typedef struct {
@@ -67,6 +71,7 @@ typedef struct {
     double delay_fraction;
     /* longest step the finger's parameters allow (infinite for the plain linear finger) */
     double max_step_s;
+    rtcore_pneumatic_state pneumatic; /* the pneumatic valve mode's chamber and regulator */
 } rtcore_sim_finger_state;
 
 typedef struct {

@@ -10,7 +10,9 @@ from dataclasses import dataclass
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
+from hand_service.config.pneumatics import valves_for
 from hand_service.config.profile import FingerProfile, Profile
+from rtcore.pneumatic import PneumaticValves
 from rtcore.sim import SimFinger, Simulator, simulate
 
 SUPPLY_MAX_KPA = 300.0  # what the rig's regulators can deliver
@@ -28,7 +30,8 @@ class Contact:
 def sim_finger(model: FingerModel, sensor_gain_deg_per_mv: float = 1.0, sensor_offset_deg: float = 0.0,
                sensor_noise_deg: float = 0.0, adc_step_mv: float = 0.0, pressure_noise_kpa: float = 0.0,
                contact: Contact | None = None,
-               extra_effects: fx.EffectParams | None = None) -> SimFinger:
+               extra_effects: fx.EffectParams | None = None,
+               pneumatic: PneumaticValves | None = None) -> SimFinger:
     """A simulated finger whose truth is `model` (plus `extra_effects`, hidden from the model).
     The model's lever arm is needed only where the finger meets an object (`contact`)."""
     return SimFinger(
@@ -44,13 +47,14 @@ def sim_finger(model: FingerModel, sensor_gain_deg_per_mv: float = 1.0, sensor_o
         sensor_noise_deg=sensor_noise_deg,
         adc_step_mv=adc_step_mv,
         pressure_noise_kpa=pressure_noise_kpa,
+        pneumatic=pneumatic or PneumaticValves(),
     )
 
 
 def profile_sim_finger(finger: FingerProfile, simulation: dict, contact: Contact | None = None) -> SimFinger:
     return sim_finger(finger.model, finger.sensor_gain_deg_per_mv, finger.sensor_offset_deg,
                       simulation["sensor_noise_deg"], simulation["adc_step_mv"],
-                      simulation["pressure_noise_kpa"], contact)
+                      simulation["pressure_noise_kpa"], contact, pneumatic=valves_for(simulation))
 
 
 def hand_simulator(profile: Profile, seed: int | None = None,

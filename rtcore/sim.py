@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from rtcore._rtcore import ffi, lib
 from rtcore.config import ConfigError, HasPrbm, Prbm
 from rtcore.hand import _fill, error_message, struct_view
+from rtcore.pneumatic import PneumaticValves
 
 
 @dataclass
@@ -37,6 +38,7 @@ class SimFinger(HasPrbm):
     sensor_noise_deg: float = 0.0
     adc_step_mv: float = 0.0
     pressure_noise_kpa: float = 0.0
+    pneumatic: PneumaticValves = field(default_factory=PneumaticValves)  # the valve model
 
 
 @dataclass

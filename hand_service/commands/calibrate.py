@@ -24,7 +24,9 @@ VALVE_DOC = """\
 valve STEPS.csv --model MODEL.yaml [--finger NAME]
     The valve's first-order lag τ and dead time from the measured chamber pressure
     (pressure_meas_kpa) after command steps (pressure_kpa): the model's valve_lag and
-    dead_time effects, which the feedforward compensates.
+    dead_time effects, which the feedforward compensates. The fit over every step is the
+    one written back; the rising and the falling steps are also fitted alone (rows
+    "rising", "falling"), since a pneumatic valve may fill and vent at different rates.
 """
 OUTPUT_DOC = """
 All print a table and write JSON with --json. --write-model OUT.yaml writes the model
@@ -174,20 +176,25 @@ def _sensor(args: argparse.Namespace) -> dict[str, Any]:
 
 def _valve(args: argparse.Namespace) -> dict[str, Any]:
     from hand_service.config.profile import load_model
-    from hand_service.identification.calibration import fit_valve
+    from hand_service.identification.calibration import fit_valve, step_samples
     from hand_service.recording import check_finger, read_recording
 
     model = load_model(args.model, args.finger)
     recording = read_recording(args.recording, args.finger)
     check_finger(recording, args.finger or model.finger)
     fit = fit_valve(recording)
+    directions = {steps: fit_valve(recording, steps) for steps in ("rising", "falling")
+                  if step_samples(recording.pressure_kpa, steps).any()}
     print(f"calibrate valve: {args.recording.name}, first-order lag behind a dead time\n")
-    print("| valve_lag tau (s) | dead_time (s) | residual RMS (kPa) | samples |")
-    print("|---|---|---|---|")
-    print(f"| {fit.tau_s:.4f} | {fit.delay_s:.4f} | {fit.rmse_kpa:.3f} | {fit.samples} |")
+    print("| steps | valve_lag tau (s) | dead_time (s) | residual RMS (kPa) | samples |")
+    print("|---|---|---|---|---|")
+    for each in (fit, *directions.values()):
+        print(f"| {each.steps} | {each.tau_s:.4f} | {each.delay_s:.4f} | {each.rmse_kpa:.3f} | "
+              f"{each.samples} |")
     _write_back(args, model, {"effects": {**model.effects, **fit.effects()}}, recording.finger,
                 f"valve_lag and dead_time from `hand-service calibrate valve {args.recording.name}`")
-    return {"finger": model.finger or recording.finger, **fit.to_json()}
+    return {"finger": model.finger or recording.finger, **fit.to_json(),
+            **{steps: each.to_json() for steps, each in directions.items()}}
 
 
 def main(args: argparse.Namespace) -> int:

@@ -21,6 +21,7 @@ from typing import Any
 import rtcore
 from hand_service.config.control import CONTROL_SECTION, ControlSettings, cutoff_problem
 from hand_service.config.model import MODEL_KEYS, MODEL_SECTION, FingerModel, model_from_mapping
+from hand_service.config.pneumatics import PNEUMATICS_SECTION, VALVE_MODEL_KEYS, check_pneumatics
 from hand_service.config.recording import RECORDING_SECTION, RecordingSettings
 from hand_service.config.safety import SAFETY_SECTION, check_safety
 from hand_service.config.schema import Key, Section, expect_mapping, fail, validate
@@ -71,6 +72,7 @@ SIMULATION_SECTION = Section(
             0.0, 100.0),
         Key("substeps", "integration sub-steps per sample (1 ms or finer at 100 Hz)", "int", "",
             10, 1, 1000),
+        *VALVE_MODEL_KEYS,
     ))
 
 FINGER_EXTRA_SECTION = Section(
@@ -282,6 +284,8 @@ def load_profile(path: str | Path | None = None) -> Profile:
         safety = base.safety
     simulation = (_section(data, "simulation", SIMULATION_SECTION, source) if own("simulation")
                   else base.simulation)
+    if own("simulation"):
+        check_pneumatics(simulation, source, data.get("simulation"))
     if top["hand"] is None:
         # the included hand, with gains it took from its model derived again for this
         # profile's control settings (rate, filter)
@@ -323,7 +327,7 @@ def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
     if not isinstance(data, dict):
         raise UserError(f"{path}: a model file is a mapping of keys (docs/formats.md), "
                         f"not {type(data).__name__}")
-    if "hand" in data:
+    if "hand" in data or "profile" in data:  # a profile, its hand its own or included
         return load_profile(path).finger(finger).model
     model, _ = model_from_mapping(data, path)
     if finger is not None and model.finger is not None and model.finger != finger:
@@ -335,7 +339,7 @@ def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
 
 def all_sections() -> list[Section]:
     return [TOP_SECTION, *(kind.section for kind in KINDS.values()), CONTROL_SECTION, SAFETY_SECTION,
-            SIMULATION_SECTION, RECORDING_SECTION, FINGER_EXTRA_SECTION, MODEL_SECTION]
+            SIMULATION_SECTION, PNEUMATICS_SECTION, RECORDING_SECTION, FINGER_EXTRA_SECTION, MODEL_SECTION]
 
 
 __all__ = ["DEFAULT_PROFILE", "MODEL_KEYS", "MODEL_SECTION", "PROFILE_DIR", "FingerProfile",

@@ -7,7 +7,9 @@ and the valve's lag and dead time.
   trail behind a sweep, so up- and down-sweeps agree.
 - `fit_sensor_map`: per finger, angle_deg = gain·mV + offset by least squares, with R².
 - `fit_valve`: the measured chamber pressure after command steps against a first-order
-  lag behind a dead time, integrated exactly for held commands.
+  lag behind a dead time, integrated exactly for held commands; over every step, or over
+  the rising or the falling steps alone (a pneumatic valve fills and vents at different
+  rates: docs/identification.md).
 """
 
 from __future__ import annotations
@@ -150,15 +152,19 @@ def fit_sensor_map(recording: Recording, finger: str | None = None) -> list[Sens
     return fits
 
 
+VALVE_STEPS = ("all", "rising", "falling")
+
+
 @dataclass
 class ValveFit:
     tau_s: float
     delay_s: float
     rmse_kpa: float
-    samples: int
+    samples: int  # the samples fitted: after the steps of `steps`
     command_kpa: np.ndarray
     measured_kpa: np.ndarray
     model_kpa: np.ndarray
+    steps: str = "all"  # VALVE_STEPS: which command steps the fit is judged on
 
     def to_json(self) -> dict[str, Any]:
         return {"valve_lag_tau_s": self.tau_s, "dead_time_s": self.delay_s, "rmse_kpa": self.rmse_kpa,
@@ -185,7 +191,23 @@ def valve_response_kpa(command_kpa: np.ndarray, dt_s: float, tau_s: float, delay
     return chamber
 
 
-def fit_valve(recording: Recording) -> ValveFit:
+def step_samples(command_kpa: np.ndarray, steps: str) -> np.ndarray:
+    """Which samples follow a rising (or falling) change of the command, up to the next
+    change; every sample for "all"."""
+    if steps == "all":
+        return np.ones(command_kpa.size, dtype=bool)
+    change = np.flatnonzero(np.diff(command_kpa) != 0.0) + 1
+    mask = np.zeros(command_kpa.size, dtype=bool)
+    ends = [*change[1:], command_kpa.size]
+    for start, end in zip(change, ends, strict=True):
+        if (command_kpa[start] > command_kpa[start - 1]) == (steps == "rising"):
+            mask[start:end] = True
+    return mask
+
+
+def fit_valve(recording: Recording, steps: str = "all") -> ValveFit:
+    """The first-order lag and dead time whose response to the recorded commands best
+    matches the measured chamber pressure, judged after the `steps` (VALVE_STEPS) only."""
     measured = recording.optional("pressure_meas_kpa")
     if measured is None:
         raise UserError(f"{recording.path}: the valve fit needs the measured chamber pressure "
@@ -195,9 +217,12 @@ def fit_valve(recording: Recording) -> ValveFit:
         raise UserError(f"{recording.path}: the commands span only {np.ptp(command):.3g} kPa; step the "
                         f"valve by at least {MIN_SPAN_KPA:g} kPa")
     dt = 1.0 / recording.sample_rate_hz
+    judged = step_samples(command, steps)
+    if not judged.any():
+        raise UserError(f"{recording.path}: the commands have no {steps} step")
 
     def residual(params: np.ndarray) -> np.ndarray:
-        return valve_response_kpa(command, dt, params[0], params[1]) - measured
+        return (valve_response_kpa(command, dt, params[0], params[1]) - measured)[judged]
 
     starts = [(tau, delay) for tau in (0.01, 0.03, 0.1) for delay in (0.0, 0.005, 0.02, 0.05)]
     best = min(starts, key=lambda s: float(np.sum(residual(np.array(s)) ** 2)))
@@ -205,9 +230,9 @@ def fit_valve(recording: Recording) -> ValveFit:
                                     x_scale=[0.01, 0.01], diff_step=1e-4)
     tau, delay = (float(v) for v in result.x)
     model = valve_response_kpa(command, dt, tau, delay)
-    return ValveFit(tau, delay, float(np.sqrt(np.mean((model - measured) ** 2))), int(command.size),
-                    command, measured, model)
+    return ValveFit(tau, delay, float(np.sqrt(np.mean((model - measured)[judged] ** 2))), int(judged.sum()),
+                    command, measured, model, steps)
 
 
-__all__ = ["GainFit", "SensorFit", "ValveFit", "fit_pressure_gain", "fit_sensor_map", "fit_valve",
-           "static_torque_nm", "valve_response_kpa"]
+__all__ = ["VALVE_STEPS", "GainFit", "SensorFit", "ValveFit", "fit_pressure_gain", "fit_sensor_map",
+           "fit_valve", "static_torque_nm", "step_samples", "valve_response_kpa"]
