@@ -4,9 +4,9 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
-                  $(wildcard csrc/*.c csrc/*.h)
+                  $(wildcard csrc/*.c csrc/*.h board/plant/pneumatics.* board/core/regulator.*)
 
-.PHONY: run test test-install test-faults test-boardcheck test-browser test-board-host bench fuzz lint clean
+.PHONY: run test test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -23,7 +23,7 @@ run: $(STAMP)
 CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/pinch tests/wire tests/packaging \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
-SELECT := -m "not slow and not install and not fuzz and not faults and not boardcheck and not browser and not board"
+SELECT := -m "not slow and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu"
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
@@ -52,7 +52,19 @@ test-faults: $(STAMP)
 # serial-v1 and SLCAN, the daemon over it, and host SIGKILL -> vent, 30 trials per link, with
 # what it measured (about 3 min; make test runs a quick part of it)
 test-board-host: $(STAMP)
-	$(PY) -m pytest -q -s -p no:cacheprovider -m board tests/board
+	$(PY) -m pytest -q -s -p no:cacheprovider -m "board and not qemu" tests/board
+
+# the firmware core cross-compiled: the Cortex-M image (board/cortexm) under qemu-system-arm
+# -M mps2-an500 (handshake, closed loop, watchdog vent after the host's SIGKILL) and the AVR
+# image (board/avr) built and checked against the ATmega328P's flash and RAM (about 40 s).
+# Debian's packages are installed when missing.
+BOARD_APT := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr
+test-board: $(STAMP)
+	@missing=$$(for p in $(BOARD_APT); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+	if [ -n "$$missing" ]; then SUDO=$$(test "$$(id -u)" = 0 || echo sudo); \
+	  $$SUDO apt-get install -y $$missing || { $$SUDO apt-get update && $$SUDO apt-get install -y $$missing; }; fi
+	$(MAKE) -C board BUILD=build PYTHON=../$(PY) cortexm avr
+	$(PY) -m pytest -q -s -p no:cacheprovider -m "qemu and not qemu_boardcheck" tests/board
 
 # board-check against the mock over SLCAN, and every broken mock variant on all three links
 # with every check run (about 2 min; make test runs the mock on serial and virtual CAN and

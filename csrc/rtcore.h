@@ -5,12 +5,16 @@
  *   rtcore_step.h   the 100 Hz control step: filter, model (PRBM and effects), PID, the
  *                   step's configs and state, its inputs and outputs, the return codes
  *                   (csrc/rtcore_step.c, rtcore_filter.c, rtcore_model.c, rtcore_pid.c)
+ *   rtcore_pneumatic.h  the simulator's pneumatic valve mode (rtcore_pneumatic.c over the
+ *                   board's board/plant/pneumatics.c and board/core/regulator.c)
  *   rtcore_sim.h    the simulated hand and its in-process link (rtcore_sim.c,
  *                   rtcore_sim_link.c)
  *   rtcore_clock.h  the supervisor's clock and deadline schedule (rtcore_clock.c)
  *   rtcore_ring.h   the recording ring (rtcore_ring.c)
  *   rtcore_gate.h   the safety gate (rtcore_gate.c)
  *   rtcore_tick.h   the supervisor's tick, also on the simulated link (rtcore_tick.c)
+ *   rtcore_can.h    the host's can-v1 codec and the tick over it (rtcore_can.c, around
+ *                   the pack/unpack cantools generates from the DBC at build time)
  *
  * Internals shared between the units are in rtcore_internal.h, not part of the API.
  *
@@ -28,10 +32,12 @@
 #define RTCORE_H
 
 #include "rtcore_step.h"
+#include "rtcore_pneumatic.h"
 #include "rtcore_sim.h"
 #include "rtcore_clock.h"
 #include "rtcore_ring.h"
 #include "rtcore_gate.h"
 #include "rtcore_tick.h"
+#include "rtcore_can.h"
 
 #endif /* RTCORE_H */

@@ -7,6 +7,10 @@ header with a CDEF block that HEADERS does not list, one that includes a listed 
 listed after it, and an umbrella csrc/rtcore.h that does not include them all. API mode
 then compiles the umbrella, so the C compiler checks every declaration against the real
 definitions.
+
+The can-v1 pack/unpack that csrc/rtcore_can.c wraps is generated here, at build time, from
+firmware_profiles/can-v1.dbc by cantools' C source generator (rtcore_can_v1.[ch] in build/gen/, never
+committed), so the DBC stays the one truth; cantools is a build requirement (pyproject.toml).
 """
 
 from __future__ import annotations
@@ -15,15 +19,24 @@ import re
 from pathlib import Path
 
 import cffi
+from cantools.database import load_file
+from cantools.database.can.c_source import generate
 
 ROOT = Path(__file__).resolve().parent.parent
 CSRC = ROOT / "csrc"
 HEADER = CSRC / "rtcore.h"  # the umbrella: includes every header of HEADERS, no CDEF block
-HEADERS = tuple(CSRC / name for name in ("rtcore_step.h", "rtcore_sim.h", "rtcore_clock.h",
-                                         "rtcore_ring.h", "rtcore_gate.h", "rtcore_tick.h"))
+HEADERS = tuple(CSRC / name for name in ("rtcore_step.h", "rtcore_pneumatic.h", "rtcore_sim.h",
+                                         "rtcore_clock.h", "rtcore_ring.h", "rtcore_gate.h", "rtcore_tick.h",
+                                         "rtcore_can.h"))
 SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_step.c", "rtcore_sim.c",
            "rtcore_exact.c", "rtcore_sim_link.c", "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c",
-           "rtcore_ring.c")
+           "rtcore_ring.c", "rtcore_pneumatic.c", "rtcore_can.c")
+DBC = ROOT / "firmware_profiles" / "can-v1.dbc"
+GENERATED = ROOT / "build" / "gen"  # rtcore_can_v1.c and .h, from DBC (generate_can_v1)
+CAN_V1 = "rtcore_can_v1"  # their names and the prefix of every symbol in them (exported: rtcore_)
+# the valve board's chamber physics and pressure regulator (pneumatics.c, regulator.c), which
+# csrc/rtcore_pneumatic.c includes: one source for the firmware and the simulator's pneumatic valves
+BOARD_DIRS = ("board/plant", "board/core")
 COMPILE_ARGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"]
 BEGIN, END = "/* BEGIN CDEF */", "/* END CDEF */"
 INCLUDE = re.compile(r'^\s*#\s*include\s+"(rtcore\w*\.h)"', re.M)
@@ -59,13 +72,27 @@ def cdef_from_headers(headers: tuple[Path, ...] = HEADERS) -> str:
     return "".join(f"\n/* {path.name} */" + cdef_from_header(path.read_text()) for path in headers)
 
 
+def generate_can_v1(dbc: Path = DBC, out: Path = GENERATED) -> Path:
+    """rtcore_can_v1.c and .h from the DBC by cantools (doubles, as the Python codec decodes);
+    rewritten only when their text changes, so an unchanged DBC rebuilds nothing."""
+    header, source, _, _ = generate(load_file(str(dbc), database_format="dbc", strict=True), CAN_V1,
+                                    f"{CAN_V1}.h", f"{CAN_V1}.c", f"{CAN_V1}_fuzzer.c")
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in ((f"{CAN_V1}.h", header), (f"{CAN_V1}.c", source)):
+        path = out / name
+        if not path.exists() or path.read_text() != text:
+            path.write_text(text)
+    return out / f"{CAN_V1}.c"
+
+
 ffibuilder = cffi.FFI()
 ffibuilder.cdef(cdef_from_headers())
 ffibuilder.set_source(
     "rtcore._rtcore",
     f'#include "{HEADER.name}"\n',
-    sources=[str((CSRC / name).relative_to(ROOT)) for name in SOURCES],
-    include_dirs=[str(CSRC.relative_to(ROOT))],
+    sources=[str((CSRC / name).relative_to(ROOT)) for name in SOURCES]
+    + [str(generate_can_v1().relative_to(ROOT))],
+    include_dirs=[str(CSRC.relative_to(ROOT)), *BOARD_DIRS, str(GENERATED.relative_to(ROOT))],
     extra_compile_args=COMPILE_ARGS,
     libraries=["m"],
 )

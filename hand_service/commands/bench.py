@@ -64,6 +64,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "default 1000 Hz, for --seconds), and each wake-up 1 ms late or more, "
                         "matched across CPUs: a stall on every CPU at once is the whole machine "
                         "stopping (machine_* keys; docs/service.md)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress on stderr (default: a bar on a terminal, else a line every 2 s)")
+    parser.add_argument("--tick-in-python", action="store_true",
+                        help="can-v1 only: the tick in Python around latest() and send(), as before the "
+                        "tick in C (rtcore_can_tick), to compare the two (tick_path in the figures)")
     parser.add_argument("--io", action="store_true",
                         help="also time the bus transports against the mock firmware: command -> sensor "
                         "round trip and host SIGKILL -> vent, per transport (io_* keys; a minute or two)")
@@ -123,6 +128,9 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
     if args.switch_interval_us is not None and not 1 <= args.switch_interval_us <= 1e6:
         raise UserError(f"--switch-interval-us must be 1 to 1000000, not {args.switch_interval_us:g}")
     checks.positive(args.record_sync_s, "--record-sync-s")
+    if args.tick_in_python and profile.transport["kind"] != "can":
+        raise UserError("--tick-in-python compares the two ticks of a can-v1 profile; this one is "
+                        f"{profile.transport['kind']}")
     if args.record_sync_s is not None and args.recorder == "off":
         raise UserError("--record-sync-s needs a recording (not --recorder off)")
     if args.machine and (args.io or args.profile or args.spin_us or args.recorder != "process"
@@ -149,7 +157,7 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
     if args.switch_interval_us is not None:
         extra["switch_interval_s"] = args.switch_interval_us / 1e6
     if profile.transport["kind"] == "sim":
-        r = measure_ticks(profile, rate_hz, seconds, *options, progress=True, **extra)
+        r = measure_ticks(profile, rate_hz, seconds, *options, progress=not args.quiet, **extra)
     else:  # the bus transport against a mock firmware on its own pty (or virtual channel)
         with tempfile.TemporaryDirectory(prefix="hand-service-bench-") as workdir, \
                 Rig(str(Rig.name_for(profile)), Path(workdir), profile) as rig:
@@ -157,12 +165,13 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
                 rig.start_mock()  # rig.close() ends the mock process, however this ends
             except RigError as exc:
                 raise UserError(f"the mock firmware for {profile.path} did not start: {exc}") from None
-            transport = rig.transport()
+            transport = rig.transport(**({"tick_in_c": False} if args.tick_in_python else {}))
             print(f"  over {transport.link.description} to the mock firmware of profile {profile.name}",
                   flush=True)
-            r = measure_ticks(profile, rate_hz, seconds, *options, progress=True, transport=transport,
-                              **extra)
+            r = measure_ticks(profile, rate_hz, seconds, *options, progress=not args.quiet,
+                              transport=transport, **extra)
         r["transport"] = profile.transport["kind"]
+        r["tick_path"] = "c" if getattr(transport, "tick_state", None) is not None else "python"
     print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
     if r.get("tick_return_ns_p50") is not None:
         print(f"  back in Python         p50 {r['tick_return_ns_p50']:8.0f} ns   p99 "

@@ -23,6 +23,7 @@ import numpy as np
 
 import rtcore
 from hand_service.config.profile import Profile
+from hand_service.service import bus_tick
 from hand_service.service.recorder import SHUTDOWN_STATE, Recorder
 from hand_service.service.safety import Cause, Fault, FaultLog, SafetyGate
 from hand_service.service.states import ACTIVE, LATCHED, REFS, Event, State, StateMachine
@@ -64,7 +65,6 @@ class Supervisor:
         self.tick_index = 0
         self.t_s = 0.0
         self.sent_kpa = self._ts.sent_kpa
-        self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa, self._ts.c)
         self._control, self._follow = self._ts.control, self._ts.follow
         # the transport says how the tick reaches the hand: on the in-process simulated
         # hand, the whole tick, sensors to valves, is one C call, and on the schedule the
@@ -78,6 +78,10 @@ class Supervisor:
         # the simulated hand lives through the period of the command just sent in the slack
         # after the tick, as a board's firmware runs beside the host
         self.advance_hand: Callable[[], object] | None = None if in_core is None else in_core.advance
+        self._bus_tick = None if in_core is not None else transport.bus_tick(self._ts)  # can-v1: in C
+        # the recording's rows; on the simulated hand with its true angle (the sample's)
+        truth = None if self.tick_path.link is None else self.tick_path.link.simulator.c_outputs.angle_deg
+        self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa, self._ts.c, truth)
         self._last_missed = False
         self._latched_causes: set[Cause] = set()
         self.on_fault: list[Callable[[Fault], None]] = []
@@ -206,53 +210,13 @@ class Supervisor:
             events = self._tick_core(self.tick_index, REFS[state], self._last_missed, woke_ns)
             if events:
                 self._found(events)
+        elif self._bus_tick is not None:  # decode, control, encode: one C call (service/bus_tick.py)
+            bus_tick.tick(self, state, woke_ns)
         else:
-            self._tick_over_transport(state, woke_ns)
+            bus_tick.python_tick(self, state, woke_ns)
         self._record(self.machine.state)
         if check_model:  # run_one checks after it timed the tick
             self.check_model(state)
-
-    def _tick_over_transport(self, state: State, woke_ns: int) -> None:
-        """A tick on a transport in Python (a bus): read, the C control half, send, the C
-        follow half."""
-        inputs = self.hand.inputs
-        transport_fault = firmware_fault = None
-        try:
-            self.transport.on_tick(self.tick_index)
-            sample = self.transport.latest()
-            status = self.transport.status()
-            transport_fault = self.gate.link_fault(self.transport.link_problem())
-        except Exception as exc:  # any failure of the link is a lost transport
-            sample, status = None, None
-            transport_fault = Fault(Cause.TRANSPORT_LOST, f"latest(): {type(exc).__name__}: {exc}")
-        fresh = sample is not None
-        if sample is not None:
-            inputs.sensor_mv[:] = sample.sensor_mv
-            inputs.pressure_meas_kpa[:] = sample.pressure_meas_kpa
-            self.model_check.newest = sample.sequence
-        if status is not None:
-            firmware_fault = self.gate.firmware(status, state in ACTIVE)
-        ours = transport_fault or firmware_fault
-        events = self._control(REFS[state], ours is not None, self._last_missed, fresh,
-                               sample.lost_in_a_row if sample is not None else 0, woke_ns)
-        if events or ours is not None:
-            self._found(events & ~FOUND_LEAK, transport_fault, firmware_fault,
-                        sample.sequence if sample is not None else None)
-        try:
-            if self.machine.vented:
-                self.transport.vent()
-            else:
-                self.transport.send(self.sent_kpa)
-        except Exception as exc:
-            # a command the wire cannot carry (ValueError: the gate should have caught it), or
-            # a link that failed: either way nothing went out this tick, so ask for a vent
-            cause = Cause.PRESSURE_OVER_LIMIT if isinstance(exc, ValueError) else Cause.TRANSPORT_LOST
-            self.fault(Fault(cause, f"send(): {type(exc).__name__}: {exc}"))
-            with contextlib.suppress(Exception):
-                self.transport.vent()
-            self.sent_kpa[:] = 0.0
-        if self._follow():
-            self.fault(self.gate.follow_fault(self._ts.follow_result))
 
     def _found(self, events: int, transport_fault: Fault | None = None,
                firmware_fault: Fault | None = None, sequence: int | None = None) -> None:
@@ -354,6 +318,10 @@ class Supervisor:
                 end = clock.now_ns()
             else:  # the tick ended in C: how long until Python ran again, apart
                 self.stats.add_return(clock.now_ns() - end)
+        elif self._bus_tick is not None and state is not State.INIT:  # over can-v1: C only, too
+            if (times := bus_tick.tick_at(self, deadline, state)) is None:
+                return
+            woke, end = times
         else:
             woke = clock.sleep_until_ns(deadline, self.spin_ns)
             while woke < 0:  # a signal: its handler has run; sleep on unless told to stop

@@ -175,6 +175,13 @@ class Transport(ABC):
         Python (a board on a bus), unless the transport says otherwise."""
         return PYTHON_TICK
 
+    def bus_tick(self, tick: Any) -> Any:
+        """The supervisor's tick over this bus in one C call, for its rtcore.tick.Tick, or
+        None (the tick calls latest() and send() in Python). A transport that returns one
+        (can-v1: transports/can_tick.py) routes its samples to it from then on."""
+        del tick
+        return None
+
     def vent(self) -> None:
         """Command every valve to 0 kPa now."""
         self.send(np.zeros(self.n_fingers))

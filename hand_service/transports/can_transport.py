@@ -6,6 +6,10 @@ terminal (the mock firmware plays the adapter in another process). With `raw_log
 every frame in and out is written with can.Logger (.asc, .blf, ...) for lab tools.
 Error frames from the driver and the interface's bus state go to the link checks
 (checks.py): bus-off and error-passive fault at once, a burst of error frames too.
+
+On a DBC with can-v1's own layout the codec is the C one (wire/can_c_codec.py), and the
+supervisor's tick runs in C around the bus I/O (can_tick.py, bus_tick): the reader thread
+also hands the samples' frames to the tick's batch, which the tick decodes for its inputs.
 """
 
 from __future__ import annotations
@@ -18,10 +22,14 @@ from typing import Any
 
 import can
 
+from hand_service.errors import UserError
 from hand_service.transports.base import FirmwareStatus
+from hand_service.transports.can_tick import CanTick, CanTickState, CommandFrames
 from hand_service.transports.checks import LinkChecks
 from hand_service.transports.link import Link, LinkTransport
+from hand_service.wire.can_c_codec import CCanCodec, builtin_layout
 from hand_service.wire.can_codec import CanCodec
+from hand_service.wire.messages import Message, Status
 
 log = logging.getLogger("hand_service.transports")
 
@@ -115,14 +123,116 @@ class CanLink(Link):
 class CanTransport(LinkTransport):
     kind = "can"
 
-    def __init__(self, profile: Any, **options: Any) -> None:
+    def __init__(self, profile: Any, tick_in_c: bool | None = None, **options: Any) -> None:
+        """tick_in_c: the codec and the supervisor's tick in C (default: when the DBC has
+        can-v1's layout; True on another DBC is a UserError); False: both in Python."""
+        self._status_version = 0  # bumped at every change of the status (_apply_state)
+        self._status_copied = -1
+        self._status_copy: FirmwareStatus | None = None
+        dbc = options.get("dbc", profile.transport["dbc"])
+        builtin = builtin_layout(dbc)
+        if tick_in_c and not builtin:
+            raise UserError(f"{dbc}: the tick in C speaks firmware_profiles/can-v1.dbc's layout only")
+        self.tick_in_c = builtin if tick_in_c is None else tick_in_c
         super().__init__(profile, **options)
         self.link.checks = self.monitor.checks  # type: ignore[attr-defined]
         self._raw_log: can.Listener | None = None
         self._raw_lock = threading.Lock()
+        self.tick_state = CanTickState(self.codec) if self.tick_in_c else None
+        self._tick_bound = False  # a supervisor took bus_tick(): its samples go to the batch
+        self._sensor_id = self.codec.db.get_message_by_name("SensorFinger").frame_id
 
     def _make_codec(self) -> CanCodec:
+        if self.tick_in_c:
+            return CCanCodec(self.settings["dbc"], self.n_fingers)
         return CanCodec(self.settings["dbc"], self.n_fingers)
+
+    # -- the tick in C (can_tick.py) --------------------------------------------------------
+
+    def bus_tick(self, tick: Any) -> CanTick | None:
+        if self.tick_state is None:
+            return None
+        self._tick_bound = True
+        return CanTick(self.tick_state, tick.c, self)
+
+    def next_command_sequence(self) -> int:
+        """The sequence of the command the tick is about to encode (unwrapped; the first is 1).
+        No lock: the supervisor's thread alone counts commands (here and in send())."""
+        self._command_sequence += 1
+        return self._command_sequence
+
+    def wake_writer(self) -> None:
+        """After the tick: woken in it, the writer would take the interpreter from the tick
+        for the whole of its send."""
+        self._wake.set()
+
+    def _flush(self) -> None:
+        """The tick's frames or the command given to send(), whichever is newer (a vent after
+        the last tick, at shutdown, goes out last and alone), then what else is queued."""
+        frames = None
+        if self.tick_state is not None and self.tick_state.slot:
+            try:
+                frames = self.tick_state.slot.popleft()
+            except IndexError:
+                frames = None
+        if frames is not None:
+            with self._lock:
+                command = self._command
+                if command is not None and command.sequence > frames.sequence:
+                    frames = None
+                else:
+                    self._command = None
+        super()._flush()
+        if frames is not None and self._phase == "running":
+            self._write(frames)  # type: ignore[arg-type]
+
+    def _apply_state(self, status: FirmwareStatus | None) -> None:
+        super()._apply_state(status)
+        self._status_version += 1  # under the lock, as every change of the status
+
+    def status(self) -> FirmwareStatus | None:
+        """As LinkTransport's, but the copy is made once per change, not per call: every tick
+        asks, and a copy under the lock the reader thread takes costs the tick tens of us.
+        The copy returned is shared: read it, never change it."""
+        version = self._status_version
+        if version != self._status_copied:
+            self._status_copy, self._status_copied = super().status(), version
+        return self._status_copy
+
+    def _encode(self, message: Any) -> list[Any]:
+        if isinstance(message, CommandFrames):
+            return message.frames()
+        return self.codec.encode(message)
+
+    def _receive(self, units: list[Any], now: float) -> None:
+        state = self.tick_state
+        if state is None or not self._tick_bound or self._phase != "running":
+            super()._receive(units, now)
+            return
+        for unit in units:  # a sample's frames to the tick's batch too: the tick decodes them again
+            if unit.arbitration_id == self._sensor_id and not (unit.is_error_frame or unit.is_remote_frame):
+                state.add(unit, now)
+            for message in self.codec.decode(unit):
+                self._handle(message, now)
+
+    def _handle(self, message: Message, now: float) -> None:
+        reboots = self._health.extra.get("firmware_reboots", 0)
+        super()._handle(message, now)
+        if (isinstance(message, Status) and self.tick_state is not None
+                and self._health.extra.get("firmware_reboots", 0) != reboots):
+            self.tick_state.forget_last_sample()  # the stream starts over
+
+    def _connect(self) -> None:
+        super()._connect()
+        if self.tick_state is not None:
+            self.tick_state.reset()
+
+    def health(self) -> Any:
+        h = super().health()
+        if self.tick_state is not None:  # its frames are counted by the codec, which saw them too
+            h.extra["tick_batch_overflows"] = self.tick_state.dropped
+            h.extra["tick_batch_busy"] = self.tick_state.busy_ticks
+        return h
 
     def _make_link(self) -> Link:
         return CanLink(self.settings, self.codec)

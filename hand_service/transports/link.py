@@ -254,11 +254,15 @@ class LinkTransport(Transport):
             if units:
                 self._record(units, received=True)
                 self._last_rx_s = now
-                for unit in units:
-                    for message in self.codec.decode(unit):
-                        self._handle(message, now)
+                self._receive(units, now)
                 self._log_bad_frames()
             self._watch(now)
+
+    def _receive(self, units: list[Any], now: float) -> None:
+        """What arrived, decoded and handled (a transport may route some units elsewhere)."""
+        for unit in units:
+            for message in self.codec.decode(unit):
+                self._handle(message, now)
 
     def _log_bad_frames(self) -> None:
         stats = self.codec.stats
@@ -310,8 +314,11 @@ class LinkTransport(Transport):
         for message in outbox:
             self._write(message)
 
+    def _encode(self, message: Any) -> list[Any]:
+        return self.codec.encode(message)
+
     def _write(self, message: Message) -> None:
-        units = self.codec.encode(message)
+        units = self._encode(message)
         with self._link_lock:
             if not self._connected:
                 return

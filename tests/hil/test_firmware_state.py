@@ -18,8 +18,10 @@ from hand_service.firmware.rig import Rig
 from hand_service.service.safety import Cause
 from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
+from hand_service.transports.can_tick import CommandFrames
 from hand_service.transports.link import LinkTransport
-from hand_service.wire.messages import FaultKind, FirmwareFault
+from hand_service.wire.can_codec import CanCodec
+from hand_service.wire.messages import FaultKind, FirmwareFault, ValveCommand
 from rtcore import MODE_POSITION, clock
 from tests.hil.test_valve_board import WAIT_S, wait_for
 
@@ -89,15 +91,21 @@ def test_a_host_stall_past_the_watchdog_is_firmware_vented(rig: Rig, host: Host)
     assert wait_for(lambda: host.transport.status().vented)  # type: ignore[union-attr]
     # the tick resumes, and faults before its first command steps the chamber from 0 kPa
     sent_before = host.transport.command_sequence
-    given: list[np.ndarray] = []  # every command handed to the transport (vent() sends zeros)
-    send = host.transport.send
+    given: list[np.ndarray] = []  # every valve command the writer sends (a vent is all zeros)
+    encode = host.transport._encode
 
-    def spy(pressure_cmd_kpa: np.ndarray) -> None:
-        given.append(np.array(pressure_cmd_kpa, dtype=float))
-        send(pressure_cmd_kpa)
+    def spy(message: object) -> list[object]:
+        units = encode(message)
+        if isinstance(message, ValveCommand):
+            given.append(np.array(message.pressure_cmd_kpa, dtype=float))
+        elif isinstance(message, CommandFrames):  # the tick in C encoded it (transports/can_tick.py)
+            codec = CanCodec(host.transport.settings["dbc"], host.transport.n_fingers)
+            given.extend(np.array(m.pressure_cmd_kpa) for unit in units for m in codec.decode(unit))
+        return units
 
-    host.transport.send = spy  # type: ignore[method-assign]
+    host.transport._encode = spy  # type: ignore[method-assign]
     host.sup.run_one(host.schedule)
+    assert wait_for(lambda: len(given) >= 1), "no command went out"
     assert host.sup.state is State.FAULT
     assert [f.cause for f in host.sup.faults.faults] == [Cause.FIRMWARE_VENTED]
     assert "watchdog_vented" in host.sup.faults.faults[0].detail

@@ -13,7 +13,7 @@ import pytest
 
 import rtcore
 from rtcore import Effects, FingerConfig, Prbm, config
-from rtcore._build import HEADER, HEADERS, cdef_from_header, cdef_from_headers, check_headers
+from rtcore._build import BOARD_DIRS, HEADER, HEADERS, cdef_from_header, cdef_from_headers, check_headers
 from rtcore._rtcore import ffi, lib
 from rtcore.arrays import Inputs, Outputs, field_names
 from rtcore.sim import SimFinger
@@ -110,5 +110,6 @@ def test_build_refuses_headers_out_of_step() -> None:
 def test_each_header_compiles_on_its_own(header: Path) -> None:
     """Every header includes what it uses."""
     built = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-fsyntax-only",
-                            "-x", "c", str(header)], capture_output=True, text=True)
+                            *(f"-I{ROOT / name}" for name in BOARD_DIRS), "-x", "c", str(header)],
+                           capture_output=True, text=True)
     assert built.returncode == 0, built.stderr

@@ -8,9 +8,14 @@ from pathlib import Path
 
 import pytest
 
+from rtcore._build import BOARD_DIRS, GENERATED, generate_can_v1
+
 ROOT = Path(__file__).resolve().parents[2]
 CSRC = ROOT / "csrc"
-SOURCES = [str(p) for p in [*sorted(CSRC.glob("rtcore_*.c")), *sorted((CSRC / "test").glob("*.c"))]]
+# rtcore_can.c wraps the can-v1 pack/unpack cantools generates from the DBC (build/gen/)
+SOURCES = [str(p) for p in [*sorted(CSRC.glob("rtcore_*.c")), *sorted((CSRC / "test").glob("*.c")),
+                            generate_can_v1()]]
+INCLUDES = [f"-I{CSRC}", *(f"-I{ROOT / name}" for name in BOARD_DIRS), f"-I{GENERATED}"]
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic"]
 BUILDS = {
     "optimised": ["-O2"],
@@ -23,7 +28,7 @@ BUILDS = {
 @pytest.mark.parametrize("build", sorted(BUILDS))
 def test_c_driver(tmp_path: Path, build: str) -> None:
     binary = tmp_path / f"test_rtcore_{build}"
-    compile_cmd = ["gcc", *STRICT, *BUILDS[build], f"-I{CSRC}", *SOURCES, "-lm", "-o", str(binary)]
+    compile_cmd = ["gcc", *STRICT, *BUILDS[build], *INCLUDES, *SOURCES, "-lm", "-o", str(binary)]
     built = subprocess.run(compile_cmd, capture_output=True, text=True)
     assert built.returncode == 0, built.stderr
     ran = subprocess.run([str(binary)], capture_output=True, text=True, timeout=300,

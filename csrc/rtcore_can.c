@@ -1,0 +1,564 @@
+/* The host's can-v1 codec around the pack/unpack cantools generates (rtcore_can.h).
+ *
+ * Scaled values are turned into raw ones as cantools' Python encoder does, (value -
+ * offset) / scale rounded half to even (nearbyint in the default rounding mode), with the
+ * scale and offset read back from the generated decode functions, so that a frame encoded
+ * here is byte for byte the frame hand_service/wire/can_codec.py encodes. */
+#define _POSIX_C_SOURCE 200809L /* sched_yield */
+#include <math.h>
+#include <sched.h>
+#include <string.h>
+
+#include "rtcore_can_v1.h"
+#include "rtcore_can.h"
+#include "rtcore_clock.h"
+#include "rtcore_tick.h"
+
+#define SEQUENCE_MODULO 256
+#define UPTIME_MODULO 4294967296.0
+
+uint8_t rtcore_can_e2e_crc(const uint8_t *data, int32_t len, uint8_t data_id)
+{
+    uint8_t crc = 0xFFu;
+    int32_t i;
+    int bit;
+    for (i = 1; i <= len; ++i) {
+        crc ^= i < len ? data[i] : data_id;
+        for (bit = 0; bit < 8; ++bit) {
+            crc = (crc & 0x80u) ? (uint8_t)((crc << 1) ^ 0x2Fu) : (uint8_t)(crc << 1);
+        }
+    }
+    return (uint8_t)(crc ^ 0xFFu);
+}
+
+static int32_t clamp_fingers(int32_t n)
+{
+    return n < 1 ? 1 : (n > RTCORE_MAX_FINGERS ? RTCORE_MAX_FINGERS : n);
+}
+
+void rtcore_can_init(rtcore_can *can, int32_t n_fingers, double flex_low_mv, double flex_high_mv,
+                     double pressure_meas_low_kpa, double pressure_meas_high_kpa, double command_low_kpa,
+                     double command_high_kpa)
+{
+    if (can == 0) {
+        return;
+    }
+    memset(can, 0, sizeof *can);
+    can->n_fingers = clamp_fingers(n_fingers);
+    can->flex_low_mv = flex_low_mv;
+    can->flex_high_mv = flex_high_mv;
+    can->pressure_meas_low_kpa = pressure_meas_low_kpa;
+    can->pressure_meas_high_kpa = pressure_meas_high_kpa;
+    can->command_low_kpa = command_low_kpa;
+    can->command_high_kpa = command_high_kpa;
+}
+
+void rtcore_can_reset(rtcore_can *can)
+{
+    if (can != 0) {
+        can->sensor.active = 0;
+        can->valve.active = 0;
+        can->has_last_sample = 0;
+    }
+}
+
+/* -- decoding ------------------------------------------------------------------------- */
+
+static int32_t expected_length(int32_t id, int32_t *kind)
+{
+    switch (id) {
+    case RTCORE_CAN_V1_SENSOR_FINGER_FRAME_ID: *kind = RTCORE_CAN_SENSOR; return RTCORE_CAN_V1_SENSOR_FINGER_LENGTH;
+    case RTCORE_CAN_V1_VALVE_COMMAND_FRAME_ID: *kind = RTCORE_CAN_VALVE; return RTCORE_CAN_V1_VALVE_COMMAND_LENGTH;
+    case RTCORE_CAN_V1_STATUS_FRAME_ID: *kind = RTCORE_CAN_STATUS; return RTCORE_CAN_V1_STATUS_LENGTH;
+    case RTCORE_CAN_V1_FIRMWARE_VERSION_FRAME_ID: *kind = RTCORE_CAN_VERSION; return RTCORE_CAN_V1_FIRMWARE_VERSION_LENGTH;
+    case RTCORE_CAN_V1_VERSION_REQUEST_FRAME_ID:
+        *kind = RTCORE_CAN_VERSION_REQUEST;
+        return RTCORE_CAN_V1_VERSION_REQUEST_LENGTH;
+    case RTCORE_CAN_V1_FAULT_INJECT_FRAME_ID: *kind = RTCORE_CAN_FAULT_INJECT; return RTCORE_CAN_V1_FAULT_INJECT_LENGTH;
+    default: *kind = RTCORE_CAN_NONE; return -1;
+    }
+}
+
+static int32_t bad(rtcore_can *can, int32_t kind)
+{
+    can->decode_errors += 1;
+    can->last_error = kind;
+    return 0;
+}
+
+/* One finger's frame into its partial message; 1 (and *out) when every finger is in. */
+static int32_t assemble(rtcore_can *can, rtcore_can_partial *p, int32_t kind, int32_t finger, int32_t sequence,
+                        int32_t command_sequence, double first, double second, rtcore_can_message *out)
+{
+    const int32_t n = can->n_fingers;
+    int32_t i;
+    if (finger >= n) {
+        return bad(can, kind);
+    }
+    if (!p->active || p->sequence != sequence) {
+        if (p->active) {
+            can->incomplete += 1;
+        }
+        p->active = 1;
+        p->sequence = sequence;
+        p->command_sequence = command_sequence;
+        p->received_mask = 0u;
+    }
+    p->first[finger] = first;
+    p->second[finger] = second;
+    p->received_mask |= 1u << finger;
+    if (p->received_mask != (1u << n) - 1u) {
+        return 0;
+    }
+    p->active = 0;
+    memset(out, 0, sizeof *out);
+    out->kind = kind;
+    out->sequence = p->sequence;
+    out->n_fingers = n;
+    if (kind == RTCORE_CAN_SENSOR) {
+        out->command_sequence = p->command_sequence;
+        for (i = 0; i < n; ++i) {
+            out->sensor_mv[i] = p->first[i];
+            out->pressure_meas_kpa[i] = p->second[i];
+        }
+    } else {
+        for (i = 0; i < n; ++i) {
+            out->pressure_cmd_kpa[i] = p->first[i];
+        }
+    }
+    return 1;
+}
+
+static int32_t decode_sensor(rtcore_can *can, const uint8_t *data, int32_t len, rtcore_can_message *out)
+{
+    struct rtcore_can_v1_sensor_finger_t m;
+    double pressure_kpa;
+    (void)rtcore_can_v1_sensor_finger_unpack(&m, data, (size_t)len);
+    pressure_kpa = m.pressure_meas_kpa == RTCORE_CAN_V1_SENSOR_FINGER_PRESSURE_MEAS_KPA_NOT_REPORTED_CHOICE
+                       ? NAN
+                       : rtcore_can_v1_sensor_finger_pressure_meas_kpa_decode(m.pressure_meas_kpa);
+    return assemble(can, &can->sensor, RTCORE_CAN_SENSOR, m.finger_index, m.sequence, m.command_sequence,
+                    rtcore_can_v1_sensor_finger_flex_mv_decode(m.flex_mv), pressure_kpa, out);
+}
+
+static int32_t decode_valve(rtcore_can *can, const uint8_t *data, int32_t len, rtcore_can_message *out)
+{
+    struct rtcore_can_v1_valve_command_t m;
+    (void)rtcore_can_v1_valve_command_unpack(&m, data, (size_t)len);
+    return assemble(can, &can->valve, RTCORE_CAN_VALVE, m.finger_index, m.sequence, 0,
+                    rtcore_can_v1_valve_command_pressure_cmd_kpa_decode(m.pressure_cmd_kpa), 0.0, out);
+}
+
+/* The single-frame messages. A state or a fault kind the DBC's value table does not name
+ * is a frame this host cannot read (as FirmwareState(x) and FaultKind(x) refuse it). */
+static int32_t decode_single(rtcore_can *can, int32_t kind, const uint8_t *data, int32_t len,
+                             rtcore_can_message *out)
+{
+    memset(out, 0, sizeof *out);
+    out->kind = kind;
+    if (kind == RTCORE_CAN_STATUS) {
+        struct rtcore_can_v1_status_t m;
+        (void)rtcore_can_v1_status_unpack(&m, data, (size_t)len);
+        if (m.state > RTCORE_CAN_V1_STATUS_STATE_FAULT_CHOICE || m.fault_active > RTCORE_CAN_V1_STATUS_FAULT_ACTIVE_SENSOR_NAN_CHOICE) {
+            return bad(can, kind);
+        }
+        out->state = m.state;
+        out->fault_active = m.fault_active;
+        out->rx_errors = m.rx_errors;
+        out->fault_code = m.fault_code;
+        out->uptime_ms = (int64_t)m.uptime_ms;
+    } else if (kind == RTCORE_CAN_VERSION) {
+        struct rtcore_can_v1_firmware_version_t m;
+        (void)rtcore_can_v1_firmware_version_unpack(&m, data, (size_t)len);
+        out->protocol_version = m.protocol_version;
+        out->firmware_major = m.firmware_major;
+        out->firmware_minor = m.firmware_minor;
+        out->firmware_patch = m.firmware_patch;
+        out->finger_count = m.finger_count;
+    } else if (kind == RTCORE_CAN_VERSION_REQUEST) {
+        struct rtcore_can_v1_version_request_t m;
+        (void)rtcore_can_v1_version_request_unpack(&m, data, (size_t)len);
+        out->protocol_version = m.protocol_version;
+    } else {
+        struct rtcore_can_v1_fault_inject_t m;
+        (void)rtcore_can_v1_fault_inject_unpack(&m, data, (size_t)len);
+        if (m.fault > RTCORE_CAN_V1_FAULT_INJECT_FAULT_SENSOR_NAN_CHOICE) {
+            return bad(can, kind);
+        }
+        out->fault = m.fault;
+        out->finger_index = m.finger_index;
+        out->duration_ms = m.duration_ms;
+        out->value = m.value;
+    }
+    return 1;
+}
+
+int32_t rtcore_can_decode(rtcore_can *can, int32_t id, const uint8_t *data, int32_t len,
+                          rtcore_can_message *out)
+{
+    int32_t kind;
+    int32_t expected;
+    if (can == 0 || out == 0) {
+        return 0;
+    }
+    expected = id == RTCORE_CAN_NO_FRAME ? -1 : expected_length(id, &kind);
+    if (expected < 0 || data == 0) {
+        can->ignored += 1;
+        return 0;
+    }
+    if (len != expected) {
+        return bad(can, kind);
+    }
+    if (data[0] != rtcore_can_e2e_crc(data, len, (uint8_t)(id & 0xFF))) {
+        can->crc_errors += 1;
+        can->last_error = kind;
+        return 0;
+    }
+    can->frames += 1;
+    if (kind == RTCORE_CAN_SENSOR) {
+        return decode_sensor(can, data, len, out);
+    }
+    if (kind == RTCORE_CAN_VALVE) {
+        return decode_valve(can, data, len, out);
+    }
+    return decode_single(can, kind, data, len, out);
+}
+
+/* -- encoding ------------------------------------------------------------------------- */
+
+/* cantools' raw value of a scaled one: (value - offset) / scale, rounded half to even;
+ * scale and offset from the generated decode (raw 1 and raw 0). */
+static double raw_of(double value, double decoded_0, double decoded_1)
+{
+    return nearbyint((value - decoded_0) / (decoded_1 - decoded_0));
+}
+
+static double clamp(double v, double low, double high)
+{
+    return v < low ? low : (v > high ? high : v);
+}
+
+static int32_t wrap(int64_t value, int64_t modulo)
+{
+    return (int32_t)(((value % modulo) + modulo) % modulo);
+}
+
+static int in_range(int64_t value, int64_t low, int64_t high)
+{
+    return value >= low && value <= high;
+}
+
+static void finish_frame(int32_t id, int32_t len, int32_t *ids, int32_t *lens, uint8_t *data)
+{
+    *ids = id;
+    *lens = len;
+    data[0] = rtcore_can_e2e_crc(data, len, (uint8_t)(id & 0xFF));
+}
+
+static int32_t encode_sensor(const rtcore_can *can, const rtcore_can_message *m, int32_t *ids, int32_t *lens,
+                             uint8_t *data)
+{
+    const int32_t n = m->n_fingers;
+    const double flex_0 = rtcore_can_v1_sensor_finger_flex_mv_decode(0);
+    const double flex_1 = rtcore_can_v1_sensor_finger_flex_mv_decode(1);
+    const double kpa_0 = rtcore_can_v1_sensor_finger_pressure_meas_kpa_decode(0);
+    const double kpa_1 = rtcore_can_v1_sensor_finger_pressure_meas_kpa_decode(1);
+    int32_t i;
+    for (i = 0; i < n; ++i) {
+        if (isnan(m->sensor_mv[i])) { /* flex_mv has no not_reported value */
+            return -1;
+        }
+    }
+    for (i = 0; i < n; ++i) {
+        struct rtcore_can_v1_sensor_finger_t f;
+        const double kpa = m->pressure_meas_kpa[i];
+        uint8_t *d = data + i * RTCORE_CAN_FRAME_BYTES;
+        rtcore_can_v1_sensor_finger_init(&f);
+        f.finger_index = (uint8_t)i;
+        f.sequence = (uint8_t)wrap(m->sequence, SEQUENCE_MODULO);
+        f.command_sequence = (uint8_t)wrap(m->command_sequence, SEQUENCE_MODULO);
+        f.flex_mv = (uint16_t)raw_of(clamp(m->sensor_mv[i], can->flex_low_mv, can->flex_high_mv), flex_0, flex_1);
+        f.pressure_meas_kpa = isnan(kpa) ? (int16_t)RTCORE_CAN_V1_SENSOR_FINGER_PRESSURE_MEAS_KPA_NOT_REPORTED_CHOICE
+                                         : (int16_t)raw_of(clamp(kpa, can->pressure_meas_low_kpa,
+                                                                 can->pressure_meas_high_kpa), kpa_0, kpa_1);
+        memset(d, 0, RTCORE_CAN_FRAME_BYTES);
+        (void)rtcore_can_v1_sensor_finger_pack(d, &f, RTCORE_CAN_FRAME_BYTES);
+        finish_frame(RTCORE_CAN_V1_SENSOR_FINGER_FRAME_ID, RTCORE_CAN_V1_SENSOR_FINGER_LENGTH, ids + i, lens + i, d);
+    }
+    return n;
+}
+
+static int32_t encode_valve(const rtcore_can *can, const rtcore_can_message *m, int32_t *ids, int32_t *lens,
+                            uint8_t *data)
+{
+    const int32_t n = m->n_fingers;
+    const double kpa_0 = rtcore_can_v1_valve_command_pressure_cmd_kpa_decode(0);
+    const double kpa_1 = rtcore_can_v1_valve_command_pressure_cmd_kpa_decode(1);
+    int32_t i;
+    for (i = 0; i < n; ++i) {
+        const double kpa = m->pressure_cmd_kpa[i];
+        if (!(kpa >= can->command_low_kpa && kpa <= can->command_high_kpa)) { /* NaN too */
+            return -1;
+        }
+    }
+    for (i = 0; i < n; ++i) {
+        struct rtcore_can_v1_valve_command_t f;
+        uint8_t *d = data + i * RTCORE_CAN_FRAME_BYTES;
+        rtcore_can_v1_valve_command_init(&f);
+        f.finger_index = (uint8_t)i;
+        f.sequence = (uint8_t)wrap(m->sequence, SEQUENCE_MODULO);
+        f.pressure_cmd_kpa = (int16_t)raw_of(m->pressure_cmd_kpa[i], kpa_0, kpa_1);
+        memset(d, 0, RTCORE_CAN_FRAME_BYTES);
+        (void)rtcore_can_v1_valve_command_pack(d, &f, RTCORE_CAN_FRAME_BYTES);
+        finish_frame(RTCORE_CAN_V1_VALVE_COMMAND_FRAME_ID, RTCORE_CAN_V1_VALVE_COMMAND_LENGTH, ids + i, lens + i, d);
+    }
+    return n;
+}
+
+/* The single-frame messages: an integer field beyond its signal's declared range is refused
+ * (cantools' strict encoding); the counters wrap and rx_errors saturates as the Python
+ * codec sends them. */
+static int32_t encode_single(const rtcore_can_message *m, int32_t *ids, int32_t *lens, uint8_t *d)
+{
+    memset(d, 0, RTCORE_CAN_FRAME_BYTES);
+    if (m->kind == RTCORE_CAN_STATUS) {
+        struct rtcore_can_v1_status_t f;
+        const int32_t rx_errors = m->rx_errors < 255 ? m->rx_errors : 255;
+        if (!in_range(m->state, 0, 7) || !in_range(m->fault_active, 0, 31) || !in_range(rx_errors, 0, 255)
+            || !in_range(m->fault_code, 0, 255)) {
+            return -1;
+        }
+        rtcore_can_v1_status_init(&f);
+        f.state = (uint8_t)m->state;
+        f.fault_active = (uint8_t)m->fault_active;
+        f.rx_errors = (uint8_t)rx_errors;
+        f.fault_code = (uint8_t)m->fault_code;
+        f.uptime_ms = (uint32_t)fmod(fmod((double)m->uptime_ms, UPTIME_MODULO) + UPTIME_MODULO, UPTIME_MODULO);
+        (void)rtcore_can_v1_status_pack(d, &f, RTCORE_CAN_FRAME_BYTES);
+        finish_frame(RTCORE_CAN_V1_STATUS_FRAME_ID, RTCORE_CAN_V1_STATUS_LENGTH, ids, lens, d);
+    } else if (m->kind == RTCORE_CAN_VERSION) {
+        struct rtcore_can_v1_firmware_version_t f;
+        if (!in_range(m->protocol_version, 0, 65535) || !in_range(m->firmware_major, 0, 255)
+            || !in_range(m->firmware_minor, 0, 255) || !in_range(m->firmware_patch, 0, 255)
+            || !in_range(m->finger_count, 0, 8)) {
+            return -1;
+        }
+        rtcore_can_v1_firmware_version_init(&f);
+        f.protocol_version = (uint16_t)m->protocol_version;
+        f.firmware_major = (uint8_t)m->firmware_major;
+        f.firmware_minor = (uint8_t)m->firmware_minor;
+        f.firmware_patch = (uint8_t)m->firmware_patch;
+        f.finger_count = (uint8_t)m->finger_count;
+        (void)rtcore_can_v1_firmware_version_pack(d, &f, RTCORE_CAN_FRAME_BYTES);
+        finish_frame(RTCORE_CAN_V1_FIRMWARE_VERSION_FRAME_ID, RTCORE_CAN_V1_FIRMWARE_VERSION_LENGTH, ids, lens, d);
+    } else if (m->kind == RTCORE_CAN_VERSION_REQUEST) {
+        struct rtcore_can_v1_version_request_t f;
+        if (!in_range(m->protocol_version, 0, 65535)) {
+            return -1;
+        }
+        rtcore_can_v1_version_request_init(&f);
+        f.protocol_version = (uint16_t)m->protocol_version;
+        (void)rtcore_can_v1_version_request_pack(d, &f, RTCORE_CAN_FRAME_BYTES);
+        finish_frame(RTCORE_CAN_V1_VERSION_REQUEST_FRAME_ID, RTCORE_CAN_V1_VERSION_REQUEST_LENGTH, ids, lens, d);
+    } else if (m->kind == RTCORE_CAN_FAULT_INJECT) {
+        struct rtcore_can_v1_fault_inject_t f;
+        if (!in_range(m->fault, 0, 31) || !in_range(m->finger_index, 0, 255) || !in_range(m->duration_ms, 0, 65535)
+            || !in_range(m->value, 0, 65535)) {
+            return -1;
+        }
+        rtcore_can_v1_fault_inject_init(&f);
+        f.fault = (uint8_t)m->fault;
+        f.finger_index = (uint8_t)m->finger_index;
+        f.duration_ms = (uint16_t)m->duration_ms;
+        f.value = (uint16_t)m->value;
+        (void)rtcore_can_v1_fault_inject_pack(d, &f, RTCORE_CAN_FRAME_BYTES);
+        finish_frame(RTCORE_CAN_V1_FAULT_INJECT_FRAME_ID, RTCORE_CAN_V1_FAULT_INJECT_LENGTH, ids, lens, d);
+    } else {
+        return -1;
+    }
+    return 1;
+}
+
+int32_t rtcore_can_encode(const rtcore_can *can, const rtcore_can_message *message, int32_t *ids,
+                          int32_t *lens, uint8_t *data, int32_t capacity)
+{
+    int32_t needed;
+    if (can == 0 || message == 0 || ids == 0 || lens == 0 || data == 0) {
+        return -1;
+    }
+    if (message->kind == RTCORE_CAN_SENSOR || message->kind == RTCORE_CAN_VALVE) {
+        if (message->n_fingers < 0 || message->n_fingers > RTCORE_MAX_FINGERS) {
+            return -1;
+        }
+        needed = message->n_fingers;
+    } else {
+        needed = 1;
+    }
+    if (needed > capacity) {
+        return -2;
+    }
+    if (message->kind == RTCORE_CAN_SENSOR) {
+        return encode_sensor(can, message, ids, lens, data);
+    }
+    if (message->kind == RTCORE_CAN_VALVE) {
+        return encode_valve(can, message, ids, lens, data);
+    }
+    return encode_single(message, ids, lens, data);
+}
+
+/* -- the tick ------------------------------------------------------------------------- */
+
+static void rx_lock(rtcore_can_io *io)
+{
+    while (__atomic_exchange_n(&io->rx_lock, 1, __ATOMIC_ACQUIRE)) {
+        sched_yield();
+    }
+}
+
+/* The tick never waits on the reader: a batch being added to is left for the next tick. */
+static int rx_trylock(rtcore_can_io *io)
+{
+    return !__atomic_exchange_n(&io->rx_lock, 1, __ATOMIC_ACQUIRE);
+}
+
+static void rx_unlock(rtcore_can_io *io)
+{
+    __atomic_store_n(&io->rx_lock, 0, __ATOMIC_RELEASE);
+}
+
+int32_t rtcore_can_rx_add(rtcore_can_io *io, int32_t id, const uint8_t *data, int32_t len, double received_s)
+{
+    int32_t k;
+    int32_t added = 0;
+    if (io == 0 || data == 0 || len < 0) {
+        return 0;
+    }
+    rx_lock(io);
+    k = io->n_rx < 0 ? 0 : io->n_rx;
+    if (k < RTCORE_CAN_MAX_RX && len <= RTCORE_CAN_FRAME_BYTES) {
+        io->rx_id[k] = id;
+        io->rx_len[k] = len;
+        io->rx_received_s[k] = received_s;
+        memcpy(io->rx_data + k * RTCORE_CAN_FRAME_BYTES, data, (size_t)len);
+        io->n_rx = k + 1;
+        added = 1;
+    } else {
+        io->rx_dropped += 1;
+    }
+    rx_unlock(io);
+    return added;
+}
+
+/* A complete sample is taken when its sequence is 1..127 ahead of the last one taken. */
+static void take_sample(rtcore_can *can, rtcore_can_io *io, const rtcore_can_message *message)
+{
+    int64_t lost = 0;
+    if (can->has_last_sample) {
+        const int32_t delta = (message->sequence - can->last_sample_sequence + SEQUENCE_MODULO) % SEQUENCE_MODULO;
+        if (delta == 0 || delta >= SEQUENCE_MODULO / 2) {
+            return;
+        }
+        lost = delta - 1;
+    }
+    can->has_last_sample = 1;
+    can->last_sample_sequence = message->sequence;
+    io->sample = *message;
+    io->samples += 1;
+    if (lost > io->lost_in_a_row) {
+        io->lost_in_a_row = lost;
+    }
+}
+
+static void decode_batch(rtcore_can *can, rtcore_can_io *io)
+{
+    const int32_t n_rx = io->n_rx < 0 ? 0 : (io->n_rx > RTCORE_CAN_MAX_RX ? RTCORE_CAN_MAX_RX : io->n_rx);
+    rtcore_can_message message;
+    int32_t k;
+    io->n_messages = 0;
+    io->messages_lost = 0;
+    io->samples = 0;
+    io->lost_in_a_row = 0;
+    for (k = 0; k < n_rx; ++k) {
+        if (!rtcore_can_decode(can, io->rx_id[k], io->rx_data + k * RTCORE_CAN_FRAME_BYTES, io->rx_len[k],
+                               &message)) {
+            continue;
+        }
+        message.received_s = io->rx_received_s[k];
+        if (message.kind == RTCORE_CAN_SENSOR) {
+            take_sample(can, io, &message);
+        }
+        if (io->n_messages < RTCORE_CAN_MAX_MESSAGES) {
+            io->messages[io->n_messages++] = message;
+        } else {
+            io->messages_lost += 1;
+        }
+    }
+    io->n_rx = 0;
+}
+
+int32_t rtcore_can_tick(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io, int32_t refs,
+                        int32_t vent, int32_t missed_last, int64_t woke_ns, int32_t command_sequence)
+{
+    rtcore_can_message command;
+    int32_t events;
+    int32_t fresh;
+    int32_t i;
+    if (tick == 0 || can == 0 || io == 0 || tick->inputs == 0) {
+        return RTCORE_TICK_OUTPUT;
+    }
+    if (rx_trylock(io)) {
+        decode_batch(can, io);
+        rx_unlock(io);
+    } else { /* the reader thread is adding a frame (it may be preempted): next tick */
+        io->n_messages = 0;
+        io->messages_lost = 0;
+        io->samples = 0;
+        io->lost_in_a_row = 0;
+        io->busy_ticks += 1;
+    }
+    fresh = io->samples > 0;
+    if (fresh) {
+        for (i = 0; i < can->n_fingers; ++i) {
+            tick->inputs->sensor_mv[i] = io->sample.sensor_mv[i];
+            tick->inputs->pressure_meas_kpa[i] = io->sample.pressure_meas_kpa[i];
+        }
+    }
+    events = rtcore_tick_control(tick, refs, vent, missed_last, fresh, io->lost_in_a_row, woke_ns);
+    memset(&command, 0, sizeof command);
+    command.kind = RTCORE_CAN_VALVE;
+    command.sequence = command_sequence;
+    command.n_fingers = can->n_fingers;
+    for (i = 0; i < can->n_fingers; ++i) {
+        command.pressure_cmd_kpa[i] = tick->sent_kpa[i];
+    }
+    io->n_tx = rtcore_can_encode(can, &command, io->tx_id, io->tx_len, io->tx_data, RTCORE_MAX_FINGERS);
+    if (io->n_tx < 0) { /* the gate should have caught it: vent instead */
+        for (i = 0; i < RTCORE_MAX_FINGERS; ++i) {
+            tick->sent_kpa[i] = 0.0;
+            command.pressure_cmd_kpa[i] = 0.0;
+        }
+        io->n_tx = rtcore_can_encode(can, &command, io->tx_id, io->tx_len, io->tx_data, RTCORE_MAX_FINGERS);
+        events |= RTCORE_TICK_OUTPUT;
+    }
+    return events | rtcore_tick_follow(tick);
+}
+
+int32_t rtcore_can_tick_at(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io, int64_t deadline_ns,
+                           int64_t spin_ns, int32_t refs, int32_t vent, int32_t missed_last,
+                           int32_t command_sequence, int64_t *times_ns)
+{
+    int64_t woke;
+    int32_t events;
+    if (times_ns == 0) {
+        return -1;
+    }
+    woke = rtcore_sleep_until_ns(deadline_ns, spin_ns);
+    times_ns[0] = woke;
+    times_ns[1] = woke;
+    if (woke < 0) {
+        return -1;
+    }
+    events = rtcore_can_tick(tick, can, io, refs, vent, missed_last, woke, command_sequence);
+    times_ns[1] = rtcore_clock_now_ns();
+    return events;
+}
