@@ -10,6 +10,7 @@
  * producer's count store is ordered before its next row's stores, and the reader's row
  * loads before its second count load (H.-J. Boehm, "Can seqlocks get along with
  * programming language memory models?", MSPC 2012). */
+#include <math.h>
 #include <string.h>
 
 #include "rtcore_ring.h"
@@ -26,7 +27,8 @@ int64_t rtcore_ring_count(const int64_t *count)
 
 int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
                               int32_t n_fingers, const rtcore_inputs *in, const rtcore_outputs *out,
-                              const double *sent_kpa, double t_s, int32_t state)
+                              const double *sent_kpa, const double *angle_true_deg, double t_s,
+                              int32_t state)
 {
     const double *blocks[8];
     double *row;
@@ -35,7 +37,7 @@ int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, in
     int32_t i;
 
     if (rows == 0 || count == 0 || in == 0 || out == 0 || sent_kpa == 0 || capacity <= 0
-        || n_fingers < 1 || n_fingers > RTCORE_MAX_FINGERS || n_cols != 2 + 10 * n_fingers) {
+        || n_fingers < 1 || n_fingers > RTCORE_MAX_FINGERS || n_cols != 2 + RTCORE_RING_QUANTITIES * n_fingers) {
         return -1;
     }
     n = __atomic_load_n(count, __ATOMIC_RELAXED);
@@ -59,6 +61,8 @@ int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, in
     for (i = 0; i < n_fingers; ++i) {
         row[2 + 8 * n_fingers + i] = (double)in->mode[i];
         row[2 + 9 * n_fingers + i] = (double)out->flags[i];
+        /* the truth a simulator knows; none (NaN) from a board */
+        row[2 + 10 * n_fingers + i] = angle_true_deg != 0 ? angle_true_deg[i] : (double)NAN;
     }
     __atomic_store_n(count, n + 1, __ATOMIC_RELEASE);
     return n + 1;

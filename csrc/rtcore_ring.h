@@ -24,15 +24,20 @@ extern "C" {
 
 /* BEGIN CDEF */
 int64_t rtcore_ring_count(const int64_t *count);
+/* The ring row's width: t_s, state, then RTCORE_RING_QUANTITIES blocks of n_fingers */
+#define RTCORE_RING_QUANTITIES 11
 /* One supervisor tick as one ring row, written straight into the ring: t_s, state, then
  * blocks of n_fingers in the order angle_ref_deg, pressure_kpa (sent_kpa), pressure_meas_kpa,
  * angle_deg, angle_filt_deg, velocity_deg_per_s, force_est_n (out->force_normal_n, the signed
  * normal force that force control tracks, not the magnitude out->force_magnitude_n), force_ref_n,
- * mode, flags (hand_service/service/recorder_writer.py QUANTITIES). Returns the new count,
- * or -1 when n_cols is not 2 + 10 * n_fingers. */
+ * mode, flags, angle_true_deg (hand_service/service/recorder_writer.py QUANTITIES).
+ * angle_true_deg: the simulated hand's true angle at the sample the tick read (the simulator's
+ * output, before sensor noise), or NULL where there is no such truth (a board): NaN. Returns
+ * the new count, or -1 when n_cols is not 2 + RTCORE_RING_QUANTITIES * n_fingers. */
 int64_t rtcore_ring_push_tick(double *rows, int64_t *count, int32_t capacity, int32_t n_cols,
                               int32_t n_fingers, const rtcore_inputs *in, const rtcore_outputs *out,
-                              const double *sent_kpa, double t_s, int32_t state);
+                              const double *sent_kpa, const double *angle_true_deg, double t_s,
+                              int32_t state);
 /* END CDEF */
 
 #ifdef __cplusplus

@@ -202,8 +202,10 @@ int32_t rtcore_tick_sim_at(rtcore_tick *tick, rtcore_sim_link *link, int64_t dea
     }
     events = rtcore_tick_sim(tick, link, tick_index, refs, missed_last, woke);
     if (events == 0 && tick->ring_rows != 0) {
+        /* link->out: the sample this tick read (the link advances in the slack, after) */
         rtcore_ring_push_tick(tick->ring_rows, tick->ring_count, tick->ring_capacity, tick->ring_cols,
-                              tick->n_fingers, tick->inputs, tick->outputs, tick->sent_kpa, t_s, state);
+                              tick->n_fingers, tick->inputs, tick->outputs, tick->sent_kpa,
+                              link->out != 0 ? link->out->angle_deg : 0, t_s, state);
     }
     times_ns[1] = rtcore_clock_now_ns();
     return events;

@@ -32,6 +32,12 @@ from rtcore._rtcore import ffi, lib
 MAGIC = 0x48414E4452494E47  # "HANDRING"
 HEADER_INT64 = 8
 COUNT, DRAINED, LOST, ERROR, FAILED_AT = 3, 4, 5, 6, 7
+TICK_BLOCKS = lib.RTCORE_RING_QUANTITIES  # blocks of one column per finger, after t and state
+
+
+def row_width(n_fingers: int) -> int:
+    """Columns of a tick's row (rtcore_ring_push_tick): t, state, then the blocks."""
+    return 2 + TICK_BLOCKS * n_fingers
 
 
 class Ring:
@@ -68,19 +74,21 @@ class Ring:
         self._rows_ptr = ffi.cast("double *", ffi.from_buffer(self.rows))
 
     def tick_pusher(self, n_fingers: int, c_inputs: object, c_outputs: object,
-                    sent_kpa: np.ndarray) -> functools.partial:
+                    sent_kpa: np.ndarray, angle_true_deg: Any = None) -> functools.partial:
         """push_tick(t_s, state): the tick's row built in C from the control step's own
-        structs (rtcore_ring_push_tick), a single call per tick."""
-        if self.n_cols != 2 + 10 * n_fingers:
+        structs (rtcore_ring_push_tick), a single call per tick. angle_true_deg: a `double *`
+        to the simulated hand's true angles (the simulator's outputs), None: NaN (a board)."""
+        if self.n_cols != row_width(n_fingers):
             raise ValueError(f"a ring of {self.n_cols} columns does not hold {n_fingers} fingers")
         return functools.partial(lib.rtcore_ring_push_tick, self._rows_ptr, self._count_ptr,
                                  self.capacity, self.n_cols, n_fingers, c_inputs, c_outputs,
-                                 ffi.cast("double *", ffi.from_buffer(sent_kpa)))
+                                 ffi.cast("double *", ffi.from_buffer(sent_kpa)),
+                                 ffi.NULL if angle_true_deg is None else angle_true_deg)
 
     def publish_to(self, c_tick: Any, n_fingers: int) -> None:
         """Point a tick struct (rtcore_tick) at this ring: the scheduled tick in C
         (rtcore_tick_sim_at) pushes each clean tick's row itself. unpublish() before close."""
-        if self.n_cols != 2 + 10 * n_fingers or c_tick.n_fingers != n_fingers:
+        if self.n_cols != row_width(n_fingers) or c_tick.n_fingers != n_fingers:
             raise ValueError(f"a ring of {self.n_cols} columns does not hold the tick's "
                              f"{c_tick.n_fingers} fingers")
         c_tick.ring_count, c_tick.ring_capacity = self._count_ptr, self.capacity

@@ -84,11 +84,12 @@ static void test_gate(void)
 
 static void test_ring_tick(void)
 {
-    static double rows[3 * 22];
+    static double rows[3 * 24];
     int64_t count = 0;
     rtcore_inputs in;
     rtcore_outputs out;
     double sent[RTCORE_MAX_FINGERS] = {7.0, 8.0};
+    double truth[RTCORE_MAX_FINGERS] = {11.0, 12.5};
     clear_inputs(&in);
     memset(&out, 0, sizeof(out));
     in.angle_ref_deg[1] = 42.0;
@@ -98,17 +99,20 @@ static void test_ring_tick(void)
     out.force_normal_n[1] = -1.5;
     out.force_magnitude_n[1] = 1.5;
     in.force_ref_n[1] = -1.0;
-    CHECK(rtcore_ring_push_tick(rows, &count, 3, 22, 2, &in, &out, sent, 0.25, 4) == 1, "pushed");
+    CHECK(rtcore_ring_push_tick(rows, &count, 3, 24, 2, &in, &out, sent, truth, 0.25, 4) == 1, "pushed");
     CHECK(rows[0] == 0.25 && rows[1] == 4.0, "head");
     CHECK(rows[2 + 1] == 42.0 && rows[2 + 2] == 7.0, "blocks");
     CHECK(rows[2 + 6 * 2 + 1] == -1.5 && rows[2 + 7 * 2 + 1] == -1.0, "signed force %g, ref %g",
           rows[2 + 6 * 2 + 1], rows[2 + 7 * 2 + 1]);
     CHECK(rows[2 + 8 * 2 + 1] == 2.0 && rows[2 + 9 * 2] == 1.0, "mode and flags");
-    CHECK(rtcore_ring_push_tick(rows, &count, 3, 21, 2, &in, &out, sent, 0.0, 0) == -1, "bad width");
-    for (int k = 0; k < 5; ++k) {
-        rtcore_ring_push_tick(rows, &count, 3, 22, 2, &in, &out, sent, 0.01 * k, 4);
+    CHECK(rows[2 + 10 * 2] == 11.0 && rows[2 + 10 * 2 + 1] == 12.5, "true angle");
+    CHECK(rtcore_ring_push_tick(rows, &count, 3, 22, 2, &in, &out, sent, truth, 0.0, 0) == -1, "bad width");
+    CHECK(rtcore_ring_push_tick(rows, &count, 3, 24, 2, &in, &out, sent, 0, 0.5, 4) == 2, "no truth");
+    CHECK(isnan(rows[24 + 2 + 10 * 2]) && isnan(rows[24 + 2 + 10 * 2 + 1]), "no truth: NaN");
+    for (int k = 0; k < 4; ++k) {
+        rtcore_ring_push_tick(rows, &count, 3, 24, 2, &in, &out, sent, truth, 0.01 * k, 4);
     }
-    CHECK(count == 6 && rows[22 * (5 % 3)] == 0.04, "wraps: count %lld", (long long)count);
+    CHECK(count == 6 && rows[24 * (5 % 3)] == 0.03, "wraps: count %lld", (long long)count);
 }
 
 void run_supervisor_tests(void)

@@ -302,7 +302,7 @@ static void test_tick_sim_at(void)
 {
     static rig r;
     static sim_rig s;
-    static double rows[4 * 22];
+    static double rows[4 * 24]; /* 2 fingers: 2 + 11 * 2 columns */
     int64_t count = 0;
     int64_t times[2];
     int32_t k;
@@ -311,14 +311,18 @@ static void test_tick_sim_at(void)
     r.tick.ring_rows = rows;
     r.tick.ring_count = &count;
     r.tick.ring_capacity = 4;
-    r.tick.ring_cols = 22;
+    r.tick.ring_cols = 24;
     r.tick.target_mode[0] = RTCORE_MODE_PRESSURE;
     r.tick.target_pressure_kpa[0] = 60.0;
     for (k = 0; k < 3; ++k) { /* deadlines already passed: no sleep */
         CHECK(rtcore_tick_sim_at(&r.tick, &s.link, rtcore_clock_now_ns(), 0, k, RTCORE_REFS_RUN, 0, 0.01 * k,
                                  3, times) == 0, "clean tick %d", k);
     }
-    CHECK(count == 3 && rows[2 * 22] == 0.02 && rows[2 * 22 + 1] == 3.0, "each clean tick its row");
+    CHECK(count == 3 && rows[2 * 24] == 0.02 && rows[2 * 24 + 1] == 3.0, "each clean tick its row");
+    /* the true angle: the simulator's, at the sample the tick read (the link has not advanced) */
+    CHECK(rows[2 * 24 + 2 + 10 * 2] == s.out.angle_deg[0] && rows[2 * 24 + 2 + 10 * 2 + 1] == s.out.angle_deg[1]
+          && s.out.angle_deg[0] != 0.0, "the true angle %g, the simulator's %g", rows[2 * 24 + 2 + 10 * 2],
+          s.out.angle_deg[0]);
     CHECK(times[0] > 0 && times[1] > times[0], "wake-up %lld, end %lld", (long long)times[0],
           (long long)times[1]);
     {

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hand_service.commands.progress import Progress
 from hand_service.config.profile import Profile
 from hand_service.errors import UserError
 from hand_service.service.daemon import with_rate
@@ -60,7 +61,8 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
     """`transport`: a bus transport to a (mock) firmware; default: the profile's own, which
     for the sim transport is the in-process simulated hand. `switch_interval_s`: the GIL
     switch interval while ticking (the daemon's by default). `record_sync_s`: the writer also
-    fdatasyncs that often (run --record-sync-s)."""
+    fdatasyncs that often (run --record-sync-s). `progress`: say how far it is on stderr
+    through commands.progress (a bar on a terminal, a plain line every 2 s elsewhere)."""
     profile = with_rate(profile, rate_hz)
     if transport is None:
         transport = transport_class(profile.transport["kind"])(profile)
@@ -88,8 +90,9 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
             advance()
             plant_ns.append(clock.now_ns() - start)
         sup.advance_hand = timed_advance
+    shown = Progress("bench", total=n_ticks, quiet=not progress)
     sup.gc.start()
-    with switch_interval(switch_interval_s):
+    with shown, switch_interval(switch_interval_s):
         try:
             handshake_end_s = time.monotonic() + HANDSHAKE_TIMEOUT_S
             while sup.state is not State.DISARMED:  # the handshake, not measured
@@ -119,8 +122,9 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
                 floor_late.append(run.wake_late_ns)
                 floor_misses += run.misses
                 done += count
-                if progress and (done // rate_hz > (done - count) // rate_hz or done == n_ticks):
-                    print(f"\r  {done / rate_hz:5.1f} / {n_ticks / rate_hz:.0f} s", end="", flush=True)
+                if done // rate_hz > (done - count) // rate_hz or done == n_ticks:  # a second on
+                    shown.advance(done - shown.count, f"{done / rate_hz:.0f} of {n_ticks / rate_hz:g} s "
+                                  "ticked (and as long for the bare loop)")
         finally:
             sup.gc.stop()
             sup.request_stop("bench done")
@@ -128,8 +132,6 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
             tmp.cleanup()
             if realtime.memory_locked is True:
                 clock.unlock_memory()
-    if progress:
-        print()
     s = sup.stats.summary()
     floor = np.concatenate(floor_late) / 1e3
     busy_s = n_ticks / rate_hz

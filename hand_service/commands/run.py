@@ -23,6 +23,14 @@ It stops on SIGTERM or SIGINT (vents, flushes the recording, exits 0) or after
 latched) from the next tick. With --demo it arms itself and runs the demo on the
 simulated hand: the paper's 0 -> 90 deg sweep on every finger, then a pinch (thumb and
 index close on objects in force mode), then prints the tracking and timing figures.
+
+With --view it also starts `hand-service view` beside it, a process of its own (never in
+the tick's process, never realtime), which prints the page's link with the token and
+ends when the daemon stops. The page needs the daemon's token, which the daemon writes
+when it serves TCP: --view serves the API on a free loopback port (--tcp-port 0) unless
+--tcp-port says which. The plots need a recording (--record, or `ctl record-start`):
+
+    hand-service run --view --record ~/.local/share/hand-service/recordings/run.csv
 """
 
 
@@ -68,6 +76,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, help="simulator seed (sim transport; default: the profile's)")
     parser.add_argument("--status", choices=["auto", "line", "off"], default="auto",
                         help="live status line: auto shows it on a terminal (default)")
+    parser.add_argument("--view", action="store_true",
+                        help="also start the live view in a browser (docs/view.md), a process of its "
+                             "own that prints its link and ends with the daemon; implies --tcp-port 0 "
+                             "unless --tcp-port is given (the page needs the daemon's token)")
+    parser.add_argument("--view-port", type=int, default=0, metavar="PORT",
+                        help="with --view: serve the page on 127.0.0.1:PORT (default 0: a free port)")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -80,6 +94,14 @@ def main(args: argparse.Namespace) -> int:
     checks.positive(args.duration, "--duration")
     checks.positive(args.record_sync_s, "--record-sync-s")
     checks.tcp_port(args.tcp_port, allow_any=True)
+    checks.tcp_port(args.view_port, "--view-port", allow_any=True)
+    if args.view and (args.no_socket or args.demo):
+        raise UserError("--view talks to the daemon's control socket: not with "
+                        + ("--no-socket" if args.no_socket else "--demo (it prints its figures and exits)"))
+    if args.view_port and not args.view:
+        raise UserError("--view-port is the page's port: it needs --view")
+    if args.view and args.tcp_port is None:
+        args.tcp_port = 0  # the daemon writes its token, which the page asks for
     checks.seed(args.seed)
     if not args.no_realtime and not 1 <= args.realtime_priority <= 99:
         raise UserError(f"--realtime-priority must be 1 to 99 (SCHED_FIFO), not {args.realtime_priority}")
@@ -118,6 +140,21 @@ def main(args: argparse.Namespace) -> int:
         from hand_service.service.demo import run_demo
         return run_demo(daemon, args.record, sys.stdout)
     daemon.open()
-    summary = daemon.run(args.duration)
+    view = None
+    if args.view:
+        from hand_service.view.beside import start_view, stop_view
+
+        assert options.socket_path is not None
+        sys.stdout.flush()
+        try:
+            view = start_view(options.socket_path, args.view_port)
+        except OSError as exc:
+            daemon.server.close()
+            raise UserError(f"--view: cannot start the view: {exc.strerror or exc}") from None
+    try:
+        summary = daemon.run(args.duration)
+    finally:
+        if view is not None:
+            stop_view(view)
     print_summary(summary, sys.stdout)
     return 0

@@ -9,13 +9,15 @@ from pathlib import Path
 HELP = "watch the running hand live in a browser: plots, state, faults, and an E-stop"
 DESCRIPTION = """\
 Serve a page on 127.0.0.1 (loopback only) that shows the running daemon live: per
-finger the reference, measured and filtered angle, the commanded and measured pressure
+finger the reference, measured and filtered angle (and the simulated hand's true
+angle), the commanded and measured pressure
 and the estimated force, scrolling, about 30 frames a second; the state, the faults and
 the deadline misses; buttons for arm, start, hold, resume, disarm, reset, and an E-stop
 that is always in view.
 
 The view is a process apart from the daemon: it reads the daemon's recording ring
-(shared memory) read-only, so the tick never waits for it, and the signals are there
+(shared memory, at the path the daemon's status gives) read-only, so the tick never
+waits for it, and the signals are there
 while the daemon records (`run --record FILE`, `ctl record-start`, or --record here).
 State, faults and the buttons go through the daemon's control API.
 
@@ -26,6 +28,7 @@ carries it (after the #, which the browser never sends to a server). Examples:
     hand-service run --tcp-port 0 --record ~/.local/share/hand-service/recordings/run.csv &
     hand-service view                     # prints http://127.0.0.1:PORT/#token=...
     hand-service view --port 8017 --open  # a fixed port, and open the browser
+    hand-service run --view --record FILE.csv   # the daemon and its view in one command
 """
 
 
@@ -45,19 +48,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "its recording directory) and stop it when the view ends")
     parser.add_argument("--open", action="store_true", help="open the page in the default browser")
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    parser.add_argument("--with-daemon", type=int, metavar="PID",
+                        help="also stop when process PID ends (`run --view` starts the view so, "
+                             "with the daemon's pid)")
 
 
 def main(args: argparse.Namespace) -> int:
     from hand_service.commands import checks
     from hand_service.errors import UserError
     from hand_service.view.app import ViewOptions, serve
+    from hand_service.view.beside import leave_realtime
 
     checks.tcp_port(args.tcp_port)
     checks.tcp_port(args.port, "--port", allow_any=True)
     checks.positive(args.duration, "--duration")
+    if args.with_daemon is not None and args.with_daemon <= 0:
+        raise UserError(f"--with-daemon must be a process id, not {args.with_daemon}")
+    leave_realtime()  # started by run --view after the daemon took SCHED_FIFO
     if args.record is not None and args.record.exists():
         raise UserError(f"{args.record}: exists already; a recording never overwrites one")
     options = ViewOptions(socket_path=args.socket, tcp_port=args.tcp_port, token_file=args.token_file,
                           port=args.port, record=args.record, open_browser=args.open,
-                          duration_s=args.duration)
+                          duration_s=args.duration, with_daemon=args.with_daemon)
     return serve(options, sys.stdout)

@@ -5,7 +5,12 @@ waits on the disk and never shares the GIL with text formatting.
 The CSV is docs/formats.md's multi-finger recording: `t`, `state`, then per finger the
 suffixed columns angle_ref_deg, pressure_kpa (commanded), pressure_meas_kpa, angle_deg
 (calibrated, unfiltered), angle_filt_deg, velocity_deg_per_s, force_est_n (the signed
-normal force estimate), force_ref_n, mode and flags, after `#` provenance lines.
+normal force estimate), force_ref_n, mode, flags and angle_true_deg (the simulated hand's
+true angle; NaN from a board), then `#` provenance lines.
+
+The ring keeps its name while the recording runs (status()["ring_path"], mode 0600), so
+that the live view opens it read-only; the name goes once the stopped writer is done (it
+drains the last rows first), or with the writer process as it exits (recording_ring).
 
 The ring is allocated in full when a recording starts, so a /dev/shm too small for it is
 a one-line error then (at `run --record`, before the loop; at `record_start`, a refused
@@ -16,6 +21,7 @@ every row pushed and not written counts as lost (recording_failure).
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import logging
 import math
@@ -109,15 +115,17 @@ class Recorder:
         self._closing: list[_Closing] = []
         self.last: dict[str, object] | None = None  # the last finished recording's result
         self.push_tick = self._not_recording_tick
-        self._tick_source: tuple[object, object, np.ndarray] | None = None
+        self._tick_source: tuple[object, object, np.ndarray, object | None] | None = None
         self._c_tick: object | None = None
 
     def bind(self, c_inputs: object, c_outputs: object, sent_kpa: np.ndarray,
-             c_tick: object | None = None) -> None:
+             c_tick: object | None = None, angle_true_deg: object | None = None) -> None:
         """The control step's structs and the sent commands: push_tick(t_s, state) then
         records a tick in one C call (rtcore_ring_push_tick). c_tick: an rtcore_tick struct
-        that pushes its rows itself while a recording runs (rtcore_tick_sim_at)."""
-        self._tick_source = (c_inputs, c_outputs, sent_kpa)
+        that pushes its rows itself while a recording runs (rtcore_tick_sim_at).
+        angle_true_deg: a `double *` to the simulated hand's true angles for push_tick's rows
+        (the simulator's outputs, the sample the tick read); None: NaN (a board)."""
+        self._tick_source = (c_inputs, c_outputs, sent_kpa, angle_true_deg)
         if self._c_tick is not None and self._c_tick is not c_tick:
             Ring.unpublish(self._c_tick)  # the struct bound before pushes no more
         self._c_tick = c_tick
@@ -168,7 +176,6 @@ class Recorder:
                 fl = fcntl.fcntl(self._process.stdin.fileno(), fcntl.F_GETFL)
                 fcntl.fcntl(self._process.stdin.fileno(), fcntl.F_SETFL, fl | os.O_NONBLOCK)
             else:
-                os.unlink(ring_path)
                 self._thread_file = open(path, "a")  # noqa: SIM115 - closed when reaped
                 self._thread = WriterThread(Drainer(ring, self._thread_file, self.fingers,
                                                     self.sync_every_s))
@@ -274,7 +281,8 @@ class Recorder:
                     "closing": self.closing, "last": self.last}
         counts = self._counts()
         return {"active": True, "path": str(self.path), "writer": self.kind,
-                "writer_pid": self.writer_pid, "writer_alive": self._writer_alive(), **counts,
+                "writer_pid": self.writer_pid, "writer_alive": self._writer_alive(),
+                "ring_path": str(self._ring.path), **counts,
                 "failure": self.failure.as_dict() if self.failure else None}  # as check() found it
 
     def status_text(self) -> str:
@@ -333,6 +341,11 @@ class Recorder:
     def _finish(self, closing: _Closing, finished: bool) -> None:
         self._closing.remove(closing)
         ring = closing.ring
+        if finished or closing.thread is not None:
+            # the ring's name goes (the view's reader keeps what it opened); a writer process
+            # still at work may not have opened it yet: it removes the name as it exits
+            with contextlib.suppress(OSError):
+                ring.path.unlink(missing_ok=True)
         failure = closing.failure
         if failure is None and ring.error:  # a write that failed as the writer drained its last rows
             failure = write_error(closing.path, ring, ring.count, None)

@@ -48,9 +48,11 @@ FLUSH_INTERVAL_S = 0.2
 SHUTDOWN_STATE = max(State) + 1
 STATE_NAMES = (*(s.name for s in State), "SHUTDOWN")
 
-# The ring row: t, state, then one block of n_fingers per quantity, in this order.
+# The ring row: t, state, then one block of n_fingers per quantity, in this order
+# (csrc/rtcore_ring.c). angle_true_deg, the simulated hand's true angle (NaN from a board),
+# came last, so that the blocks before it kept their places.
 QUANTITIES = ("angle_ref_deg", "pressure_kpa", "pressure_meas_kpa", "angle_deg", "angle_filt_deg",
-              "velocity_deg_per_s", "force_est_n", "force_ref_n", "mode", "flags")
+              "velocity_deg_per_s", "force_est_n", "force_ref_n", "mode", "flags", "angle_true_deg")
 HEAD = ("t", "state")
 
 
@@ -278,8 +280,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="also fdatasync every S seconds (default: on flush and at the end only)")
     args = parser.parse_args(argv)
     ring = Ring(args.ring)
-    args.ring.unlink(missing_ok=True)  # both ends have it mapped: nothing is left behind
-    return serve(ring, args.csv, args.fingers.split(","), sys.stdin.fileno(), sys.stdout, args.sync_every_s)
+    try:
+        return serve(ring, args.csv, args.fingers.split(","), sys.stdin.fileno(), sys.stdout,
+                     args.sync_every_s)
+    finally:  # the daemon removes the name at stop; this is for a daemon that died
+        args.ring.unlink(missing_ok=True)
 
 
 if __name__ == "__main__":

@@ -7,6 +7,7 @@ import contextlib
 import logging
 import signal
 import threading
+import time
 import webbrowser
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +17,7 @@ from hand_service.api.access import read_token, token_path
 from hand_service.api.client import ApiError
 from hand_service.api.listen import default_socket_path
 from hand_service.errors import UserError
+from hand_service.view.beside import WATCH_S, alive
 from hand_service.view.daemon_link import DaemonLink, LinkOptions
 from hand_service.view.server import ViewServer
 from hand_service.view.stream import Stream
@@ -32,6 +34,7 @@ class ViewOptions:
     record: Path | None = None  # start a recording here if none runs
     open_browser: bool = False
     duration_s: float | None = None
+    with_daemon: int | None = None  # end when this process (the daemon of run --view) ends
 
 
 def daemon_token(options: ViewOptions) -> str:
@@ -53,6 +56,19 @@ def start_recording(link: DaemonLink, record: Path) -> bool:
     except ApiError as exc:
         raise UserError(f"--record {record}: the daemon refused: {exc}") from None
     return True
+
+
+def wait(done: threading.Event, options: ViewOptions) -> None:
+    """Until SIGTERM, --duration, or the daemon of --with-daemon has gone."""
+    if options.with_daemon is None:
+        done.wait(options.duration_s)
+        return
+    end = None if options.duration_s is None else time.monotonic() + options.duration_s
+    while alive(options.with_daemon):
+        left = WATCH_S if end is None else min(WATCH_S, end - time.monotonic())
+        if left <= 0 or done.wait(left):
+            return
+    log.info("view: the daemon (pid %d) has gone", options.with_daemon)
 
 
 def serve(options: ViewOptions, out: TextIO) -> int:
@@ -82,7 +98,7 @@ def serve(options: ViewOptions, out: TextIO) -> int:
         if options.open_browser:
             webbrowser.open(f"{server.url}#token={token}")
         with contextlib.suppress(KeyboardInterrupt):
-            done.wait(options.duration_s)
+            wait(done, options)
     finally:
         signal.signal(signal.SIGTERM, old)
         server.close()

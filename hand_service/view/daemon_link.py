@@ -43,7 +43,7 @@ def brief_status(status: dict[str, Any]) -> dict[str, Any]:
         "last_fault": None if last is None else {k: last.get(k) for k in ("cause", "finger", "detail", "t_s")
                                                  if k in last},
         "recording": {"active": bool(rec.get("active")), "path": rec.get("path"),
-                      "rows": rec.get("rows"), "writer_pid": rec.get("writer_pid")},
+                      "rows": rec.get("rows"), "ring_path": rec.get("ring_path")},
         "fingers": list(status.get("fingers", {})),
     }
 

@@ -27,6 +27,7 @@ SIGNALS: dict[str, str] = {
     "angle_ref_deg": "angle_ref_deg",
     "angle_deg": "angle_deg",  # measured (calibrated, unfiltered)
     "angle_filt_deg": "angle_filt_deg",
+    "angle_true_deg": "angle_true_deg",  # the simulated hand's truth; null from a board
     "pressure_cmd_kpa": "pressure_kpa",
     "pressure_meas_kpa": "pressure_meas_kpa",
     "force_est_n": "force_est_n",

@@ -1,13 +1,12 @@
 """The daemon's recording ring, read from another process, read-only.
 
-The ring (rtcore/ring.py) is a file in /dev/shm that the daemon and its recording writer
-both map; the writer unlinks it as soon as it has mapped it, so no path names it any more.
-The viewer finds it among the writer's mappings (/proc/PID/maps, a `hand-service-ring-`
-file marked deleted) and opens that mapping through /proc/PID/map_files (the file itself;
-root or CAP_CHECKPOINT_RESTORE) or, failing that, reads it through /proc/PID/mem (the
-writer is the viewer's user's process). Either way it only ever reads, with pread(): it
-never writes a byte of the ring, takes no lock and sends the daemon nothing, so the tick
-cannot wait for it. It reads the writer's address space, not the daemon's.
+The ring (rtcore/ring.py) is a file in /dev/shm (or $HAND_SERVICE_RING_DIR), mode 0600,
+that the daemon and its recording writer both map. Its name stays while the recording
+runs and the daemon gives it in its status (`recording.ring_path`), so the view opens it
+read-only (O_RDONLY) by that path, as the daemon's user. It only ever reads, with
+pread(): it never writes a byte of the ring, takes no lock and sends the daemon nothing,
+so the tick cannot wait for it. A recording that stops removes the name; the view's open
+file stays readable (the rows no longer advance) until the next status tells it so.
 
 A row is trusted as the recording writer trusts it (rtcore/ring.py): only the last
 capacity - 1 rows below a count read after the copy.
@@ -18,72 +17,29 @@ from __future__ import annotations
 import contextlib
 import os
 import struct
-from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 RING_MAGIC = 0x48414E4452494E47  # "HANDRING", rtcore/ring.py MAGIC
 HEADER_INT64 = 8  # [magic, n_cols, capacity, count, drained, lost, error, failed_at]
 COUNT_AT = 3
-RING_NAME = "hand-service-ring-"
 
 
 class RingGone(Exception):
-    """The ring cannot be read (no writer, a recording that stopped, no permission)."""
-
-
-@dataclass
-class RingMapping:
-    """Where the ring lies in the writer process: a file to pread and the ring's offset in it."""
-
-    fd: int
-    base: int  # byte offset of the ring's header in fd
-    how: str  # "map_files" or "mem"
-
-
-def find_mapping(pid: int) -> tuple[int, int]:
-    """(start, end) addresses of the ring's mapping in process `pid`; RingGone if it has none."""
-    try:
-        with open(f"/proc/{pid}/maps", encoding="ascii", errors="replace") as maps:
-            for line in maps:
-                fields = line.split(maxsplit=5)
-                if len(fields) == 6 and RING_NAME in fields[5] and fields[1].endswith("s"):
-                    start, end = (int(a, 16) for a in fields[0].split("-"))
-                    return start, end
-    except OSError as exc:
-        raise RingGone(f"cannot read the mappings of the recording writer (pid {pid}): "
-                       f"{exc.strerror or exc}") from None
-    raise RingGone(f"the recording writer (pid {pid}) has no ring mapped")
-
-
-WAYS = ("map_files", "mem")
-
-
-def open_mapping(pid: int, ways: tuple[str, ...] = WAYS) -> RingMapping:
-    """The ring of writer `pid`, opened read-only the first of `ways` that works; RingGone
-    with the reason if none does."""
-    start, end = find_mapping(pid)
-    if "map_files" in ways:
-        with contextlib.suppress(OSError):
-            fd = os.open(f"/proc/{pid}/map_files/{start:x}-{end:x}", os.O_RDONLY | os.O_CLOEXEC)
-            return RingMapping(fd, 0, "map_files")
-    if "mem" not in ways:
-        raise RingGone(f"cannot open the ring's mapping of the recording writer (pid {pid})")
-    try:
-        fd = os.open(f"/proc/{pid}/mem", os.O_RDONLY | os.O_CLOEXEC)
-    except OSError as exc:
-        raise RingGone(f"cannot read the recording writer's memory (pid {pid}): "
-                       f"{exc.strerror or exc}") from None
-    return RingMapping(fd, start, "mem")
+    """The ring cannot be read (no recording, a recording that stopped, no permission)."""
 
 
 class RingTap:
     """The rows the daemon pushes, read as they come: read_new() returns the rows pushed
     since the last call (at most the ring's trusted window)."""
 
-    def __init__(self, pid: int, ways: tuple[str, ...] = WAYS) -> None:
-        self.pid = pid
-        self.mapping = open_mapping(pid, ways)
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        try:
+            self.fd = os.open(self.path, os.O_RDONLY | os.O_CLOEXEC | os.O_NOFOLLOW)
+        except OSError as exc:
+            raise RingGone(f"cannot open the recording ring {self.path}: {exc.strerror or exc}") from None
         try:
             header = self._header()
         except RingGone:
@@ -91,21 +47,21 @@ class RingTap:
             raise
         if header[0] != RING_MAGIC:
             self.close()
-            raise RingGone(f"the mapping of pid {pid} is not a recording ring")
+            raise RingGone(f"{self.path} is not a recording ring")
         self.n_cols, self.capacity = int(header[1]), int(header[2])
         if not (self.n_cols > 2 and self.capacity > 1):
             self.close()
-            raise RingGone(f"the ring of pid {pid} has {self.n_cols} columns and {self.capacity} rows")
+            raise RingGone(f"the ring {self.path} has {self.n_cols} columns and {self.capacity} rows")
         self.next_row = int(header[COUNT_AT])  # from now on: the view shows what comes
         self.rows_missed = 0  # overwritten before the view read them (it fell a ring behind)
 
     def _pread(self, size: int, offset: int) -> bytes:
         try:
-            data = os.pread(self.mapping.fd, size, self.mapping.base + offset)
-        except OSError as exc:  # the writer exited and its memory went with it
-            raise RingGone(f"the ring of pid {self.pid} is gone: {exc.strerror or exc}") from None
+            data = os.pread(self.fd, size, offset)
+        except OSError as exc:
+            raise RingGone(f"cannot read the ring {self.path}: {exc.strerror or exc}") from None
         if len(data) != size:
-            raise RingGone(f"the ring of pid {self.pid} is gone (short read)")
+            raise RingGone(f"the ring {self.path} is shorter than its header says")
         return data
 
     def _header(self) -> tuple[int, ...]:
@@ -150,7 +106,7 @@ class RingTap:
 
     def close(self) -> None:
         with contextlib.suppress(OSError):
-            os.close(self.mapping.fd)
+            os.close(self.fd)
 
 
-__all__ = ["WAYS", "RingGone", "RingMapping", "RingTap", "find_mapping", "open_mapping"]
+__all__ = ["RingGone", "RingTap"]

@@ -118,21 +118,20 @@ class Stream:
             self._detach()
             return
         rec, rate_hz = self.status["recording"], self.status["rate_hz"]
-        pid = rec["writer_pid"] if rec["active"] else None
-        if pid is None:
+        path = rec["ring_path"] if rec["active"] else None
+        if path is None:
             self._detach()
             self.ring_note = NOT_RECORDING
             return
-        if self._tap is not None and self._tap.pid == pid:
+        if self._tap is not None and str(self._tap.path) == path:
             return
         self._detach()
         try:
-            self._tap = RingTap(int(pid))
+            self._tap = RingTap(path)
             self._maker = FrameMaker(self.status["fingers"], float(rate_hz))
             self._max_rows = max(1, int(MAX_BEHIND_S * float(rate_hz)))
             self.ring_note = None
-            log.info("view: reading the ring of the recording writer (pid %s, %s)", pid,
-                     self._tap.mapping.how)
+            log.info("view: reading the recording ring %s", path)
         except RingGone as exc:
             self.ring_note = str(exc)
 

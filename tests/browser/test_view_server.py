@@ -118,13 +118,14 @@ def test_the_view_opens_the_ring_by_the_path_in_the_status(tmp_path: Path) -> No
             rows, first = tap.read_new()
             assert rows.shape[1] == len(HEAD) + len(QUANTITIES) * len(FINGERS)
             assert rows.shape[0] >= 10 and first == tap.next_row - rows.shape[0]
-            assert np.allclose(np.diff(rows[:, 0]), 0.01, atol=1e-6)
+            steps = np.diff(rows[:, 0]) / 0.01  # one tick, or more where a loaded machine skipped one
+            assert np.allclose(steps, np.round(steps), atol=1e-4) and (np.round(steps) >= 1).all()
             true_at = len(HEAD) + QUANTITIES.index("angle_true_deg") * len(FINGERS)
             assert np.isfinite(rows[:, true_at:true_at + len(FINGERS)]).all()
             time.sleep(0.2)
             more, first_more = tap.read_new()
-            assert first_more == first + rows.shape[0]  # no seam
-            assert more[0, 0] == pytest.approx(rows[-1, 0] + 0.01)
+            assert first_more == first + rows.shape[0]  # no seam: the next row pushed
+            assert more[0, 0] > rows[-1, 0]
         finally:
             tap.close()
         hand.record_stop()

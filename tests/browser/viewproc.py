@@ -97,6 +97,41 @@ class ViewProcess:
             self.proc.stdout.close()
 
 
+class LinkedView(ViewProcess):
+    """The view a `run --view` daemon started: its link read from the daemon's stdout."""
+
+    def __init__(self, daemon: DaemonProcess, timeout_s: float = 30.0) -> None:
+        assert daemon.proc.stdout is not None
+        end = time.monotonic() + timeout_s
+        line = ""
+        while not line.startswith("view: open http://127.0.0.1:"):
+            ready, _, _ = select.select([daemon.proc.stdout], [], [], max(0.0, end - time.monotonic()))
+            assert ready, ("no link from the view", daemon.stderr.read_text()[-2000:])
+            line = daemon.proc.stdout.readline()
+            assert line, ("the daemon's stdout ended", daemon.stderr.read_text()[-2000:])
+        self.url, self.token = line.split()[-1].split("#token=")
+        self.port = int(self.url.rsplit(":", 1)[1].strip("/"))
+        self.pid = next(pid for pid in children(daemon.proc.pid)
+                        if b"view" in Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0"))
+
+
+def children(pid: int) -> list[int]:
+    """The child processes of `pid` (Linux, /proc/PID/task/*/children)."""
+    found: list[int] = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        with contextlib.suppress(OSError):
+            found += [int(c) for c in (task / "children").read_text().split()]
+    return found
+
+
+def gone(pid: int) -> bool:
+    """No such process, or a zombie waiting for a parent that is not this test."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True
+
+
 class DeployedDaemon(DaemonProcess):
     """As DaemonProcess, with SCHED_FIFO and mlockall when permitted, as deployed."""
 

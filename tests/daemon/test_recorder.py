@@ -16,7 +16,7 @@ import rtcore
 from hand_service.config.profile import load_profile
 from hand_service.errors import UserError
 from hand_service.service.recorder import Recorder
-from hand_service.service.recorder_writer import Drainer
+from hand_service.service.recorder_writer import Drainer, ring_columns
 from tests.daemon.process import wait_for
 
 
@@ -121,7 +121,7 @@ def test_the_writer_syncs_on_request_and_periodically_only_when_asked(
 
     synced: list[int] = []
     monkeypatch.setattr(os, "fdatasync", synced.append)
-    ring = Ring(tmp_path / "ring", 2 + 10 * 5, 16)
+    ring = Ring(tmp_path / "ring", ring_columns(5), 16)
     with open(tmp_path / "out.csv", "w") as out:
         plain = Drainer(ring, out, load_profile().finger_names)
         plain._last_sync -= 100.0  # long ago
@@ -164,7 +164,7 @@ def test_the_thread_writer_syncs_when_flushed(tmp_path: Path, monkeypatch: pytes
 
     synced: list[int] = []
     monkeypatch.setattr(os, "fdatasync", synced.append)
-    ring = Ring(tmp_path / "ring", 2 + 10 * 5, 16)
+    ring = Ring(tmp_path / "ring", ring_columns(5), 16)
     with open(tmp_path / "out.csv", "w") as out:
         writer = WriterThread(Drainer(ring, out, load_profile().finger_names))
         try:
@@ -174,3 +174,83 @@ def test_the_thread_writer_syncs_when_flushed(tmp_path: Path, monkeypatch: pytes
             writer.request_stop()
             assert writer.join(5.0)
     ring.close()
+
+
+def test_the_simulated_hands_true_angle_is_recorded_beside_the_measured_one(tmp_path: Path) -> None:
+    """angle_true_deg_<f> is the simulator's angle at the sample the tick read: the measured
+    angle differs from it by the sensor's noise (and its ADC step), no more, with no lag."""
+    from hand_service.bench.tick import sweep_trajectory
+    from hand_service.recording import read_recording
+    from hand_service.service.states import Event, State
+    from hand_service.service.supervisor import Supervisor
+    from hand_service.transports import transport_class
+    from rtcore import clock
+
+    profile = load_profile()
+    rate_hz = profile.control.rate_hz
+    rec = Recorder(profile.finger_names, rate_hz, kind="thread")
+    sup = Supervisor(profile, transport_class("sim")(profile), rec)
+    path = tmp_path / "truth.csv"
+    rec.start(path, {"test": "true angle"})
+    sup.set_trajectory(sweep_trajectory(len(profile.fingers), rate_hz), loop=True)
+    sup.schedule = schedule = clock.Schedule(sup.period_ns)
+    try:
+        while sup.state is not State.DISARMED:
+            assert schedule.index < 50, sup.state
+            sup.run_one(schedule)
+        sup.fire(Event.ARM)
+        sup.fire(Event.START)
+        for _ in range(round(3.0 * rate_hz)):
+            sup.run_one(schedule)
+    finally:
+        sup.request_stop("test done")
+        sup.shutdown()
+    noise_deg = profile.simulation["sensor_noise_deg"]
+    for finger in profile.finger_names:
+        r = read_recording(path, finger=finger)
+        running = np.array([s == "RUNNING" for s in r.text_columns["state"]])
+        measured, true = r.angle_deg[running], r.columns["angle_true_deg"][running]
+        assert running.sum() >= 2.5 * rate_hz
+        # every row, the ones Python pushes too (INIT, the shutdown's): the simulator's truth
+        assert np.isfinite(r.columns["angle_true_deg"]).all() and r.text_columns["state"][-1] == "SHUTDOWN"
+        assert np.ptp(true) > 20.0, finger  # the sweep moves it: a column of zeros would not do
+        error = measured - true
+        assert abs(error.mean()) < 0.1 and 0.8 * noise_deg < error.std() < 1.25 * noise_deg, (
+            finger, error.mean(), error.std())
+
+
+@pytest.mark.parametrize("kind", ["thread", "process"])
+def test_the_ring_keeps_its_name_while_recording_and_a_dead_daemons_ring_goes(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kind: str) -> None:
+    """status()["ring_path"] names the ring (0600) while the recording runs, for the live
+    view; stop() removes the name. A ring whose daemon is gone (both it and its writer were
+    killed) is removed when this user's next recording allocates its own."""
+    import subprocess
+    import sys
+
+    from hand_service.service.recording_ring import RING_DIR_ENV, RING_PREFIX
+
+    monkeypatch.setenv(RING_DIR_ENV, str(tmp_path))
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()
+    stale = tmp_path / f"{RING_PREFIX}{gone.pid}-left"
+    alive = tmp_path / f"{RING_PREFIX}{os.getppid()}-other"  # a live daemon's: kept
+    stale.write_bytes(b"x")
+    alive.write_bytes(b"x")
+    profile = load_profile()
+    hand = rtcore.Hand(profile.hand_config())
+    rec = Recorder(profile.finger_names, 100.0, kind=kind)
+    rec.bind(hand.c_inputs, hand.c_outputs, np.zeros(len(profile.fingers)))
+    rec.start(tmp_path / "rec.csv", {})
+    try:
+        ring = Path(str(rec.status()["ring_path"]))
+        assert ring.parent == tmp_path and ring.name.startswith(f"{RING_PREFIX}{os.getpid()}-")
+        assert ring.stat().st_mode & 0o777 == 0o600
+        assert not stale.exists() and alive.exists()
+        for k in range(5):
+            rec.push_tick(k / 100, 3)
+        rec.stop(wait_s=5.0)
+        assert not ring.exists()
+    finally:
+        rec.close(wait_s=5.0)
+    assert rec.last is not None and rec.last["rows_written"] == 5

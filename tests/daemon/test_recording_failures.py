@@ -26,7 +26,7 @@ from hand_service.config.recording import RecordingSettings
 from hand_service.errors import UserError
 from hand_service.service.daemon import Daemon, DaemonOptions
 from hand_service.service.recorder import WRITER_CHECK_S
-from hand_service.service.recorder_writer import FLUSH_INTERVAL_S
+from hand_service.service.recorder_writer import FLUSH_INTERVAL_S, ring_columns
 from hand_service.service.recording_ring import RING_DIR_ENV
 from hand_service.transports import transport_class
 from rtcore.ring import Ring
@@ -146,7 +146,7 @@ def _check_counts(hand: HandClient, path: Path, running: Running) -> dict[str, A
     """record_stop's counts are final and exact: rows_written is the rows in the file and
     rows_lost every other row pushed; `last` says the same once the writer is reaped."""
     stopped = hand.record_stop()
-    in_file = _data_rows(path, 2 + 10 * len(running.daemon.sup.names))
+    in_file = _data_rows(path, ring_columns(len(running.daemon.sup.names)))
     assert stopped["rows_written"] == in_file > 0
     assert stopped["rows_lost"] == stopped["rows"] - in_file > 0
     last = wait_for(lambda: hand.status()["recording"]["last"], 10.0, "the writer's end")
@@ -244,7 +244,7 @@ def test_the_ring_is_allocated_when_it_is_made(tmp_path: Path) -> None:
 
 def test_a_small_ring_dir_refuses_run_record_before_the_loop(
         tmp_path: Path, tmpfs: Callable[[str, int], Path]) -> None:
-    shm = tmpfs("shm", 64)  # the ring of five fingers at 100 Hz takes 416 KiB
+    shm = tmpfs("shm", 64)  # the ring of five fingers at 100 Hz takes 456 KiB
     record = tmp_path / "run.csv"
     done = subprocess.run(
         [sys.executable, "-m", "hand_service.cli", "run", "--no-realtime", "--status", "off",
@@ -252,7 +252,7 @@ def test_a_small_ring_dir_refuses_run_record_before_the_loop(
         capture_output=True, text=True, timeout=60, env={**os.environ, RING_DIR_ENV: str(shm)})
     assert done.returncode == 2, done.stderr  # not -SIGBUS, not a traceback
     lines = done.stderr.strip().splitlines()
-    assert lines[-1] == (f"hand-service run: error: cannot allocate the recording ring (416 KiB, 10 s "
+    assert lines[-1] == (f"hand-service run: error: cannot allocate the recording ring (456 KiB, 10 s "
                          f"of rows) in {shm}: No space left on device; free space there or set "
                          f"{RING_DIR_ENV} to a directory with room")
     assert "Traceback" not in done.stderr and "handshake" not in done.stderr  # the loop never ran
@@ -268,7 +268,7 @@ def test_a_small_ring_dir_refuses_record_start(
     running = start_daemon(_profile("warning"), tmp_path)
     with HandClient(running.socket) as hand:
         running.running(hand)
-        with pytest.raises(ApiError, match=r"^cannot allocate the recording ring \(416 "
+        with pytest.raises(ApiError, match=r"^cannot allocate the recording ring \(456 "
                                            r"KiB, 10 s of rows\) in .*: No space left on device; free"):
             hand.record_start(tmp_path / "run.csv")
         status = hand.status()

@@ -12,6 +12,7 @@ import numpy as np
 import rtcore
 from hand_service.config.profile import load_profile
 from hand_service.service.recorder_writer import HEAD, QUANTITIES, Drainer
+from rtcore._rtcore import ffi
 from rtcore.ring import Ring
 
 
@@ -20,8 +21,10 @@ def test_push_tick_matches_the_writer_layout(tmp_path: Path) -> None:
     hand = rtcore.Hand(profile.hand_config())
     n = len(profile.fingers)
     sent = np.arange(n) + 100.0
+    truth = np.arange(n) + 20.5  # the simulated hand's true angles
     ring = Ring(tmp_path / "ring", len(HEAD) + len(QUANTITIES) * n, 16)
-    push_tick = ring.tick_pusher(n, hand.c_inputs, hand.c_outputs, sent)
+    push_tick = ring.tick_pusher(n, hand.c_inputs, hand.c_outputs, sent,
+                                 ffi.cast("double *", ffi.from_buffer(truth)))
     hand.inputs.mode[:] = rtcore.MODE_POSITION
     hand.inputs.sensor_mv[:] = 900.0 + np.arange(n)
     hand.inputs.pressure_meas_kpa[:] = 50.0 + np.arange(n)
@@ -36,7 +39,7 @@ def test_push_tick_matches_the_writer_layout(tmp_path: Path) -> None:
         "pressure_meas_kpa": hand.inputs.pressure_meas_kpa, "angle_deg": hand.outputs.angle_deg,
         "angle_filt_deg": hand.outputs.angle_filt_deg, "velocity_deg_per_s": hand.outputs.velocity_deg_per_s,
         "force_est_n": hand.outputs.force_normal_n, "force_ref_n": hand.inputs.force_ref_n,
-        "mode": hand.inputs.mode, "flags": hand.outputs.flags,
+        "mode": hand.inputs.mode, "flags": hand.outputs.flags, "angle_true_deg": truth,
     }
     assert set(expected) == set(QUANTITIES)
     for k, name in enumerate(QUANTITIES):

@@ -11,7 +11,7 @@ from tests.daemon.process import DaemonProcess, wait_for
 # every column of the daemon's recording per finger, with the unit docs/formats.md §1.3 gives it
 DAEMON_UNITS = {"angle_ref_deg": "deg", "pressure_kpa": "kPa", "pressure_meas_kpa": "kPa",
                 "angle_deg": "deg", "angle_filt_deg": "deg", "velocity_deg_per_s": "deg/s",
-                "force_est_n": "N", "force_ref_n": "N", "mode": "", "flags": ""}
+                "force_est_n": "N", "force_ref_n": "N", "mode": "", "flags": "", "angle_true_deg": "deg"}
 
 
 def record_daemon(tmp: Path, running_s: float = 1.5) -> Path:

@@ -11,7 +11,8 @@ const PLOTS = [  // per finger: a plot per quantity, its series (wire name, labe
   {key: "angle", unit: "deg", series: [
     ["angle_ref_deg", "reference", "#555", [6, 4]],
     ["angle_filt_deg", "filtered", "#ff7f0e", null, 2.5],
-    ["angle_deg", "measured", "#1f77b4", null, 1]]},
+    ["angle_deg", "measured", "#1f77b4", null, 1],
+    ["angle_true_deg", "true (simulated)", "#2ca02c", [2, 3], 1.5]]},
   {key: "pressure", unit: "kPa", series: [
     ["pressure_cmd_kpa", "command", "#9467bd", null],
     ["pressure_meas_kpa", "measured", "#2ca02c", null]]},
