@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from hand_service.api.impedance import impedance_gains
+from hand_service.api.impedance import gain_limits, impedance_gains
 from hand_service.api.paths import confine, new_file_in
 from hand_service.api.redact import trajectory_error
 from hand_service.api.server import Deferred
@@ -247,7 +247,8 @@ class Api:
         fingers = self._fingers(finger)
         if mode not in MODES_BY_NAME:
             raise RequestError(f"mode must be one of {', '.join(MODES_BY_NAME)}, not {show(mode)}")
-        gains = impedance_gains(mode, stiffness_n_per_deg, damping_n_s_per_deg)
+        limits = {self.sup.names[i]: gain_limits(self.sup.profile.fingers[i].model) for i in fingers}
+        gains = impedance_gains(mode, stiffness_n_per_deg, damping_n_s_per_deg, limits)
         self._not_driven(fingers, "mode")
         reply: dict[str, Any] = {"fingers": [self.sup.names[i] for i in fingers], "mode": mode}
         if gains is not None:  # the step holds these inputs (the tick leaves them be)
@@ -282,8 +283,12 @@ class Api:
         array = {"angle_deg": targets.angle_deg, "force_n": targets.force_n,
                  "pressure_kpa": targets.pressure_kpa}[key]
         array[fingers] = value
-        targets.mode[fingers] = mode
-        return {"fingers": [self.sup.names[i] for i in fingers], key: value, "mode": MODE_NAMES[mode]}
+        # an angle is also impedance mode's reference: a finger in impedance stays in it
+        keep = (targets.mode[fingers] == MODE_IMPEDANCE) & (key == "angle_deg")
+        targets.mode[fingers] = np.where(keep, MODE_IMPEDANCE, mode)
+        modes = {self.sup.names[i]: MODE_NAMES[int(targets.mode[i])] for i in fingers}
+        shown: str | dict[str, str] = next(iter(modes.values())) if len(set(modes.values())) == 1 else modes
+        return {"fingers": [self.sup.names[i] for i in fingers], key: value, "mode": shown}
 
     def load_trajectory(self, path: str, loop: bool = False) -> _Loading:
         """Parsed in a worker thread (an hour of trajectory takes seconds, which the loop

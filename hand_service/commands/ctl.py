@@ -65,14 +65,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     mode.add_argument("finger", help="finger name, or all")
     mode.add_argument("mode", choices=["vent", "pressure", "position", "force", "impedance"])
     mode.add_argument("--stiffness", type=float, metavar="N_PER_DEG",
-                      help="impedance: virtual stiffness, N of tip force per deg short of the target angle")
+                      help="impedance: virtual stiffness, N of tip force per deg short of the target angle; "
+                           "0 to the finger's stable limit (0.11 to 0.18 N/deg on sim.yaml; docs/api.md)")
     mode.add_argument("--damping", type=float, metavar="N_S_PER_DEG",
-                      help="impedance: virtual damping, N per deg/s (default 0)")
+                      help="impedance: virtual damping, N per deg/s (default 0; at most about 0.001)")
     target = sub.add_parser("target", help="set a finger's target (its mode follows)",
                             description="set one target; the finger's mode follows it")
     target.add_argument("finger", help="finger name, or all")
     which = target.add_mutually_exclusive_group(required=True)
-    which.add_argument("--angle-deg", type=float, help="position mode, this angle")
+    which.add_argument("--angle-deg", type=float,
+                       help="position mode, this angle (impedance mode: its reference, mode kept)")
     which.add_argument("--force-n", type=float, help="force mode, this signed normal force")
     which.add_argument("--pressure-kpa", type=float, help="pressure mode, this chamber pressure")
     load = sub.add_parser("load", help="load a trajectory CSV (docs/trajectory.md)",
@@ -169,12 +171,14 @@ def show(cmd: str, result: Any) -> str:
 
 
 TARGET_FLAGS = {"angle_deg": "--angle-deg", "force_n": "--force-n", "pressure_kpa": "--pressure-kpa"}
+GAIN_FLAGS = {"stiffness": "--stiffness", "damping": "--damping"}
 
 
 def check(args: argparse.Namespace) -> None:
     """What the command line alone can refuse, in one line: a target that is not a finite
-    number (`nan`, `inf`, `1e400`). Its range is the daemon's profile's: the daemon refuses
-    a target outside it (a negative force, say) and ctl prints that reason (exit 2)."""
+    number (`nan`, `inf`, `1e400`), an impedance gain that is not finite or is negative. The
+    ranges are the daemon's profile's: the daemon refuses a target outside it (a negative
+    force, say) or a gain above the finger's stable limit, and ctl prints that reason (exit 2)."""
     from hand_service.commands import checks
     from hand_service.errors import UserError
 
@@ -185,6 +189,11 @@ def check(args: argparse.Namespace) -> None:
         value = getattr(args, key, None)
         if value is not None and not math.isfinite(value):
             raise UserError(f"{flag} must be a finite number, not {value:g}")
+    for key, flag in GAIN_FLAGS.items():
+        value = getattr(args, key, None)
+        if value is not None and not (math.isfinite(value) and value >= 0.0):
+            raise UserError(f"{flag} must be a finite number, 0 or more, not {value:g} "
+                            "(its upper limit is the finger's: the daemon says it)")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -1,16 +1,27 @@
-"""Impedance mode against a slow push: the finger's measured stiffness and its set value.
+"""Impedance mode in closed loop: its compliance under a slow push, and its stability.
 
 One finger of a profile, the truth's PRBM with its valve lag and dead time, in closed
-loop with the C step in impedance mode about a fixed angle reference. A stiff contact
-(a wall on the force point) comes down on the finger slowly, from beyond the reference
-to well inside it; the measured stiffness is the slope of the true contact force
-against the true angle (N per deg), by least squares, once the wall is ONSET_DEG
-inside the reference (at first contact the force is as small as its noise, and a
-contact that only pushes rectifies that noise into a mean force).
+loop with the C step in impedance mode about an angle reference. The controller's
+finger model is the truth's, or a lab's measured one (`controller`, as the pinch run
+uses: hand_service.identification.measured_hand), so the force estimate is not exact by
+construction.
+
+`slow_push`: a stiff contact (a wall on the force point) comes down on the finger slowly,
+from beyond the reference (80°) to 60° inside it over 40 s; the measured stiffness is the
+slope of the true contact force against the true angle (N per deg), by least squares,
+once the wall is inside the reference by ONSET_DEG and by enough for K times the depth to
+reach ONSET_FORCE_N (near first contact the force is as small as the estimate's noise,
+about 0.14 N from 0.5 kPa of pressure noise, and a contact that only pushes rectifies
+that noise into a mean force, which flattens the slope at a small K).
+
+`free_step`: no contact; the reference steps by STEP_DEG and the finger must settle on it
+(the finger's largest swing from the new reference over the last second).
 """
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +33,8 @@ from hand_service.config.profile import Profile
 WALL_STIFFNESS_N_PER_M = 5000.0
 SUBSTEPS = 10
 ONSET_DEG = 5.0
+ONSET_FORCE_N = 0.25
+STEP_DEG = 10.0
 
 
 @dataclass
@@ -36,34 +49,57 @@ class PushResult:
         return self.measured_stiffness_n_per_deg / self.set_stiffness_n_per_deg - 1.0
 
 
-def slow_push(profile: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
-              reference_deg: float = 40.0, push_deg: float = 20.0, push_s: float = 20.0,
-              seed: int = 1) -> PushResult:
-    f = profile.finger(finger)
-    config = f.rtcore_config(profile.control)
-    hand = rtcore.Hand(rtcore.HandConfig([config], sample_rate_hz=profile.control.rate_hz))
+def miscalibrated(controller: Profile, error_pct: float) -> Profile:
+    """The controller's profile with k up and N down by error_pct %: a calibration error in
+    the direction that biases the force estimate most. At equilibrium N·p = k·θ + r·F, so
+    the estimate is F·(1 − e) − 2·e·k·θ/r and the measured stiffness (K − 4·e·K_max)/(1 − e)
+    (K_max = 0.5·k/(r·180/π), hand_service.api.impedance)."""
+    scale = error_pct / 100.0
+    fingers = [dataclasses.replace(f, model=dataclasses.replace(
+        f.model, stiffness_nm_per_rad=f.model.stiffness_nm_per_rad * (1.0 + scale),
+        pressure_gain_nm_per_kpa=f.model.pressure_gain_nm_per_kpa * (1.0 - scale)))
+        for f in controller.fingers]
+    return dataclasses.replace(controller, fingers=fingers)
+
+
+@dataclass
+class Loop:
+    """Per control tick: the true angle, the true contact force, the chamber pressure."""
+
+    angle_deg: np.ndarray
+    force_n: np.ndarray
+    chamber_kpa: np.ndarray
+
+
+def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
+                duration_s: float, reference_deg: Callable[[float], float],
+                wall_deg: Callable[[float], float | None], seed: int = 1,
+                controller: Profile | None = None) -> Loop:
+    """The truth's finger under the C step in impedance mode, the controller's model from
+    `controller` (default: the truth's); wall_deg(t) is where the wall stands (None: no wall)."""
+    f = truth.finger(finger)
+    config = (controller or truth).finger(finger).rtcore_config(truth.control)
+    hand = rtcore.Hand(rtcore.HandConfig([config], sample_rate_hz=truth.control.rate_hz))
     m = f.model
-    dt_s = 1.0 / (profile.control.rate_hz * SUBSTEPS)
+    rate_hz = truth.control.rate_hz
+    dt_s = 1.0 / (rate_hz * SUBSTEPS)
     tau_s = max(effect_value(m.effects, "valve_lag"), 1e-4)
     delay = round(effect_value(m.effects, "dead_time") / dt_s)
     pipe = np.zeros(delay + 1)
     rng = np.random.default_rng(seed)
-    noise_deg = float(profile.simulation["sensor_noise_deg"])
-    noise_kpa = float(profile.simulation["pressure_noise_kpa"])
+    noise_deg = float(truth.simulation["sensor_noise_deg"])
+    noise_kpa = float(truth.simulation["pressure_noise_kpa"])
     hand.inputs.mode[0] = rtcore.MODE_IMPEDANCE
-    hand.inputs.angle_ref_deg[0] = reference_deg
     hand.inputs.impedance_stiffness_n_per_deg[0] = stiffness_n_per_deg
     hand.inputs.impedance_damping_n_s_per_deg[0] = damping_n_s_per_deg
-    settle_s = 2.0
-    ticks = round((settle_s + push_s + 1.0) * profile.control.rate_hz)
+    ticks = round(duration_s * rate_hz)
     angle = velocity = chamber = 0.0
-    command = 0.0
-    wall_start_deg = reference_deg + 3.0
-    angles, forces = [], []
+    out = Loop(np.zeros(ticks), np.zeros(ticks), np.zeros(ticks))
     for tick in range(ticks):
-        t_s = tick / profile.control.rate_hz
-        progress = min(max((t_s - settle_s) / push_s, 0.0), 1.0)
-        wall_rad = np.radians(wall_start_deg - (push_deg + 3.0) * progress)
+        t_s = tick / rate_hz
+        wall = wall_deg(t_s)
+        wall_rad = None if wall is None else np.radians(wall)
+        hand.inputs.angle_ref_deg[0] = reference_deg(t_s)
         angle_deg = np.degrees(angle) + noise_deg * rng.standard_normal()
         hand.inputs.sensor_mv[0] = (angle_deg - f.sensor_offset_deg) / f.sensor_gain_deg_per_mv
         hand.inputs.pressure_meas_kpa[0] = chamber + noise_kpa * rng.standard_normal()
@@ -74,16 +110,44 @@ def slow_push(profile: Profile, finger: str, stiffness_n_per_deg: float, damping
             pipe[(tick * SUBSTEPS + k) % pipe.size] = command
             delayed = pipe[(tick * SUBSTEPS + k - delay) % pipe.size]
             chamber += (delayed - chamber) * (1.0 - np.exp(-dt_s / tau_s))
-            force = max(WALL_STIFFNESS_N_PER_M * m.lever_arm_m * (angle - wall_rad), 0.0)
+            force = 0.0 if wall_rad is None else max(WALL_STIFFNESS_N_PER_M * m.lever_arm_m
+                                                     * (angle - wall_rad), 0.0)
             torque = (m.pressure_gain_nm_per_kpa * chamber - m.stiffness_nm_per_rad * angle
                       - m.damping_nms_per_rad * velocity - m.lever_arm_m * force)
             velocity += dt_s * torque / m.inertia_kgm2
             angle += dt_s * velocity
-        if np.degrees(wall_rad) < reference_deg - ONSET_DEG and force > 0.0:
-            angles.append(np.degrees(angle))
-            forces.append(force)
-    a, fo = np.array(angles), np.array(forces)
+        out.angle_deg[tick], out.force_n[tick], out.chamber_kpa[tick] = np.degrees(angle), force, chamber
+    return out
+
+
+def slow_push(profile: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
+              reference_deg: float = 80.0, push_deg: float = 60.0, push_s: float = 40.0,
+              seed: int = 1, controller: Profile | None = None) -> PushResult:
+    settle_s = 2.0
+    onset_deg = max(ONSET_DEG, ONSET_FORCE_N / stiffness_n_per_deg) if stiffness_n_per_deg > 0 else ONSET_DEG
+    wall_start_deg = reference_deg + 3.0
+
+    def wall(t_s: float) -> float:
+        progress = min(max((t_s - settle_s) / push_s, 0.0), 1.0)
+        return wall_start_deg - (push_deg + 3.0) * progress
+
+    loop = closed_loop(profile, finger, stiffness_n_per_deg, damping_n_s_per_deg, settle_s + push_s + 1.0,
+                       lambda _: reference_deg, wall, seed, controller)
+    walls = np.array([wall(k / profile.control.rate_hz) for k in range(loop.angle_deg.size)])
+    inside = (walls < reference_deg - onset_deg) & (loop.force_n > 0.0)
+    a, fo = loop.angle_deg[inside], loop.force_n[inside]
     if a.size < 10:
         raise ValueError("the wall never pressed on the finger")
     slope = -np.polyfit(a, fo, 1)[0]  # force rises as the angle falls below the reference
     return PushResult(stiffness_n_per_deg, float(slope), a, fo)
+
+
+def free_step(profile: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
+              reference_deg: float = 40.0, seed: int = 1, controller: Profile | None = None) -> float:
+    """The largest |angle - reference| over the last of 4 s after a STEP_DEG reference step at 1 s
+    (deg): a loop that settles leaves the sensor noise's share; an unstable one swings or runs off."""
+    loop = closed_loop(profile, finger, stiffness_n_per_deg, damping_n_s_per_deg, 5.0,
+                       lambda t: reference_deg + (STEP_DEG if t >= 1.0 else 0.0), lambda _: None, seed,
+                       controller)
+    last = loop.angle_deg[-round(profile.control.rate_hz):]
+    return float(np.max(np.abs(last - (reference_deg + STEP_DEG))))

@@ -15,7 +15,7 @@ from hand_service.pinch.objects import OBJECTS, PinchObject, Placements
 from hand_service.pinch.plant import HELD, OUTCOME_NAMES
 from hand_service.pinch.stats import wilson_interval
 from hand_service.pinch.trials import CONTROLLERS, PAIRS, Cell, Traces, run_cells
-from hand_service.pinch.tuning import Tuned, tune
+from hand_service.pinch.tuning import HAND_RULE, Rule, Tuned, tune
 
 TRACED_TRIALS = 25  # recorded per object and controller, for the figure
 
@@ -67,6 +67,7 @@ class PinchResult:
     seed: int
     tuned: dict[tuple[str, str], Tuned]
     cells: list[CellResult]
+    rule: Rule = HAND_RULE
     # (object, controller): the first trials of the first pair, the same placements for both
     traces: dict[tuple[str, str], list[Traces]] = field(default_factory=dict)
     trace_held: dict[tuple[str, str], list[bool]] = field(default_factory=dict)
@@ -93,23 +94,25 @@ class PinchResult:
                 pooled[f"{controller}/{obj}"] = {"successes": s, "trials": n, "rate": s / n if n else None,
                                                  "wilson95": list(wilson_interval(s, n))}
         return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
-                "tuned": [vars(t) for t in self.tuned.values()], "cells": [c.to_json() for c in self.cells],
+                "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned.values()],
+                "cells": [c.to_json() for c in self.cells],
                 "pooled": pooled}
 
 
 def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int, seed: int,
               progress: Callable[[str], None] | None = None,
               objects: tuple[PinchObject, ...] = OBJECTS,
-              pairs: tuple[tuple[str, str], ...] = PAIRS) -> PinchResult:
+              pairs: tuple[tuple[str, str], ...] = PAIRS, rule: Rule = HAND_RULE) -> PinchResult:
     say = progress or (lambda _: None)
     started = time.perf_counter()
     tune_seed, place_seed, run_seed = (int(s) for s in np.random.SeedSequence([seed, 18]).generate_state(3))
-    say("pinch: tuning each controller's setpoint once per object (thumb and index, centred)")
-    tuned = tune(truth, controller_profile, tune_seed, objects)
+    say(f"pinch: tuning each controller's setpoint once per object (thumb and index, centred; "
+        f"{rule.describe()})")
+    tuned = tune(truth, controller_profile, tune_seed, objects, rule)
     for t in tuned.values():
-        say(f"pinch: {t.obj} {t.controller}: holds from {t.lowest_holding:g} to "
-            f"{t.highest_holding:g} {t.unit}, "
-            f"set to {t.setpoint:g} {t.unit}")
+        low, high, chosen = t.in_own_unit()
+        say(f"pinch: {t.obj} {t.controller}: holds from {low:g} to {high:g} {t.unit}, "
+            f"set to {chosen:g} {t.unit}")
     rng = np.random.default_rng(place_seed)
     placements = {(pair, obj.name): Placements.draw(obj, trials_per_cell, rng)
                   for pair in pairs for obj in objects}
@@ -122,7 +125,7 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
                 if pair == pairs[0]:
                     first = sum(c.n for c in cells)
                     record[(obj.name, controller)] = list(range(first, first + shown))
-                setpoint = tuned[(obj.name, controller)].setpoint
+                setpoint = tuned[(obj.name, controller)].in_own_unit()[2]
                 cells.append(Cell(pair, obj, controller, np.full(trials_per_cell, setpoint),
                                   placements[(pair, obj.name)]))
     total = sum(c.n for c in cells)
@@ -142,4 +145,5 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
                                   held_force))
     traces = {key: [batch.traces[i] for i in rows] for key, rows in record.items()}
     held = {key: [bool(batch.outcome[i] == HELD) for i in rows] for key, rows in record.items()}
-    return PinchResult(trials_per_cell, seed, tuned, results, traces, held, time.perf_counter() - started)
+    return PinchResult(trials_per_cell, seed, tuned, results, rule, traces, held,
+                       time.perf_counter() - started)

@@ -39,7 +39,7 @@ CHIP = PinchObject(
     name="chip", mass_kg=0.002, width_m=0.0015, width_sd_m=0.0002, friction=0.35,
     patch_radius_m=0.003, strip_half_width_m=0.015, edge_radius_m=0.0005,
     vertical_radius_m=math.inf, com_lever_m=0.015, lever_along_lateral=False,
-    inertia_kgm2=0.002 * 0.025**2 / 4.0,
+    inertia_kgm2=0.002 * (0.025**2 / 2.0 + 0.015**2),  # a 50 mm disc about its normal, 15 mm off centre
     break_scale_n=1.58 / math.gamma(1.0 + 1.0 / 4.0), break_modulus=4.0,
 )
 
@@ -49,7 +49,7 @@ SCREWDRIVER = PinchObject(
     name="screwdriver", mass_kg=0.025, width_m=0.012, width_sd_m=0.0, friction=0.8,
     patch_radius_m=0.004, strip_half_width_m=0.05, edge_radius_m=0.006,
     vertical_radius_m=0.006, com_lever_m=0.030, lever_along_lateral=True,
-    inertia_kgm2=0.025 * (0.13**2 / 12.0 + 0.030**2),
+    inertia_kgm2=0.025 * (0.13**2 / 12.0 + 0.030**2),  # a uniform 130 mm rod, 30 mm off its centre
     break_scale_n=math.inf, break_modulus=1.0,
 )
 
@@ -59,7 +59,7 @@ COIN = PinchObject(
     name="coin", mass_kg=0.0078, width_m=0.02425, width_sd_m=0.0, friction=0.5,
     patch_radius_m=0.00119, strip_half_width_m=0.00119, edge_radius_m=0.0002,
     vertical_radius_m=0.02425 / 2.0, com_lever_m=0.0, lever_along_lateral=False,
-    inertia_kgm2=0.0078 * (0.02425 / 2.0) ** 2 / 4.0,
+    inertia_kgm2=0.0078 * (0.02425 / 2.0) ** 2 / 4.0,  # a thin disc about a diameter
     break_scale_n=math.inf, break_modulus=1.0,
 )
 

@@ -62,7 +62,8 @@ def comparison_table(result: PinchResult) -> str:
                         counts[name] = counts.get(name, 0) + k
             failures.append(", ".join(f"{k} {name}" for name, k in sorted(counts.items())) or "none")
         diff = 100.0 * (sf / nf - sp / np_) if nf and np_ else float("nan")
-        setpoints = f"{result.tuned[(obj, 'force')].setpoint:g}; {result.tuned[(obj, 'pressure')].setpoint:g}"
+        setpoints = (f"{result.tuned[(obj, 'force')].setpoint_n:g}; "
+                     f"{result.tuned[(obj, 'pressure')].setpoint_kpa:g}")
         lines.append(_row([PAPER_LABELS[obj], f"{_pct(sf, nf)} {_ci(sf, nf)}",
                            f"{_pct(sp, np_)} {_ci(sp, np_)}",
                            f"{diff:+.1f}",
@@ -73,11 +74,12 @@ def comparison_table(result: PinchResult) -> str:
 
 def tuning_table(result: PinchResult) -> str:
     header = ["object", "controller", "holds from", "to", "set to"]
-    lines = ["### Setpoints tuned once per object (thumb & index, centred placement)", "", _row(header),
-             _row(["---"] * len(header))]
+    lines = [f"### Setpoints tuned once per object (thumb & index, centred; {result.rule.describe()})",
+             "", _row(header), _row(["---"] * len(header))]
     for t in result.tuned.values():
-        lines.append(_row([PAPER_LABELS[t.obj], t.controller, f"{t.lowest_holding:g} {t.unit}",
-                           f"{t.highest_holding:g} {t.unit}", f"{t.setpoint:g} {t.unit}"]))
+        low, high, chosen = t.in_own_unit()
+        lines.append(_row([PAPER_LABELS[t.obj], t.controller, f"{low:g} {t.unit}", f"{high:g} {t.unit}",
+                           f"{chosen:g} {t.unit}"]))
     return "\n".join(lines)
 
 

@@ -13,16 +13,18 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service.config.profile import load_profile
+from hand_service.config.profile import Profile, load_profile
 from hand_service.identification.measured_hand import controller_profile, measure_finger
 from hand_service.pinch.experiment import PinchResult, run_pinch
+from hand_service.pinch.tuning import HAND_RULE, Rule
 from hand_service.replicate.run import check_truth
 
 PAPER_TRIALS_PER_CELL = 10
 
 
-def replicate_pinch(profile: Path | None, seed: int, trials_per_cell: int, trials_per_finger: int,
-                    progress: Callable[[str], None] | None = None) -> PinchResult:
+def measured_controller(profile: Path | None, seed: int, trials_per_finger: int,
+                        progress: Callable[[str], None] | None = None) -> tuple[Profile, Profile]:
+    """(the truth, the controller's profile from the lab's measurement of the simulated hand)."""
     say = progress or (lambda _: None)
     truth = load_profile(profile)
     check_truth(truth)
@@ -37,4 +39,10 @@ def replicate_pinch(profile: Path | None, seed: int, trials_per_cell: int, trial
         say(f"measuring the simulated hand ({trials_per_finger} releases a finger)")
         measured = [measure_finger(f, truth.simulation, Path(scratch), trials_per_finger, seeds[i], say)
                     for i, f in enumerate(truth.fingers)]
-    return run_pinch(truth, controller_profile(truth, measured), trials_per_cell, seed, say)
+    return truth, controller_profile(truth, measured)
+
+
+def replicate_pinch(profile: Path | None, seed: int, trials_per_cell: int, trials_per_finger: int,
+                    progress: Callable[[str], None] | None = None, rule: Rule = HAND_RULE) -> PinchResult:
+    truth, controller = measured_controller(profile, seed, trials_per_finger, progress)
+    return run_pinch(truth, controller, trials_per_cell, seed, progress, rule=rule)

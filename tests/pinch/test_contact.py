@@ -13,7 +13,7 @@ from hand_service.pinch.objects import CHIP, COIN, SCREWDRIVER, Placements
 from hand_service.pinch.plant import HELD, SLIPPED, ObjectArrays, PinchPlant
 from hand_service.pinch.stats import wilson_interval
 from hand_service.pinch.trials import PAIRS, finger_arrays, pair_gap_m
-from hand_service.pinch.tuning import window
+from hand_service.pinch.tuning import Rule, window
 
 
 def plant(truth: Profile, obj: object, placements: Placements) -> PinchPlant:
@@ -88,3 +88,13 @@ def test_tuning_keeps_the_run_of_holding_setpoints_from_the_lowest() -> None:
     setpoints = np.arange(1.0, 9.0)
     assert window(setpoints, np.array([0, 0, 1, 1, 1, 0, 1, 1], dtype=bool)) == (3.0, 5.0)
     assert window(setpoints, np.zeros(8, dtype=bool)) is None
+
+
+def test_the_margin_rule_takes_the_first_step_at_the_margin_and_stays_in_the_window() -> None:
+    rule = Rule("margin", 1.5)
+    assert rule.pick(0.15, 10.0, 0.05) == 0.25  # 0.225 N rounds up to the next 0.05 N step
+    assert rule.pick(44.0, 200.0, 1.0) == 66.0
+    assert rule.pick(67.0, 71.0, 1.0) == 71.0  # 100.5 kPa broke the chip on the tuning trial
+    # the search cap does not move it (the middle rule's answer does)
+    assert rule.pick(0.15, 10.0, 0.05) == rule.pick(0.15, 25.0, 0.05)
+    assert Rule("middle").pick(0.15, 10.0, 0.05) != Rule("middle").pick(0.15, 25.0, 0.05)

@@ -47,21 +47,22 @@ def test_small_run_prints_tables_3_and_4_beside_the_papers(tmp_path: Path,
 @pytest.mark.slow
 def test_large_run_compares_the_controllers_with_confidence(tmp_path: Path,
                                                              capsys: pytest.CaptureFixture[str]) -> None:
-    """200 trials a cell. What the simulation found (docs/replicate.md): force control never
-    worse than constant pressure beyond the intervals (they overlap or force control's lies
-    above), better with confidence on the chip and the coin, by most on the coin."""
+    """200 trials a cell, the setpoints by the margin rule. What the physics gives
+    (docs/replicate.md), not an ordering tuned to the paper's: force control better with
+    confidence on the chip (constant pressure breaks it on the pairs it was not tuned on)
+    and on the coin (the rim's tilt grows with the press); on the screwdriver both hold
+    nearly always, constant pressure by a point or two more (the same margin on the pressure
+    knob is several times the spare force)."""
     data, tables = run(tmp_path, 200, capsys)
     pooled = data["pooled"]
-    margins = {}
     for obj in OBJECT_NAMES:
-        rates = {c: pooled[f"{c}/{obj}"] for c in CONTROLLERS}
-        assert rates["force"]["trials"] == rates["pressure"]["trials"] == 800
         for c in CONTROLLERS:
-            assert rates[c]["wilson95"] == pytest.approx(
-                list(wilson_interval(rates[c]["successes"], rates[c]["trials"])))
-        assert rates["force"]["wilson95"][1] >= rates["pressure"]["wilson95"][0], obj
-        margins[obj] = rates["force"]["rate"] - rates["pressure"]["rate"]
+            rate = pooled[f"{c}/{obj}"]
+            assert rate["trials"] == 800
+            assert rate["wilson95"] == pytest.approx(list(wilson_interval(rate["successes"], rate["trials"])))
     for obj in ("chip", "coin"):
         assert pooled[f"force/{obj}"]["wilson95"][0] > pooled[f"pressure/{obj}"]["wilson95"][1], obj
-    assert max(margins, key=margins.get) == "coin"  # type: ignore[arg-type]
+    force, pressure = pooled["force/screwdriver"]["rate"], pooled["pressure/screwdriver"]["rate"]
+    assert force > 0.95 and pressure > 0.95 and abs(force - pressure) < 0.03
+    assert data["tuning_rule"] == "lowest holding x 1.5"
     assert "### Force control against constant pressure, all pairs pooled" in tables
