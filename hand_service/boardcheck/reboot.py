@@ -40,7 +40,7 @@ def reboot(session: Session, mode: str) -> CheckResult:
         session.link.send(FaultRequest(FaultKind.REBOOT, value=DEBUG_BOOT_MS))
         wait_s = (DEBUG_BOOT_MS + cfg.handshake_timeout_ms) / 1e3
     else:
-        session.progress(f"reset the board now (by its reset button or power); waiting {MANUAL_WAIT_S:g} s")
+        session.tell(f"reset the board now (by its reset button or power); waiting {MANUAL_WAIT_S:g} s")
         wait_s = MANUAL_WAIT_S
     start = time.monotonic()
     got = session.pump(wait_s, until=lambda r: _rebooted(before.uptime_ms, r))

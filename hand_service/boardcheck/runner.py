@@ -40,9 +40,11 @@ class Report:
 def run_checks(link: BoardLink, settings: Settings, reboot_mode: str = "debug",
                progress: Callable[[str], None] = lambda text: None,
                on_result: Callable[[CheckResult], None] = lambda result: None,
-               only: frozenset[str] | None = None) -> Report:
-    """Every check, or the handshake and those named in `only`."""
-    session = Session(link, settings, progress)
+               only: frozenset[str] | None = None,
+               tell: Callable[[str], None] | None = None) -> Report:
+    """Every check, or the handshake and those named in `only`. `progress` hears what is
+    being done; `tell` (default: `progress`) what the user must do (reset the board)."""
+    session = Session(link, settings, progress, tell=tell if tell is not None else progress)
     report = Report(link.description)
     wanted = frozenset(CHECKS) if only is None else only | {"handshake"}
 
@@ -77,6 +79,11 @@ def run_checks(link: BoardLink, settings: Settings, reboot_mode: str = "debug",
         add(reboot.reboot(session, reboot_mode))
     session.command(0.0)
     return report
+
+
+def planned(only: frozenset[str] | None) -> int:
+    """How many checks run_checks reports with this `only` (the handshake always)."""
+    return len(CHECKS) if only is None else len(only | {"handshake"})
 
 
 def parse_only(text: str | None) -> frozenset[str] | None:

@@ -50,6 +50,7 @@ class Session:
     link: BoardLink
     settings: Settings
     progress: Callable[[str], None] = lambda text: None
+    tell: Callable[[str], None] = lambda text: None  # what the user must do: never silenced
     command_sequence: int = 0  # unwrapped, as the host counts; the first command is 1
     sent_s: dict[int, float] = field(default_factory=dict)  # wrapped sequence -> time sent
     log: list[Received] = field(default_factory=list)

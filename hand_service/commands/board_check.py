@@ -33,7 +33,8 @@ The checks command --pressure-kpa (default 20) into every chamber: run it on a h
 may inflate, or with the supply off (then zero-vent is N/A). The rates, times and finger
 count come from --profile (default: serial-v1.yaml, can-v1-slcan.yaml for slcan,
 can-v1-virtual.yaml for virtual, can-v1.yaml for other CAN interfaces). Progress goes to
-stderr. Exit status: 0 if no check failed, 1 if one did, 2 on bad input.
+stderr: a bar on a terminal, a plain line at most every 2 s in a log, nothing with
+--quiet. Exit status: 0 if no check failed, 1 if one did, 2 on bad input.
 
   hand-service board-check /dev/ttyACM0
   hand-service board-check --can slcan:/dev/ttyACM0 --json result.json
@@ -61,14 +62,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run only these checks (and the handshake), e.g. --only watchdog,sequence")
     parser.add_argument("--json", type=Path, default=None, metavar="OUT.json",
                         help="also write the results as JSON ('-': stdout, instead of the lines)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress on stderr (the results and an instruction to reset the board "
+                        "by hand are still printed)")
 
 
 def main(args: argparse.Namespace) -> int:
     import sys
 
     from hand_service.boardcheck.open import open_link, profile_for, settings_for
-    from hand_service.boardcheck.runner import parse_only, run_checks
+    from hand_service.boardcheck.results import CheckResult
+    from hand_service.boardcheck.runner import parse_only, planned, run_checks
     from hand_service.commands import checks
+    from hand_service.commands.progress import Progress
     from hand_service.jsonio import write_json
 
     checks.positive(args.seconds, "--seconds")
@@ -77,11 +83,17 @@ def main(args: argparse.Namespace) -> int:
     settings = settings_for(profile, args.seconds, args.pressure_kpa, args.latency_ms)
     lines = str(args.json) != "-"
     link = open_link(profile, args.port, args.can)
+
+    def result(check: CheckResult) -> None:
+        if lines:
+            progress.write(check.line())  # stdout, below the bar
+        progress.advance()
+
     try:
-        report = run_checks(link, settings, args.reboot,
-                            progress=lambda text: print(f"board-check: {text}", file=sys.stderr, flush=True),
-                            on_result=lambda r: print(r.line(), flush=True) if lines else None,
-                            only=only)
+        with Progress("board-check", total=planned(only), quiet=args.quiet) as progress:
+            report = run_checks(link, settings, args.reboot, progress=progress.say, on_result=result,
+                                tell=lambda text: progress.write(f"board-check: {text}", file=sys.stderr),
+                                only=only)
     finally:
         link.close()
     if lines:

@@ -17,6 +17,11 @@ another format, every column with its unit and the file's `# key: value` metadat
   mcap     MCAP, JSON messages: a channel per finger, /hand/<finger>, one message per row,
            and /hand for t and state (the mcap package; Foxglove Studio opens it)
 
+The recording must have a `t` column of finite, increasing times. Columns whose name
+carries a unit (angle_deg, pressure_kpa, ...) and flags are numbers: a cell that is not
+is refused, naming its line. state, mode and finger are text; any other column with a
+cell that is not a number is written as text, with a warning naming it.
+
 Parquet and MCAP need the optional packages: pip install 'hand-service[export]'.
 The output is the recording's name with the format's extension unless -o says otherwise;
 an existing file is replaced only with --force. Details: docs/formats.md §1.5.
@@ -40,13 +45,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from hand_service.errors import UserError
-    from hand_service.export import FORMATS, export_recording
+    from hand_service.export import FORMATS, check_output, export_recording
     from hand_service.version import software_version
 
     source: Path = args.recording
     if not source.is_file():
         raise UserError(f"{source}: no such recording")
     out: Path = args.output if args.output is not None else source.with_suffix(FORMATS[args.to])
+    check_output(out)
     if out.resolve() == source.resolve():
         raise UserError(f"{out}: the output would replace the recording itself; give another -o")
     if out.exists() and not args.force:

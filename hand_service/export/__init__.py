@@ -10,8 +10,19 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hand_service.errors import UserError
+
 # light: `hand-service export --help` imports this module, not numpy nor the writers
 FORMATS = {"mat": ".mat", "parquet": ".parquet", "mcap": ".mcap"}
+
+
+def check_output(out: Path) -> None:
+    """The output's folder must exist and be a folder: said in one line before any reading."""
+    folder = out.parent
+    if not folder.exists():
+        raise UserError(f"{out}: cannot write: the folder {folder} does not exist")
+    if not folder.is_dir():
+        raise UserError(f"{out}: cannot write: {folder} is not a folder")
 
 
 def export_recording(source: Path, to: str, out: Path | None = None, software: str = "hand-service") -> Path:
@@ -23,6 +34,7 @@ def export_recording(source: Path, to: str, out: Path | None = None, software: s
     from hand_service.export.table import read_table
 
     out = out if out is not None else source.with_suffix(FORMATS[to])
+    check_output(out)
     table = read_table(source)
     if to == "mat":
         return write_mat(table, out)
@@ -31,4 +43,4 @@ def export_recording(source: Path, to: str, out: Path | None = None, software: s
     return write_mcap(table, out, software)
 
 
-__all__ = ["FORMATS", "export_recording"]
+__all__ = ["FORMATS", "check_output", "export_recording"]

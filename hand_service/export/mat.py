@@ -75,8 +75,10 @@ def write_mat(table: Table, out: Path) -> Path:
         metadata.setdefault(matlab_name(key), value)
     variables["metadata"] = metadata
     variables["columns"] = _cell(list(table.columns))
-    try:
-        savemat(out, variables, do_compression=True, oned_as="column")
+    try:  # opened here: given a path it cannot open, savemat reports a misleading reader error
+        stream = open(out, "wb")  # noqa: SIM115 - closed below
     except OSError as exc:
         raise UserError(f"{out}: cannot write: {exc.strerror or exc}") from None
+    with stream:
+        savemat(stream, variables, do_compression=True, oned_as="column")
     return out

@@ -1,13 +1,25 @@
 """A recording CSV as a table of every column, with units, for the exporters.
 
-Unlike `hand_service.recording.read_recording`, which picks one finger and checks the
-columns a tool needs, this keeps every column of the file as it is: numbers as float64
-(or int64 when every cell is an integer, as `flags_<f>` is), other columns as text, in
-the file's order; and the `# key: value` metadata.
+The file is read under the contract every recording reader keeps (docs/formats.md §1.1,
+`hand_service.recording.read_recording`): comments and `# key: value` metadata anywhere,
+the header first, every row as long as the header, a last line cut short by a killed
+writer dropped with a warning, and a `t` column of finite numbers that strictly increase.
+Unlike `read_recording`, which picks one finger and checks the columns a tool needs, this
+keeps every column of the file in its order, and says what each column must hold
+(docs/formats.md §1.5):
+
+- `t`, every column whose name carries a unit (`*_kpa`, `*_deg`, ...) and `flags*` are
+  numbers (NaN and infinity are numbers; `t` must be finite): a cell that is not is an
+  error naming its line and column;
+- `state`, `mode` and `finger` (with or without a `_<finger>` suffix) are text;
+- any other column is numbers if every cell is one, else text, with a warning naming it.
+
+Numbers are float64, or int64 when every cell is an integer (as `flags_<f>` is).
 """
 
 from __future__ import annotations
 
+import logging
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,21 +28,29 @@ import numpy as np
 
 from hand_service.config.textfile import cell_text, read_text
 from hand_service.errors import UserError, where
-from hand_service.export.units import unit_of
-from hand_service.recording import fingers_in
+from hand_service.export.units import TIME_COLUMN, quantity, unit_of
+
+# the reader's own rule for a last line cut short, so that export and every tool agree
+from hand_service.recording import _looks_truncated, fingers_in
+
+log = logging.getLogger(__name__)
 
 _INTEGER = re.compile(r"[+-]?\d+\Z")
+TEXT_QUANTITIES = ("state", "mode", "finger")  # columns of text by definition (docs/formats.md §1.3)
+INTEGER_QUANTITIES = ("flags",)  # numbers with no unit
 
 
 @dataclass
 class Table:
-    """Every column of a recording: `columns` in the file's order, `units` by column name."""
+    """Every column of a recording: `columns` in the file's order, `units` by column name;
+    `guessed_text`: the columns kept as text that the contract does not name as text."""
 
     path: Path
     columns: dict[str, np.ndarray | list[str]]
     units: dict[str, str]
     metadata: dict[str, str] = field(default_factory=dict)
     fingers: list[str] = field(default_factory=list)
+    guessed_text: list[str] = field(default_factory=list)
 
     @property
     def rows(self) -> int:
@@ -47,24 +67,47 @@ def _metadata(line: str, metadata: dict[str, str]) -> None:
         metadata[key.strip()] = value.strip()
 
 
-def _column(cells: list[str]) -> np.ndarray | list[str]:
+def _numbers(cells: list[str]) -> np.ndarray | int:
+    """The cells as int64 or float64, or the index of the first cell that is not a number."""
     if cells and all(_INTEGER.match(c) for c in cells):
         return np.array([int(c) for c in cells], dtype=np.int64)
-    try:
-        return np.array([float(c) for c in cells], dtype=np.float64)
-    except ValueError:
-        return cells
+    values = np.empty(len(cells), dtype=np.float64)
+    for i, cell in enumerate(cells):
+        try:
+            values[i] = float(cell)
+        except ValueError:
+            return i
+    return values
 
 
-def read_table(path: str | Path) -> Table:
-    """Every column of a recording (docs/formats.md §1); bad input is a UserError naming
-    the line."""
-    path = Path(path)
-    text = read_text(path)
+def _kind(name: str, fingers: list[str]) -> str:
+    """"number", "text" or "either" (decided by the cells), by the column's name."""
+    base, _ = quantity(name, fingers)
+    stem = base.split("_", 1)[0]  # `flags_index` in a file that has no `angle_deg_index`
+    if name == TIME_COLUMN or unit_of(name, fingers) or stem in INTEGER_QUANTITIES:
+        return "number"
+    return "text" if stem in TEXT_QUANTITIES else "either"
+
+
+def _check_time(path: Path, t_s: np.ndarray, row_lines: list[int]) -> None:
+    bad = np.flatnonzero(~np.isfinite(t_s))
+    if bad.size:
+        raise UserError(f"{where(path, row_lines[bad[0]], TIME_COLUMN)}: {t_s[bad[0]]} where a finite "
+                        "time is required")
+    steps = np.flatnonzero(np.diff(t_s) <= 0)
+    if steps.size:
+        k = steps[0] + 1
+        raise UserError(f"{where(path, row_lines[k], TIME_COLUMN)}: t = {t_s[k]:g} does not increase "
+                        f"(previous {t_s[k - 1]:g})")
+
+
+def _rows(path: Path) -> tuple[list[str], int, list[list[str]], list[int], dict[str, str]]:
+    text = read_text(path)  # UTF-8 or UTF-16, a byte-order mark dropped, line ends made LF
     header: list[str] | None = None
     header_line = 0
     metadata: dict[str, str] = {}
     rows: list[list[str]] = []
+    row_lines: list[int] = []
     for number, raw in enumerate(text.split("\n"), start=1):
         line = raw.strip()
         if not line:
@@ -76,11 +119,23 @@ def read_table(path: str | Path) -> Table:
         if header is None:
             header, header_line = cells, number
             continue
-        if len(cells) != len(header):
-            raise UserError(f"{where(path, number)}: {len(cells)} fields where the header has {len(header)}")
         rows.append(cells)
+        row_lines.append(number)
     if header is None:
         raise UserError(f"{path}: no header line: not a recording (docs/formats.md §1)")
+    if rows and not text.endswith("\n") and _looks_truncated(rows[-1], rows[-2] if len(rows) > 1 else None,
+                                                             header):
+        log.warning("%s: dropped the truncated last line %d", path, row_lines[-1])
+        rows.pop()
+        row_lines.pop()
+    return header, header_line, rows, row_lines, metadata
+
+
+def read_table(path: str | Path) -> Table:
+    """Every column of a recording (docs/formats.md §1, §1.5); bad input is a UserError
+    naming the file, the line and the column."""
+    path = Path(path)
+    header, header_line, rows, row_lines, metadata = _rows(path)
     seen: set[str] = set()
     for name in header:
         if not name:
@@ -88,9 +143,36 @@ def read_table(path: str | Path) -> Table:
         if name in seen:
             raise UserError(f"{where(path, header_line)}: the column '{cell_text(name)}' appears twice")
         seen.add(name)
+    if TIME_COLUMN not in seen:
+        raise UserError(f"{where(path, header_line)}: no '{TIME_COLUMN}' column: export takes a recording "
+                        f"with a time column (docs/formats.md §1.5)")
+    for cells, number in zip(rows, row_lines, strict=True):
+        if len(cells) != len(header):
+            raise UserError(f"{where(path, number)}: {len(cells)} fields where the header has {len(header)}")
     if not rows:
         raise UserError(f"{path}: no rows after the header")
     fingers = fingers_in(header)
-    columns = {name: _column([r[i] for r in rows]) for i, name in enumerate(header)}
+    columns: dict[str, np.ndarray | list[str]] = {}
+    guessed: list[str] = []  # the text columns the contract does not name as text
+    where_text: list[str] = []  # and their first cell that is not a number
+    for i, name in enumerate(header):
+        cells = [r[i] for r in rows]
+        kind = _kind(name, fingers)
+        values = _numbers(cells) if kind != "text" else 0
+        if kind == "text":
+            columns[name] = cells
+        elif isinstance(values, np.ndarray):
+            columns[name] = values
+        elif kind == "number":
+            raise UserError(f"{where(path, row_lines[values], name)}: not a number: "
+                            f"'{cell_text(cells[values])}'")
+        else:
+            columns[name] = cells
+            guessed.append(name)
+            where_text.append(f"'{cell_text(name)}' (line {row_lines[values]}: '{cell_text(cells[values])}')")
+    _check_time(path, np.asarray(columns[TIME_COLUMN], dtype=np.float64), row_lines)
+    if guessed:
+        log.warning("%s: not numbers, written as text: %s", path, ", ".join(where_text))
     units = {name: unit_of(name, fingers) for name in header}
-    return Table(path=path, columns=columns, units=units, metadata=metadata, fingers=fingers)
+    return Table(path=path, columns=columns, units=units, metadata=metadata, fingers=fingers,
+                 guessed_text=guessed)

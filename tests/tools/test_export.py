@@ -10,8 +10,12 @@ import math
 import sys
 from pathlib import Path
 
+import mcap.reader
 import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
 import pytest
+from scipy.io import loadmat
 
 from hand_service.cli import main
 from hand_service.export.mcap_log import start_ns
@@ -66,7 +70,7 @@ def recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def csv_file(recording: Path) -> tuple[list[str], dict[str, list[str]], dict[str, str]]:
     header, cells, metadata = read_csv(recording)
-    assert len(header) == 2 + 10 * len(FINGERS)
+    assert len(header) == 2 + 11 * len(FINGERS)  # t, state, 11 quantities a finger
     assert {"RUNNING", "DISARMED"} <= set(cells["state"])
     assert "position" in cells["mode_index"] and "force" in cells["mode_thumb"]
     assert "nan" in cells["force_ref_n_index"]
@@ -80,8 +84,6 @@ def export(recording: Path, to: str, out: Path) -> Path:
 
 
 def test_mat_round_trip(recording: Path, csv_file, tmp_path: Path) -> None:
-    from scipy.io import loadmat
-
     header, cells, metadata = csv_file
     mat = loadmat(export(recording, "mat", tmp_path / "run.mat"), squeeze_me=True, chars_as_strings=True)
     assert [str(c) for c in mat["columns"]] == header
@@ -99,7 +101,6 @@ def mat_text(value: object) -> str:
 
 
 def test_parquet_round_trip(recording: Path, csv_file, tmp_path: Path) -> None:
-    pq = pytest.importorskip("pyarrow.parquet")
     header, cells, metadata = csv_file
     table = pq.read_table(export(recording, "parquet", tmp_path / "run.parquet"))
     assert table.column_names == header
@@ -112,10 +113,9 @@ def test_parquet_round_trip(recording: Path, csv_file, tmp_path: Path) -> None:
 
 
 def test_mcap_round_trip(recording: Path, csv_file, tmp_path: Path) -> None:
-    reader_module = pytest.importorskip("mcap.reader")
     header, cells, metadata = csv_file
     with open(export(recording, "mcap", tmp_path / "run.mcap"), "rb") as f:
-        reader = reader_module.make_reader(f)
+        reader = mcap.reader.make_reader(f)
         got: dict[str, list[object]] = {}
         units: dict[str, str] = {}
         times: dict[str, list[int]] = {}
@@ -150,13 +150,12 @@ def test_mcap_round_trip(recording: Path, csv_file, tmp_path: Path) -> None:
 def test_a_one_finger_recording_goes_on_one_channel(tmp_path: Path) -> None:
     """A trials/simulate recording has no finger suffix: every column on /hand, the unit of
     each from its name."""
-    reader_module = pytest.importorskip("mcap.reader")
     t = np.arange(150) / 100.0
     path = tmp_path / "sweep.csv"
     write_recording(path, {"t": t, "pressure_kpa": 50 * t, "angle_deg": 20 * np.sin(t),
                            "sensor_mv": 1000 + t}, {"finger": "index", "trial": "pressure_sweep"})
     with open(export(path, "mcap", tmp_path / "sweep.mcap"), "rb") as f:
-        messages = list(reader_module.make_reader(f).iter_messages())
+        messages = list(mcap.reader.make_reader(f).iter_messages())
     assert len(messages) == 150 and {c.topic for _, c, _ in messages} == {"/hand"}
     _, channel, first = messages[0]
     assert json.loads(channel.metadata["units"]) == {"t": "s", "pressure_kpa": "kPa", "angle_deg": "deg",
@@ -212,7 +211,6 @@ def test_pandas_and_numpy_read_a_daemon_recording_in_one_line(recording: Path, c
     for name in header:
         if name != "state" and not name.startswith("mode_"):
             assert_same_column(name, cells[name], table[name])
-    pd = pytest.importorskip("pandas")
     frame = pd.read_csv(recording, comment="#")
     assert list(frame.columns) == header
     for name in header:
@@ -230,7 +228,6 @@ def test_pandas_and_numpy_read_a_written_recording(tmp_path: Path) -> None:
     assert table.dtype.names == ("t", "pressure_kpa", "angle_deg") and table.shape == (200,)
     np.testing.assert_allclose(table["angle_deg"], 30 * np.exp(-t), rtol=1e-5)
     assert read_recording(path).metadata == {"finger": "index", "sample_rate_hz": "100", "trial": "release"}
-    pd = pytest.importorskip("pandas")
     np.testing.assert_array_equal(pd.read_csv(path, comment="#")["angle_deg"].to_numpy(), table["angle_deg"])
 
 
@@ -249,3 +246,69 @@ def test_a_recording_with_its_metadata_above_the_header_still_reads(tmp_path: Pa
     assert a.metadata == b.metadata == {"finger": "index", "seed": "3"}
     np.testing.assert_array_equal(a.angle_deg, b.angle_deg)
     assert main(["export", str(old), "--to", "mat"]) == 0
+
+
+# bad input: each refused in one line naming the file, the line and the column, before any
+# output is written; what the contract leaves open is said, not guessed silently
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("a,b\n1,2\n", "bad.csv:1: no 't' column: export takes a recording with a time column"),
+    ("t,angle_deg_index,state\n0,1,RUNNING\n0.01,abc,RUNNING\n",
+     "bad.csv:3: column 'angle_deg_index': not a number: 'abc'"),
+    ("t,flags_index\n0,0\n0.01,x\n", "bad.csv:3: column 'flags_index': not a number: 'x'"),
+    ("t,angle_deg\n0,1\nzero,2\n", "bad.csv:3: column 't': not a number: 'zero'"),
+    ("t,angle_deg\n0,1\ninf,2\n", "bad.csv:3: column 't': inf where a finite time is required"),
+    ("t,angle_deg\n0,1\n0.02,2\n0.01,3\n",
+     "bad.csv:4: column 't': t = 0.01 does not increase (previous 0.02)"),
+    ("t,angle_deg\n# finger: index\n", "bad.csv: no rows after the header"),
+])
+@pytest.mark.parametrize("to", ["mat", "parquet", "mcap"])
+def test_a_file_that_is_not_a_recording_is_refused(text: str, message: str, to: str, tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    assert main(["export", str(path), "--to", to]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("hand-service export: error: ") and message in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.csv"]  # nothing written
+
+
+def test_a_missing_output_folder_is_one_line_before_reading(tmp_path: Path,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "r.csv"
+    write_recording(path, {"t": np.arange(3) / 10, "angle_deg": np.zeros(3)})
+    not_a_folder = tmp_path / "file"
+    not_a_folder.write_text("")
+    for to in ("mat", "parquet", "mcap"):
+        assert main(["export", str(path), "--to", to, "-o", str(tmp_path / "none" / f"r.{to}")]) == 2
+        assert main(["export", str(path), "--to", to, "-o", str(not_a_folder / f"r.{to}")]) == 2
+    errors = capsys.readouterr().err.strip().splitlines()
+    assert len(errors) == 6, errors
+    for missing, file in zip(errors[::2], errors[1::2], strict=True):
+        assert missing.endswith(f"cannot write: the folder {tmp_path / 'none'} does not exist"), missing
+        assert file.endswith(f"cannot write: {not_a_folder} is not a folder"), file
+
+
+def test_a_column_of_text_the_contract_does_not_name_is_kept_and_named(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """`state`, `mode_<f>`, `finger` are text by definition and go without a word; another
+    column with a cell that is not a number is written as text, and the warning names it."""
+    path = tmp_path / "notes.csv"
+    path.write_text("t,angle_deg,state,note,gain\n0,1,RUNNING,start,1\n0.01,2,HOLD,2,1.5\n")
+    with caplog.at_level("WARNING", logger="hand_service.export.table"):
+        parquet = export(path, "parquet", tmp_path / "notes.parquet")
+    warnings = [r.getMessage() for r in caplog.records]
+    assert warnings == [f"{path}: not numbers, written as text: 'note' (line 2: 'start')"]
+    table = pq.read_table(parquet)
+    assert table.column("note").to_pylist() == ["start", "2"]
+    assert table.column("state").to_pylist() == ["RUNNING", "HOLD"]
+    assert table.column("gain").to_pylist() == [1.0, 1.5]
+
+
+def test_a_last_line_cut_short_is_dropped_as_every_reader_does(tmp_path: Path) -> None:
+    """A daemon killed mid-write: the cut-off last line is dropped (docs/formats.md §1.1)."""
+    path = tmp_path / "killed.csv"
+    path.write_text("t,angle_deg,pressure_kpa\n0,1,10\n0.01,2,20\n0.02,3,")  # no newline: cut short
+    mat = loadmat(export(path, "mat", tmp_path / "killed.mat"), squeeze_me=True)
+    np.testing.assert_array_equal(mat["angle_deg"], [1.0, 2.0])
