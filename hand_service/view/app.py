@@ -92,11 +92,13 @@ def serve(options: ViewOptions, out: TextIO) -> int:
     try:
         stream.start()
         serving.start()
-        out.write(f"view: open {server.url}#token={token}\n")
+        # the link's code opens one page once; the daemon's token never leaves this process
+        out.write(f"view: open {server.url}#code={server.link_code} (the code opens one page once; "
+                  "after that, give the daemon's API token on the page)\n")
         out.flush()
         log.info("view on %s (loopback only)", server.url)
         if options.open_browser:
-            webbrowser.open(f"{server.url}#token={token}")
+            webbrowser.open(f"{server.url}#code={server.link_code}")
         with contextlib.suppress(KeyboardInterrupt):
             wait(done, options)
     finally:

@@ -88,9 +88,28 @@ class DaemonLink:
         if button not in BUTTONS:
             return {"ok": False, "error": f"unknown button {button!r} (buttons: {', '.join(BUTTONS)})"}
         try:
+            if button == "estop":  # never queued behind a status poll: a connection of its own
+                return {"ok": True, "result": self.request_alone(button)}
             return {"ok": True, "result": self.request(button)}
         except (ApiError, ConnectionError) as exc:
             return {"ok": False, "error": str(exc)}
+
+    def request_alone(self, cmd: str) -> Any:
+        """One request on a connection of its own, outside the lock the polls share."""
+        o = self.options
+        try:
+            client = HandClient(o.socket_path, tcp_port=o.tcp_port, timeout_s=o.timeout_s,
+                                token_file=o.token_file)
+        except (OSError, ValueError) as exc:
+            raise ConnectionError(str(exc)) from None
+        try:
+            return client.request(cmd)
+        except ApiError:
+            raise
+        except (OSError, ValueError) as exc:
+            raise ConnectionError(str(exc)) from None
+        finally:
+            client.close()
 
     def _drop(self) -> None:
         if self._client is not None:

@@ -5,8 +5,10 @@
     GET  /stream            Server-Sent Events, one JSON frame per event    (token)
     GET  /api/check         {"ok": true} when the token is right             (token)
     POST /api/BUTTON        a button: estop, arm, start, hold, resume, disarm, reset  (token)
+    POST /api/session       the link's one-time code (as the bearer) for a session key
 
-The token is the daemon's API token (the file beside its socket), sent by the page as
+The token is the daemon's API token (the file beside its socket), or a session key the
+page got for the printed link's one-time code, sent by the page as
 `Authorization: Bearer <hex>`; a missing or wrong one is answered 401 and nothing else.
 A header, not a cookie: another site's page cannot send it without a CORS preflight,
 which this server never grants. A request whose Host is not this loopback address and
@@ -18,6 +20,7 @@ from __future__ import annotations
 import json
 import logging
 import queue
+import secrets
 import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -32,6 +35,7 @@ log = logging.getLogger(__name__)
 
 LOOPBACK = "127.0.0.1"
 KEEPALIVE_S = 1.0  # a comment line this often on a quiet stream: a closed page is found soon
+MAX_BODY_BYTES = 4096  # a button carries nothing: a longer (or unreadable) length is refused
 STATIC = {  # name -> content type; nothing else is ever served from the package
     "view.js": "text/javascript; charset=utf-8",
     "view.css": "text/css; charset=utf-8",
@@ -58,6 +62,12 @@ class ViewServer(ThreadingHTTPServer):
 
     def __init__(self, stream: Stream, link: DaemonLink, token: str, port: int = 0) -> None:
         self.stream, self.link, self.token = stream, link, token
+        # The printed link carries a one-time code, never the daemon's token: the first page
+        # that shows it gets a session key of its own, and the code is spent (a link left in
+        # a browser's command line, its history or a log opens nothing afterwards).
+        self.link_code: str | None = secrets.token_hex(16)
+        self.sessions: set[str] = set()
+        self._codes = threading.Lock()
         self.closing = threading.Event()
         super().__init__((LOOPBACK, port), _Handler)
         self.port = int(self.server_address[1])
@@ -106,10 +116,30 @@ class _Handler(BaseHTTPRequestHandler):
                      f"{LOOPBACK}:{self.server.port} (the Host header names another)")
         return False
 
-    def _token_ok(self) -> bool:
+    def _bearer(self) -> str | None:
         given = self.headers.get("Authorization", "")
-        token = given[len("Bearer "):].strip() if given.startswith("Bearer ") else None
-        if token_matches(token, self.server.token):
+        return given[len("Bearer "):].strip() if given.startswith("Bearer ") else None
+
+    def _session(self) -> None:
+        """The link's one-time code for a session key (once; then the daemon's token)."""
+        code = self._bearer()
+        with self.server._codes:
+            spent = self.server.link_code is None or not token_matches(code, self.server.link_code)
+            if not spent:
+                self.server.link_code = None
+                key = secrets.token_hex(32)
+                self.server.sessions.add(key)
+        if spent:
+            log.warning("view: refused a link code from %s (wrong, or used already)", self.client_address[0])
+            self._refuse(HTTPStatus.UNAUTHORIZED, "refused: the link's code opens one page once and was "
+                         "used already (or is wrong): give the daemon's API token on the page")
+            return
+        self._json(HTTPStatus.OK, {"ok": True, "session": key})
+
+    def _token_ok(self) -> bool:
+        token = self._bearer()
+        sessions = self.server.sessions
+        if token_matches(token, self.server.token) or any(token_matches(token, s) for s in sessions):
             return True
         log.warning("view: refused %s %s from %s: no valid token", self.command, self.path,
                     self.client_address[0])
@@ -139,12 +169,23 @@ class _Handler(BaseHTTPRequestHandler):
     def do_POST(self) -> None:
         if not self._host_ok():
             return
-        length = int(self.headers.get("Content-Length") or 0)
+        try:
+            length = int(self.headers.get("Content-Length") or 0)
+        except ValueError:
+            length = -1
+        if not 0 <= length <= MAX_BODY_BYTES:
+            self.close_connection = True
+            self._refuse(HTTPStatus.BAD_REQUEST, f"refused: a Content-Length of 0 to {MAX_BODY_BYTES} "
+                         "bytes is expected")
+            return
         if length:
-            self.rfile.read(min(length, 4096))  # a button carries nothing the server reads
+            self.rfile.read(length)  # a button carries nothing the server reads
+        path = self.path.split("?", 1)[0]
+        if path == "/api/session":
+            self._session()
+            return
         if not self._token_ok():
             return
-        path = self.path.split("?", 1)[0]
         button = path[len("/api/"):] if path.startswith("/api/") else ""
         if button not in BUTTONS:
             self._refuse(HTTPStatus.NOT_FOUND, f"no such button: {button[:40]!r} "

@@ -49,9 +49,9 @@ def test_the_page_plots_live_and_its_estop_vents_the_hand(tmp_path: Path) -> Non
                 bypass_csp=True)  # the page's CSP forbids eval; the test evaluates its probes
             try:
                 page = context.new_page()
-                page.goto(f"{view.url}#token={view.token}")
+                page.goto(f"{view.url}#code={view.code}")
                 page.wait_for_function("window.hsView && window.hsView.auth === 'ok'", timeout=20_000)
-                assert "token" not in page.url  # the link's token left the address bar
+                assert "code" not in page.url  # the link's code left the address bar
                 page.wait_for_function("window.hsView.frames > 10 && window.hsView.draws > 5",
                                        timeout=20_000)
                 assert page.locator("section.finger").count() == 5
@@ -83,6 +83,11 @@ def test_the_page_plots_live_and_its_estop_vents_the_hand(tmp_path: Path) -> Non
                 wrong.wait_for_function("document.body.dataset.auth === 'refused'", timeout=20_000)
                 assert "refused" in wrong.locator("#message").inner_text()
                 assert wrong.evaluate("hsView.frames") == 0
+
+                again = context.new_page()  # the link's code was spent by the first page
+                again.goto(f"{view.url}#code={view.code}")
+                again.wait_for_function("!document.getElementById('login').hidden", timeout=20_000)
+                assert again.evaluate("hsView.token") is None and again.evaluate("hsView.frames") == 0
             finally:
                 context.close()
     finally:

@@ -79,7 +79,7 @@ def test_the_view_costs_the_tick_nothing(tmp_path: Path, realtime: bool, reader:
                             bypass_csp=True)
                         try:
                             page = context.new_page()
-                            page.goto(f"{view.url}#token={view.token}")
+                            page.goto(f"{view.url}#code={view.code}")
                             page.wait_for_function("window.hsView.draws > 5", timeout=30_000)
                             results["open"].append(block(hand))
                             assert page.evaluate("hsView.draws") > 100  # it drew all along

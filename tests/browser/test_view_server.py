@@ -50,7 +50,16 @@ def test_the_stream_needs_the_token_and_carries_the_rings_rows(tmp_path: Path) -
     view = None
     try:
         view = ViewProcess(daemon, tmp_path)
-        assert view.token == (tmp_path / "api.token").read_text().strip()  # the daemon's own token
+        # the link carries a one-time code, never the daemon's token: it buys one session key
+        assert view.token not in view.url + view.code
+        assert view.request("POST", "/api/session", "0" * 32)[0] == 401
+        status, reply = view.request("POST", "/api/session", view.code)
+        session = json.loads(reply)["session"]
+        assert status == 200 and session != view.token
+        assert view.request("POST", "/api/session", view.code)[0] == 401  # spent
+        assert view.request("GET", "/api/check", session)[0] == 200
+        for length in ("abc", "-5", "100000"):  # refused before anything is read
+            assert view.request("POST", "/api/estop", view.token, {"Content-Length": length})[0] == 400
         # loopback only: 7F000001 is 127.0.0.1, little-endian in /proc
         assert listening_addresses(view.port) == {"0100007F"}
         status, page = view.request("GET", "/")
@@ -218,7 +227,7 @@ def test_run_view_serves_the_page_beside_the_daemon_and_ends_with_it(tmp_path: P
     try:
         view = LinkedView(daemon)
         views.append(view.pid)
-        assert view.token == (tmp_path / "api.token").read_text().strip()  # --tcp-port 0, implied
+        assert len(view.code) == 32 and view.token not in view.url  # --tcp-port 0, implied
         assert os.sched_getscheduler(view.pid) == os.SCHED_OTHER
         status, page = view.request("GET", "/")
         assert status == 200 and b"E-STOP" in page

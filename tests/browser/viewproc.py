@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from hand_service.api.access import read_token, token_path
 from hand_service.api.client import ApiError, HandClient
 from tests.daemon.process import DaemonProcess
 
@@ -36,6 +37,13 @@ def sweep(hand_socket: Path, stop: threading.Event) -> None:
                 return  # not while ESTOP
 
 
+def link_of(line: str) -> tuple[str, str]:
+    """(url, one-time code) of the view's `view: open URL#code=CODE (...)` line."""
+    link = next(word for word in line.split() if word.startswith("http://"))
+    url, code = link.split("#code=")
+    return url, code
+
+
 class ViewProcess:
     """`hand-service view --socket <daemon's>`; `url` and `token` from its first line."""
 
@@ -49,8 +57,8 @@ class ViewProcess:
         ready, _, _ = select.select([self.proc.stdout], [], [], timeout_s)
         line = self.proc.stdout.readline() if ready else ""
         assert line.startswith("view: open http://127.0.0.1:"), (line, self.stderr.read_text())
-        link = line.split()[-1]
-        self.url, self.token = link.split("#token=")
+        self.url, self.code = link_of(line)
+        self.token = read_token(token_path(daemon.socket))  # the daemon's: the link carries none
         self.port = int(self.url.rsplit(":", 1)[1].strip("/"))
 
     def request(self, method: str, path: str, token: str | None = None,
@@ -109,7 +117,8 @@ class LinkedView(ViewProcess):
             assert ready, ("no link from the view", daemon.stderr.read_text()[-2000:])
             line = daemon.proc.stdout.readline()
             assert line, ("the daemon's stdout ended", daemon.stderr.read_text()[-2000:])
-        self.url, self.token = line.split()[-1].split("#token=")
+        self.url, self.code = link_of(line)
+        self.token = read_token(token_path(daemon.socket))
         self.port = int(self.url.rsplit(":", 1)[1].strip("/"))
         self.pid = next(pid for pid in children(daemon.proc.pid)
                         if b"view" in Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0"))

@@ -39,11 +39,17 @@ function headers() {
   return {"Authorization": "Bearer " + view.token};
 }
 
-function takeToken() {
+async function takeToken() {
   const match = /(?:^#|&)token=([0-9a-fA-F]+)/.exec(location.hash);
+  const code = /(?:^#|&)code=([0-9a-fA-F]+)/.exec(location.hash);
+  history.replaceState(null, "", location.pathname);  // the secret leaves the address bar
   if (match) {
     view.token = match[1];
-    history.replaceState(null, "", location.pathname);  // the token leaves the address bar
+  } else if (code) {  // the printed link's one-time code, for a session key of this page
+    const reply = await fetch("/api/session", {method: "POST", cache: "no-store",
+                                               headers: {"Authorization": "Bearer " + code[1]}});
+    if (reply.ok) view.token = (await reply.json()).session;
+    else message("this link was used already: give the daemon's API token", "refused");
   }
 }
 
@@ -240,7 +246,7 @@ $("login").addEventListener("submit", async (ev) => {
 });
 
 (async () => {
-  takeToken();
+  await takeToken();
   requestAnimationFrame(draw);
   if (!view.token) {
     $("login").hidden = false;
