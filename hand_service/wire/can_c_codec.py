@@ -137,6 +137,7 @@ class CCanCodec(CanCodec):
 
     def reset(self) -> None:
         self.core.reset()
+        self._synced = self.core.counters()  # the stats keep what they counted before
 
     def encode(self, message: Message) -> list[can.Message]:
         m = core.message()
@@ -162,6 +163,13 @@ class CCanCodec(CanCodec):
             self.stats.note(f"{name} frame failed its E2E CRC")
         if now[2] > self._synced[2]:
             self.stats.note(f"{name}: a frame this host cannot read")
+        frames, crc, bad, ignored, incomplete = (n - o for n, o in zip(now, self._synced, strict=True))
         self._synced = now
+        # added, not copied: the link counts into the same stats (an SLCAN line the adapter's
+        # parser cannot read is a decode error the C codec never sees)
         s = self.stats
-        s.frames, s.crc_errors, s.decode_errors, s.ignored, s.incomplete = now
+        s.frames += frames
+        s.crc_errors += crc
+        s.decode_errors += bad
+        s.ignored += ignored
+        s.incomplete += incomplete

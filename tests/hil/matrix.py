@@ -13,6 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -115,6 +116,23 @@ class MatrixHost:
             vent()
 
         self.transport.vent = timed_vent  # type: ignore[method-assign]
+        bus = self.sup._bus_tick  # over can-v1 the tick encodes the vent in C (transports/can_tick.py)
+        if bus is not None:
+            tick, tick_at = bus.tick, bus.tick_at
+
+            def timed_tick(refs: int, vent: bool, *args: Any) -> int:
+                events = tick(refs, vent, *args)
+                if vent:
+                    self.vents_s.append(time.monotonic())
+                return events
+
+            def timed_tick_at(deadline_ns: int, spin_ns: int, refs: int, vent: bool, *args: Any) -> int:
+                events = tick_at(deadline_ns, spin_ns, refs, vent, *args)
+                if vent and events >= 0:
+                    self.vents_s.append(time.monotonic())
+                return events
+
+            bus.tick, bus.tick_at = timed_tick, timed_tick_at
         self.watch: Callable[[], None] | None = None
         self.restarts: list[str] = []  # faults before an injection (the machine's stalls)
         self.sweep = sweep_trajectory(len(rig.profile.fingers), self.sup.rate_hz)
