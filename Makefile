@@ -46,7 +46,7 @@ bench: $(STAMP)
 # the fault matrix (docs/safety.md) on all three links, and a minute of fault-free sweeping on
 # every demo profile, with what each measured (about 6 min; make test runs every kind once)
 test-faults: $(STAMP)
-	$(PY) -m pytest -q -s -p no:cacheprovider -m faults tests/hil/test_fault_matrix.py
+	$(PY) -m pytest -q -s -p no:cacheprovider -m faults tests/hil/test_fault_matrix.py tests/hil/test_valve_board.py
 
 # the HIL suite and the fault matrix against the reference firmware's host build (board/) over
 # serial-v1 and SLCAN, the daemon over it, and host SIGKILL -> vent, 30 trials per link, with

@@ -16,7 +16,8 @@ from hand_service.firmware.rig import Rig
 from tests.boardcheck.conftest import TEST_OPTIONS
 
 
-@pytest.mark.parametrize("link", ["serial", pytest.param("slcan", marks=pytest.mark.boardcheck), "virtual"])
+@pytest.mark.parametrize("link", ["serial", pytest.param("slcan", marks=pytest.mark.boardcheck),
+                                  pytest.param("virtual", marks=pytest.mark.boardcheck)])
 def test_every_check_passes_on_the_mock(link: str, tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     with Rig(link, tmp_path) as rig:

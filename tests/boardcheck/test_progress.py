@@ -32,6 +32,7 @@ def mock_port(tmp_path: Path):
         yield rig.channel
 
 
+@pytest.mark.boardcheck  # 7 s: with make test-boardcheck
 def test_progress_to_a_file_is_plain_lines_and_quiet_silences_it(mock_port: str, tmp_path: Path) -> None:
     status, out, err = board_check(mock_port, tmp_path)
     assert status == 0, out + err

@@ -193,6 +193,7 @@ def test_view_without_a_daemon_is_one_line(tmp_path: Path, capsys: pytest.Captur
     assert "--port must be 0 to 65535" in capsys.readouterr().err
 
 
+@pytest.mark.browser  # with make test-browser: make test keeps the token, stream and E-stop tests
 def test_without_a_recording_the_page_is_told_and_view_record_starts_one(tmp_path: Path) -> None:
     daemon, hand = started_daemon(tmp_path)
     views: list[ViewProcess] = []
@@ -218,6 +219,7 @@ def test_without_a_recording_the_page_is_told_and_view_record_starts_one(tmp_pat
         daemon.close()
 
 
+@pytest.mark.browser  # with make test-browser: make test keeps the token, stream and E-stop tests
 def test_run_view_serves_the_page_beside_the_daemon_and_ends_with_it(tmp_path: Path) -> None:
     """`run --view`: the view is a process of its own under the normal scheduler (the daemon
     as deployed, SCHED_FIFO when permitted), prints its link with the daemon's token,
