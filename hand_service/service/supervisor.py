@@ -203,6 +203,8 @@ class Supervisor:
     def tick(self, woke_ns: int, check_model: bool = True) -> None:
         state = self.machine.state
         if state is State.INIT:
+            if self._bus_tick is not None:
+                self._bus_tick.pause()
             self.handshake()
             self._vent_and_record(self.machine.state)
             return

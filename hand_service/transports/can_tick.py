@@ -48,6 +48,10 @@ class CanTickState:
         self.batch: CanTickCore | None = None
         # the newest command frames for the writer thread: a one-slot handoff, no lock
         self.slot: deque[CommandFrames] = deque(maxlen=1)
+        # whether the tick in C takes the batch: not during the handshake (INIT), when the
+        # reader thread empties it instead, so that the first tick after a reset never reads
+        # frames that waited (a full batch drops the newest: a stale sample, a fault at tick 1)
+        self.taking = False
 
     def bind(self, c_tick: Any) -> CanTickCore:
         self.batch = CanTickCore(self.core, c_tick)
@@ -65,9 +69,14 @@ class CanTickState:
         self.core.forget_last_sample()
 
     def add(self, frame: can.Message, received_s: float) -> None:
-        """A received SensorFinger frame into the next tick's batch (the reader thread)."""
-        if self.batch is not None:
+        """A received SensorFinger frame into the next tick's batch (the reader thread); while
+        the tick does not take it, the batch is emptied instead."""
+        if self.batch is None:
+            return
+        if self.taking:
             self.batch.add(frame.arbitration_id, bytes(frame.data), received_s)
+        else:
+            self.batch.clear()
 
     @property
     def dropped(self) -> int:
@@ -85,6 +94,7 @@ class CanTick:
 
     def __init__(self, state: CanTickState, c_tick: Any, transport: Any) -> None:
         self.transport = transport
+        self._state = state
         self.core = state.bind(c_tick)
         self._slot = state.slot
         self.sequence: int | None = None  # the newest taken sample's, unwrapped (model check)
@@ -101,6 +111,7 @@ class CanTick:
 
     def tick(self, refs: int, vent: bool, missed_last: bool, woke_ns: int) -> int:
         """Decode the batch, control, encode, follow: one C call. Returns the RTCORE_TICK_* bits."""
+        self._state.taking = True
         command = self.transport.next_command_sequence()
         events = self.core.tick(refs, vent, missed_last, woke_ns, command)
         self._took(command)
@@ -110,6 +121,7 @@ class CanTick:
                 times_ns: Any) -> int:
         """Sleep to the deadline and tick, one C call (rtcore_can_tick_at): the RTCORE_TICK_*
         bits, or -1 when a signal woke the sleep (nothing done, no command counted)."""
+        self._state.taking = True
         command = self.transport.command_sequence + 1
         events = self.core.tick_at(deadline_ns, spin_ns, refs, vent, missed_last, command, times_ns)
         if events < 0:
@@ -117,6 +129,10 @@ class CanTick:
         self.transport.next_command_sequence()
         self._took(command)
         return events
+
+    def pause(self) -> None:
+        """The handshake runs in Python: the reader thread empties the batch until the next tick."""
+        self._state.taking = False
 
     def after(self) -> None:
         """Right after the tick: wake the writer to send the frames it encoded."""
