@@ -95,8 +95,21 @@ def _found(sup: Supervisor, events: int, transport_fault: Fault | None, firmware
         sup.fault(sup.gate.follow_fault(sup._ts.follow_result))
 
 
+def _resume(sup: Supervisor) -> None:
+    """The first C tick after the handshake finds its batch empty (the reader emptied it):
+    its inputs start from the newest sample the reader decoded, not from the one before the
+    reset (a fault's NaN pressure, say, read again at tick 1)."""
+    if sup._bus_tick.taking:
+        return
+    sample = sup.transport.latest()
+    if sample is not None:
+        sup.hand.inputs.sensor_mv[:] = sample.sensor_mv
+        sup.hand.inputs.pressure_meas_kpa[:] = sample.pressure_meas_kpa
+
+
 def tick(sup: Supervisor, state: State, woke_ns: int) -> None:
     """The tick in C over the bus, on a wake-up the caller slept to."""
+    _resume(sup)
     faults = _checks(sup, state)
     events = sup._bus_tick.tick(REFS[state], any(faults) or sup.machine.vented, sup._last_missed, woke_ns)
     _found(sup, events, *faults)
@@ -107,6 +120,7 @@ def tick_at(sup: Supervisor, deadline_ns: int, state: State) -> tuple[int, int] 
     """The scheduled tick in C over the bus: the checks, then the sleep and the tick in one
     C call, then what it found and the ring row. Its wake-up and end (ns), or None when a
     signal woke the sleep and the loop is to stop."""
+    _resume(sup)
     faults = _checks(sup, state)
     vent = any(faults) or sup.machine.vented
     times = sup._times_ns

@@ -130,6 +130,10 @@ class CanTick:
         self._took(command)
         return events
 
+    @property
+    def taking(self) -> bool:
+        return self._state.taking
+
     def pause(self) -> None:
         """The handshake runs in Python: the reader thread empties the batch until the next tick."""
         self._state.taking = False
