@@ -104,36 +104,53 @@ def _select_finger(header: list[str], finger: str | None, path: Path, header_lin
     return renamed
 
 
-def read_recording(path: str | Path, finger: str | None = None, required: tuple[str, ...] = REQUIRED,
-                   min_duration_s: float = MIN_DURATION_S) -> Recording:
-    path = Path(path)
+@dataclass
+class CsvLines:
+    """A recording file split into its parts, nothing converted yet."""
+
+    header: list[str] | None  # None: the file has no header line
+    header_line: int
+    metadata: dict[str, str]  # the `# key: value` lines
+    rows: list[list[str]]  # every data row's cells, stripped
+    row_lines: list[int]  # each row's line number in the file
+
+
+def split_lines(path: Path) -> CsvLines:
+    """The `#` metadata, the header and the data rows of a recording (docs/formats.md §1.1):
+    comments anywhere, blank lines skipped, a truncated last line dropped with a warning.
+    The one reader of the CSV's lines, for read_recording and export alike."""
     text = read_text(path)  # UTF-8, a byte-order mark dropped, CRLF and CR line ends made LF
-    lines = text.split("\n")
-    truncated_last = not text.endswith("\n")
-    metadata: dict[str, str] = {}
-    header: list[str] | None = None
-    header_line = 0
-    rows: list[list[str]] = []
-    row_lines: list[int] = []
-    for number, raw in enumerate(lines, start=1):
+    out = CsvLines(None, 0, {}, [], [])
+    for number, raw in enumerate(text.split("\n"), start=1):
         line = raw.strip()
         if not line:
             continue
         if line.startswith("#"):
-            _parse_metadata(line, metadata)
+            _parse_metadata(line, out.metadata)
             continue
         cells = [c.strip() for c in line.split(",")]
-        if header is None:
-            header, header_line = cells, number
+        if out.header is None:
+            out.header, out.header_line = cells, number
             continue
-        rows.append(cells)
-        row_lines.append(number)
+        out.rows.append(cells)
+        out.row_lines.append(number)
+    rows = out.rows
+    if (out.header is not None and rows and not text.endswith("\n")
+            and _looks_truncated(rows[-1], rows[-2] if len(rows) > 1 else None, out.header)):
+        log.warning("%s: dropped the truncated last line %d", path, out.row_lines[-1])
+        rows.pop()
+        out.row_lines.pop()
+    return out
+
+
+def read_recording(path: str | Path, finger: str | None = None, required: tuple[str, ...] = REQUIRED,
+                   min_duration_s: float = MIN_DURATION_S) -> Recording:
+    path = Path(path)
+    lines = split_lines(path)
+    header, header_line, rows, row_lines, metadata = (lines.header, lines.header_line, lines.rows,
+                                                      lines.row_lines, lines.metadata)
     if header is None:
         raise UserError(f"{path}: no header line (expected columns {', '.join(REQUIRED)})")
-    if rows and truncated_last and _looks_truncated(rows[-1], rows[-2] if len(rows) > 1 else None, header):
-        log.warning("%s: dropped the truncated last line %d", path, row_lines[-1])
-        rows.pop()
-        row_lines.pop()
     names = _select_finger(header, finger, path, header_line)
     index = {name: i for i, name in enumerate(names) if not name.startswith("\0")}
     for name in required:

@@ -26,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service.config.textfile import cell_text, read_text
+from hand_service.config.textfile import cell_text
 from hand_service.errors import UserError, where
 from hand_service.export.units import TIME_COLUMN, quantity, unit_of
 
 # the reader's own rule for a last line cut short, so that export and every tool agree
-from hand_service.recording import _looks_truncated, fingers_in
+from hand_service.recording import fingers_in, split_lines
 
 log = logging.getLogger(__name__)
 
@@ -58,13 +58,6 @@ class Table:
 
     def numeric(self, name: str) -> bool:
         return isinstance(self.columns[name], np.ndarray)
-
-
-def _metadata(line: str, metadata: dict[str, str]) -> None:
-    body = line[1:].strip()
-    key, colon, value = body.partition(":")
-    if colon and key.strip() and " " not in key.strip():
-        metadata[key.strip()] = value.strip()
 
 
 def _numbers(cells: list[str]) -> np.ndarray | int:
@@ -102,33 +95,10 @@ def _check_time(path: Path, t_s: np.ndarray, row_lines: list[int]) -> None:
 
 
 def _rows(path: Path) -> tuple[list[str], int, list[list[str]], list[int], dict[str, str]]:
-    text = read_text(path)  # UTF-8 or UTF-16, a byte-order mark dropped, line ends made LF
-    header: list[str] | None = None
-    header_line = 0
-    metadata: dict[str, str] = {}
-    rows: list[list[str]] = []
-    row_lines: list[int] = []
-    for number, raw in enumerate(text.split("\n"), start=1):
-        line = raw.strip()
-        if not line:
-            continue
-        if line.startswith("#"):
-            _metadata(line, metadata)
-            continue
-        cells = [c.strip() for c in line.split(",")]
-        if header is None:
-            header, header_line = cells, number
-            continue
-        rows.append(cells)
-        row_lines.append(number)
-    if header is None:
+    lines = split_lines(path)  # the recording reader's own splitting (comments, a truncated last line)
+    if lines.header is None:
         raise UserError(f"{path}: no header line: not a recording (docs/formats.md §1)")
-    if rows and not text.endswith("\n") and _looks_truncated(rows[-1], rows[-2] if len(rows) > 1 else None,
-                                                             header):
-        log.warning("%s: dropped the truncated last line %d", path, row_lines[-1])
-        rows.pop()
-        row_lines.pop()
-    return header, header_line, rows, row_lines, metadata
+    return lines.header, lines.header_line, lines.rows, lines.row_lines, lines.metadata
 
 
 def read_table(path: str | Path) -> Table:
