@@ -35,6 +35,19 @@ def _max_pressure_kpa(got: list[Received], last: int = 3) -> float:
     return max(finite) if finite else math.nan
 
 
+def _stays_out_of_running(session: Session, states: list[FirmwareState], pressure_kpa: float) -> bool:
+    """Whether the board stays out of `running` while valid commands keep coming. A board that
+    left running for a moment (a late command on a loaded link or host lets its watchdog fire,
+    as it should) and came back is not at fault; if the stretch ends out of running, command
+    `pressure_kpa` for one more stretch and take the board's last word."""
+    if not states or all(s == FirmwareState.RUNNING for s in states):
+        return False
+    if states[-1] == FirmwareState.RUNNING:
+        return False
+    more = [s.state for _, s in statuses(session.pump(HOLD_S, pressure_kpa))]
+    return not more or more[-1] != FirmwareState.RUNNING
+
+
 def _echo_ms(session: Session, got: list[Received], sent: set[int]) -> list[float]:
     """For every command of this stretch (`sent`) that was echoed, the time from sending it to
     the first sample echoing it."""
@@ -73,12 +86,13 @@ def echo(session: Session) -> tuple[CheckResult, float]:
         problems.append(f"a command took {max(delays_ms):.1f} ms to be echoed (limit {limit_ms:.0f} ms)")
     if strangers:
         problems.append(f"command_sequence {strangers[:5]} never sent")
-    if not states or states[-1] != FirmwareState.RUNNING:
-        problems.append(f"state {values['final_state']} while commanded, not running")
     pause_ms = session.longest_pause_ms(before + 1)
     values["longest_host_pause_ms"] = pause_ms
-    if any(s != FirmwareState.RUNNING for s in states[1:]) and pause_ms < cfg.watchdog_ms:
-        problems.append("left running while valid commands kept coming")
+    if not states:
+        problems.append("no Status while commanded")
+    elif (_stays_out_of_running(session, states[1:] or states, cfg.pressure_kpa)
+          and pause_ms < cfg.watchdog_ms):
+        problems.append(f"state {values['final_state']} while valid commands kept coming, not running")
     pressure = "not measured" if math.isnan(reached_kpa) else f"{reached_kpa:.1f} kPa"
     text = (f"{values['echoed']} of {len(sent)} commands echoed (a sample echoes the newest), "
             f"p50 {values['echo_p50_ms'] or math.nan:.1f} ms "
@@ -114,8 +128,9 @@ def zero_vent(session: Session, reached_kpa: float) -> CheckResult:
     problems = []
     if left_kpa > vented_kpa:
         problems.append(f"chambers still at {left_kpa:.1f} kPa after {HOLD_S:g} s of 0 kPa commands")
-    if any(s != FirmwareState.RUNNING for s in states) and session.longest_pause_ms(first) < cfg.watchdog_ms:
-        problems.append("left running on a zero command (0 kPa is a valid command, not a fault)")
+    if _stays_out_of_running(session, states, 0.0) and session.longest_pause_ms(first) < cfg.watchdog_ms:
+        problems.append("left the running state on a zero command and stayed out "
+                        "(0 kPa is a valid setpoint, not a vent request)")
     text = (f"{reached_kpa:.1f} kPa -> {left_kpa:.1f} kPa (vented below {vented_kpa:.1f}) in {HOLD_S:g} s of "
             "0 kPa commands, state running")
     return verdict(name, not problems, "; ".join(problems) or text, **values)

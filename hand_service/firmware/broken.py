@@ -9,6 +9,8 @@ so that `hand-service board-check` can be shown to catch it (tests/boardcheck/).
     SilentRebootFirmware    does not announce itself (VersionInfo) when it boots
     QuietIdleFirmware       sends no samples until it is commanded, and none once vented
     CountsRubbishFirmware   counts rubbish bytes in rx_errors beside the bad frames
+    ZeroVentsFirmware       takes a command of 0 kPa on every finger for a vent request and
+                            leaves running for watchdog_vented (0 kPa is a valid setpoint)
 
 None of them is reachable from the command line: they exist for the tests.
 """
@@ -23,7 +25,14 @@ import can
 
 from hand_service.firmware.mock import MockFirmware
 from hand_service.wire.framing import CRC_BYTES
-from hand_service.wire.messages import FirmwareState, Message, SensorReport, VersionInfo, VersionRequest
+from hand_service.wire.messages import (
+    FirmwareState,
+    Message,
+    SensorReport,
+    ValveCommand,
+    VersionInfo,
+    VersionRequest,
+)
 
 
 class NoWatchdogFirmware(MockFirmware):
@@ -106,9 +115,22 @@ class CountsRubbishFirmware(MockFirmware):
         super()._status(now)
 
 
+class ZeroVentsFirmware(MockFirmware):
+    def _handle(self, message: Message, now: float) -> None:
+        if not (isinstance(message, ValveCommand) and self.state in (FirmwareState.RUNNING,
+                                                                     FirmwareState.WATCHDOG_VENTED)
+                and not any(message.pressure_cmd_kpa)):
+            super()._handle(message, now)
+            return
+        self.command_kpa[:] = message.pressure_cmd_kpa  # acknowledged and vented, but not running
+        self.command_sequence = message.sequence
+        self.last_command_s = now
+        self.state = FirmwareState.WATCHDOG_VENTED
+
+
 VARIANTS: dict[str, type[MockFirmware]] = {
     "no-watchdog": NoWatchdogFirmware, "wrong-crc": WrongCrcFirmware,
     "stuck-sequence": StuckSequenceFirmware, "echo-version": EchoVersionFirmware,
     "silent-reboot": SilentRebootFirmware, "quiet-idle": QuietIdleFirmware,
-    "counts-rubbish": CountsRubbishFirmware,
+    "counts-rubbish": CountsRubbishFirmware, "zero-vents": ZeroVentsFirmware,
 }

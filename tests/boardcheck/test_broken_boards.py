@@ -28,6 +28,8 @@ CASES = [
                  marks=pytest.mark.boardcheck),
     pytest.param("counts-rubbish", "serial", "crc-and-garbage", "crc-and-garbage",
                  "rubbish with no frame in it", marks=pytest.mark.boardcheck),
+    pytest.param("zero-vents", "slcan", "zero-vent", "zero-vent", "left the running state on a zero command",
+                 marks=pytest.mark.boardcheck),
 ]
 
 

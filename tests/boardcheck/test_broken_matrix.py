@@ -21,6 +21,7 @@ FAILS = {  # the variant -> the checks it must fail (with every check run)
     "silent-reboot": {"reboot-announce"},
     "quiet-idle": {"report-rate", "sequence", "watchdog"},  # silent idle, and silent once vented
     "counts-rubbish": {"crc-and-garbage"},
+    "zero-vents": {"zero-vent"},  # a zero command taken for a vent request
 }
 
 
