@@ -55,16 +55,18 @@ test-board-host: $(STAMP)
 	$(PY) -m pytest -q -s -p no:cacheprovider -m "board and not qemu" tests/board
 
 # the firmware core cross-compiled: the Cortex-M image (board/cortexm) under qemu-system-arm
-# -M mps2-an500 (handshake, closed loop, watchdog vent after the host's SIGKILL) and the AVR
-# image (board/avr) built and checked against the ATmega328P's flash and RAM (about 40 s).
+# -M mps2-an500 (handshake, closed loop, watchdog vent after the host's SIGKILL, board-check),
+# the AVR image (board/avr) and the Arduino sketch (board/arduino) built and checked against
+# the ATmega328P's flash and RAM, and cppcheck on board/ (about 1 min).
 # Debian's packages are installed when missing.
-BOARD_APT := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr
+BOARD_APT := gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm gcc-avr avr-libc binutils-avr \
+             arduino-core-avr cppcheck
 test-board: $(STAMP)
 	@missing=$$(for p in $(BOARD_APT); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then SUDO=$$(test "$$(id -u)" = 0 || echo sudo); \
 	  $$SUDO apt-get install -y $$missing || { $$SUDO apt-get update && $$SUDO apt-get install -y $$missing; }; fi
-	$(MAKE) -C board BUILD=build PYTHON=../$(PY) cortexm avr
-	$(PY) -m pytest -q -s -p no:cacheprovider -m "qemu and not qemu_boardcheck" tests/board
+	$(MAKE) -C board BUILD=build PYTHON=../$(PY) cortexm avr arduino cppcheck
+	$(PY) -m pytest -q -s -p no:cacheprovider -m qemu tests/board
 
 # board-check against the mock over SLCAN, and every broken mock variant on all three links
 # with every check run (about 2 min; make test runs the mock on serial and virtual CAN and
