@@ -33,6 +33,11 @@ INPUT_HOLDS = ("zoh", "point")
 # the library's torque ranges (config/effects.py) were set for the paper's fingers, k from
 # 0.51 to 0.65 N·m/rad, with room to spare: they hold as they are up to 1 N·m/rad
 REFERENCE_STIFFNESS_NM_PER_RAD = 1.0
+# an effect's own torque over the recording may reach this many times the largest torque
+# the spring or the pressure makes in it (air drag in a fast vent can exceed them); dry
+# friction only twice: beyond the driving torque the finger would never have moved
+EFFECT_TORQUE_RATIO = 10.0
+FRICTION_TORQUE_RATIO = 2.0
 PLAIN_RANGE = 1000.0  # k, B and N may go this many times above or below the nominal
 # the nominal model's uncertainty: a log-normal prior of this relative width on k, B and N,
 # used when the recording alone cannot pin them (closed loop: only k/N; a ramp: not B)
@@ -63,20 +68,59 @@ class Param:
         return Param(name, name, False, scale, scale / PLAIN_RANGE, scale * PLAIN_RANGE, unit)
 
     @staticmethod
-    def effect(name: str, stiffness_nm_per_rad: float = REFERENCE_STIFFNESS_NM_PER_RAD,
-               command_max_kpa: float = 0.0) -> Param:
-        """The library effect's parameter, its range scaled to this finger: a torque-like
-        effect's scale and bounds grow with the finger's stiffness past the paper's fingers
-        the library was set for (a stiffer rig's friction or gravity is larger in N·m), and
-        the dead zone may reach half the largest command recorded."""
+    def effect(name: str, scales: EffectScales | None = None) -> Param:
+        """The library effect's parameter, its range scaled to this finger and recording
+        (the library's ranges were set for the paper's fingers): a torque-like effect's
+        scale and bounds grow with the finger's stiffness past those fingers, and its bounds
+        reach as far as the recording's own torques allow (`torque_nm`, the largest torque
+        the spring or the pressure makes: dry friction up to twice it, gravity, air drag at
+        the finger's top speed and a cubic spring at the largest angle up to ten times it,
+        a softening cubic down to where the spring would stop resisting); the dead zone may
+        reach half the largest command recorded. A rig of another scale is fitted, not
+        clipped: the bounds keep the numbers sane, they are no prior (an estimate pinned at
+        one is not named)."""
         spec = fx.BY_NAME[name]
+        sc = scales or EffectScales()
         scale, lower, upper = spec.scale, spec.lower, spec.upper
         if spec.unit.startswith("N·m"):
-            factor = max(1.0, stiffness_nm_per_rad / REFERENCE_STIFFNESS_NM_PER_RAD)
+            factor = max(1.0, sc.stiffness_nm_per_rad / REFERENCE_STIFFNESS_NM_PER_RAD)
             scale, lower, upper = scale * factor, lower * factor, upper * factor
-        elif spec.name == "pressure_deadzone":
-            upper = max(upper, 0.5 * command_max_kpa)
+        torque = EFFECT_TORQUE_RATIO * sc.torque_nm  # the most an effect's own torque may reach
+        if name == "coulomb_friction" and torque > 0.0:
+            upper = max(upper, FRICTION_TORQUE_RATIO * sc.torque_nm)
+        elif name == "gravity" and torque > 0.0 and sc.angle_rad > 0.0:
+            reach = min(torque / max(1.0 - np.cos(min(sc.angle_rad, np.pi)), 1e-3), 1e3 * sc.torque_nm)
+            upper, lower = max(upper, reach), min(lower, -reach)
+        elif name == "quadratic_damping" and torque > 0.0 and sc.speed_rad_s > 0.0:
+            upper = max(upper, torque / sc.speed_rad_s**2)
+        elif name == "cubic_stiffness" and torque > 0.0 and sc.angle_rad > 0.0:
+            upper = max(upper, torque / sc.angle_rad**3)
+            lower = min(lower, -sc.stiffness_nm_per_rad / (3.0 * sc.angle_rad**2))
+        elif name == "pressure_deadzone":
+            upper = max(upper, 0.5 * sc.command_max_kpa)
         return Param(name, spec.rtcore_field, True, scale, lower, upper, spec.unit)
+
+
+@dataclass(frozen=True)
+class EffectScales:
+    """What sets an effect's plausible size in one recording (Param.effect)."""
+
+    stiffness_nm_per_rad: float = REFERENCE_STIFFNESS_NM_PER_RAD
+    command_max_kpa: float = 0.0
+    torque_nm: float = 0.0  # the largest torque the spring or the pressure makes in it
+    speed_rad_s: float = 0.0  # the finger's top speed (99th percentile)
+    angle_rad: float = 0.0  # the largest angle reached
+
+    @staticmethod
+    def of(stiffness_nm_per_rad: float, gain_nm_per_kpa: float, pressure_kpa: np.ndarray,
+           angle_deg: np.ndarray, rate_hz: float) -> EffectScales:
+        """From the model's k and N and a simulated angle on the recorded command."""
+        angle_rad = float(np.max(np.abs(angle_deg))) * np.pi / 180.0
+        command_max_kpa = float(np.max(np.abs(pressure_kpa)))
+        speed = np.abs(np.gradient(angle_deg)) * rate_hz * np.pi / 180.0
+        torque = max(stiffness_nm_per_rad * angle_rad, gain_nm_per_kpa * command_max_kpa)
+        return EffectScales(stiffness_nm_per_rad, command_max_kpa, float(torque),
+                            float(np.percentile(speed, 99)) if speed.size else 0.0, angle_rad)
 
 
 def substeps_for(rate_hz: float) -> int:

@@ -25,7 +25,7 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.diagnose import stats
 from hand_service.diagnose.fit import Fit, far_from_nominal, fit, sensitivity
-from hand_service.diagnose.problem import Param, Problem
+from hand_service.diagnose.problem import EffectScales, Param, Problem
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
 SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
@@ -162,8 +162,10 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
 def screen(problem: Problem, base: Fit, name: str) -> Screen:
     """The effect's signature against the residual (score test) and the grid scan."""
     spec = fx.BY_NAME[name]
-    param = Param.effect(name, base.value("stiffness_nm_per_rad"),
-                         float(np.max(np.abs(problem.pressure_kpa))))
+    prbm = base.finger.prbm
+    param = Param.effect(name, EffectScales.of(
+        float(prbm.stiffness_nm_per_rad), float(prbm.pressure_gain_nm_per_kpa), problem.pressure_kpa,
+        base.angle_deg, problem.rate_hz))
     mask = problem.fit_mask
     residual = problem.misfit(base.angle_deg)[mask]
     # what the sensor's offset and drift would absorb of the signature does not count
