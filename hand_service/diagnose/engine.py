@@ -28,6 +28,7 @@ from hand_service.diagnose.verdict import (
     FoundEffect,
     explained_share,
     judge,
+    prior_share,
     structure_left,
     trade_offs,
 )
@@ -223,6 +224,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     refit_bic = stats.delta_bic(problem.fit_rss(nominal_e), problem.fit_rss(refit_e), problem.n_fit,
                                 len(params))
     extra: list[FoundEffect] = []
+    kept = list(selection.accepted)
     if len(found) > 1 and structure_left(final_white, final_cross):
         # Structure outside the library remains even with every effect: the later ones may
         # be absorbing it (an even spring taken for gravity, sharp friction's shape taken
@@ -231,11 +233,14 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
         first = selection.accepted[0]
         alone = Selection(rounds=selection.rounds[:1], accepted=[first], final=first.fit)
         extra, found, final = found[1:], [found_effect(problem, first, alone)], first.fit
+        kept = [first]
         final_e = problem.innovations(final.angle_deg)
         final_white = stats.ljung_box(final_e[fit_mask], lags)
         final_cross = stats.input_independence(final_e[fit_mask], u, lags)
         rmse["augmented"] = stats.rmse((measured - final.angle_deg)[held])
     explained = explained_share(problem, refit, final) if found else 0.0
+    if found and any(c.prior_gain > 0.0 for c in kept):  # the refit's distance from the nominal was evidence
+        explained = max(explained, prior_share(problem, refit, final))
     round1 = selection.rounds[0].candidates if selection.rounds else []
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative_std, selection, found, (refit_white, refit_cross),

@@ -12,7 +12,7 @@ from hand_service.config import effects as fx
 from hand_service.diagnose import noise, stats
 from hand_service.diagnose.fit import Fit
 from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Problem
-from hand_service.diagnose.search import Selection
+from hand_service.diagnose.search import Selection, prior_chi2
 
 STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
 # An effect whose signature k, B and N absorb all but this share of could hide in a refit:
@@ -60,6 +60,16 @@ def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:
     if excess <= 0.0:
         return 0.0
     return float(np.clip((before @ before - after @ after) / excess, 0.0, 1.0))
+
+
+def prior_share(problem: Problem, refit: Fit, final: Fit) -> float:
+    """Where the plain refit had to go far from the nominal (its prior counted as evidence,
+    search.PRIOR_EVIDENCE_FACTOR), that distance is the mismatch too: the share of the
+    refit's prior χ² the augmented model removes, 0 to 1. A slow valve that the refit
+    mimicked by scaling k, B and N together leaves the misfit where it was and brings the
+    parameters home: its misfit share is 0, this share near 1."""
+    before, after = prior_chi2(problem, refit), prior_chi2(problem, final)
+    return float(np.clip((before - after) / before, 0.0, 1.0)) if before > 0.0 else 0.0
 
 
 TRADE_OFF_CORR = 0.95  # an effect this correlated with a plain parameter trades off with it
