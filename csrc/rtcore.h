@@ -7,7 +7,7 @@
  *                   (csrc/rtcore_step.c, rtcore_filter.c, rtcore_model.c, rtcore_pid.c)
  *   rtcore_pneumatic.h  the simulator's pneumatic valve mode (rtcore_pneumatic.c over the
  *                   board's board/plant/pneumatics.c and board/core/regulator.c)
- *   rtcore_sim.h    the simulated hand and its in-process link (rtcore_sim.c,
+ *   rtcore_sim.h    the simulated hand and its in-process link (rtcore_sim*.c,
  *                   rtcore_sim_link.c)
  *   rtcore_clock.h  the supervisor's clock and deadline schedule (rtcore_clock.c)
  *   rtcore_ring.h   the recording ring (rtcore_ring.c)

@@ -1,7 +1,7 @@
 /* The exact part of the simulator: the linear finger A·θ'' + B·θ' + k·θ = u(t) over a
  * step h, its transition e^(L·h) and its responses to a held and a quadratic torque, in
  * closed form for every damping (under-, critically and over-damped, B/A in the tens of
- * thousands per second), and a small cache of them. Internal to rtcore_sim.c; not part
+ * thousands per second), and a small cache of them. Internal to the simulator (rtcore_sim*.c); not part
  * of the cffi interface. */
 #ifndef RTCORE_EXACT_H
 #define RTCORE_EXACT_H

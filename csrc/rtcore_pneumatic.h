@@ -8,7 +8,7 @@
  * pwm_period_us, as the host build's HAL drives it (board/host/hal_host.c: a new duty loads
  * at the next PWM period, 0 and full duty at once).
  *
- * rtcore_sim.c calls rtcore_pneumatic_advance for a finger whose valve_model is
+ * rtcore_sim_advance.c calls rtcore_pneumatic_advance for a finger whose valve_model is
  * RTCORE_VALVE_PNEUMATIC instead of its first-order lag and dead time: the lag and dead
  * time the controller's feedforward compensates then emerge from the valves' delays, the
  * orifices, the chamber's volume and the regulator.

@@ -1,11 +1,11 @@
 /*
- * rtcore_sim: the simulated hand (csrc/rtcore_sim.c) and the simulated link that runs it
+ * rtcore_sim: the simulated hand (csrc/rtcore_sim*.c) and the simulated link that runs it
  * beside the supervisor's tick in the same process (csrc/rtcore_sim_link.c).
  *
  * The PRBM of every finger with the same torque model and effects as the controller: its
  * linear part (A, B, k) integrated exactly whatever the step, the rest of the torque (the
  * effects, the object) by ETDRK4, in steps of at most sample_period/substeps and of what
- * those terms and the valve lag need (csrc/rtcore_sim.c); the plain linear finger takes
+ * those terms and the valve lag need (csrc/rtcore_sim_step_size.c); the plain linear finger takes
  * one step per sample at any stiffness. The valve is a first-order lag behind a dead time,
  * integrated exactly (the dead time's breakpoints split the period), or, for a finger whose
  * pneumatic.valve_model asks for it, the valve board's pneumatics (rtcore_pneumatic.h); an optional object is

@@ -1,4 +1,4 @@
-"""The simulated hand in C (csrc/rtcore_sim.c) through cffi.
+"""The simulated hand in C (csrc/rtcore_sim*.c) through cffi.
 
     sim = Simulator([SimFinger(...), ...], sample_rate_hz=100, substeps=10, seed=1)
     sim.command_kpa[:] = p          # numpy view, mapped once

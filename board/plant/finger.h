@@ -1,5 +1,5 @@
 /* One finger as the project models it: the pseudo-rigid-body model of docs/physics.md
- * section 1 (csrc/rtcore_sim.c's plant without the effects),
+ * section 1 (csrc/rtcore_sim_plant.c's plant without the effects),
  *
  *     A * theta'' + B * theta' + k * theta = N * p
  *

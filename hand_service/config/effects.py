@@ -1,7 +1,7 @@
 """The library of physics a plain PRBM leaves out (docs/formats.md, `effects`).
 
 Each effect is one small definition here plus its term in the C model
-(csrc/rtcore_model.c: the torque; csrc/rtcore_sim.c: the valve). The simulator, the
+(csrc/rtcore_model.c: the torque; csrc/rtcore_sim_advance.c: the valve). The simulator, the
 controller's feedforward and `diagnose` all read this table.
 """
 

@@ -124,7 +124,7 @@ class EffectScales:
 
 
 def substeps_for(rate_hz: float) -> int:
-    """Integration steps asked per sample: one. The simulator (csrc/rtcore_sim.c) takes the
+    """Integration steps asked per sample: one. The simulator (csrc/rtcore_sim*.c) takes the
     plain linear finger exactly at any step, and chooses its own finer steps from the
     dynamics only where an effect, a valve lag or a contact needs them; so a slow recording
     costs no more than its dynamics do, and a stiff over-damped one no more than a plain."""

@@ -183,7 +183,7 @@ _VALVE_PROBE = SimFinger(Prbm(inertia_kgm2=1.0, damping_nms_per_rad=1.0, stiffne
 
 def valve_response_kpa(command_kpa: np.ndarray, dt_s: float, tau_s: float, delay_s: float) -> np.ndarray:
     """Chamber pressure at each sample for commands held one sample each, delayed by
-    delay_s, through a first-order lag τ (the simulator's valve, csrc/rtcore_sim.c: exact,
+    delay_s, through a first-order lag τ (the simulator's valve, csrc/rtcore_sim_plant.c: exact,
     with the delay's breakpoint inside a period). Sample k is read before command k acts."""
     probe = _VALVE_PROBE.replace(effects=Effects(valve_lag_tau_s=tau_s, dead_time_s=delay_s))
     _, chamber = simulate(probe, command_kpa, 1.0 / dt_s, substeps=1,

@@ -5,7 +5,7 @@ The cases of the over-damped soft actuator (B/A = 5000/s, no resonance) over a 2
 25 Hz recording, and of the paper's index finger at 0.25 Hz, 100 Hz and 1 kHz for 30 s,
 each with the step left to the simulator (substeps = 1) and capped at 1 ms (what
 hand_service/diagnose asks for today, substeps_for). Compare the cases as ratios within one
-run; the step counts behind them are in csrc/rtcore_sim.c (parameter_step_s)."""
+run; the step counts behind them are in csrc/rtcore_sim_step_size.c (rtcore_sim_parameter_step_s)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The simulator's integrator (csrc/rtcore_sim.c): the linear part exact, the effects by
+"""The simulator's integrator (csrc/rtcore_sim_plant.c, rtcore_sim_step_size.c): the linear part exact, the effects by
 ETDRK4 in steps set by the dynamics, not by the sample rate or the plant's stiffness.
 
 - The plain linear finger at one step per sample against the exact discretisation

@@ -1,0 +1,72 @@
+/* What the simulator's units share: csrc/rtcore_sim.c (the random numbers, the configuration
+ * and the public functions of rtcore_sim.h), rtcore_sim_plant.c (the finger's dynamics and
+ * their integration over a held segment), rtcore_sim_step_size.c (the step sizes) and
+ * rtcore_sim_advance.c (one sample period: the valve). Not part of the API: nothing here is
+ * in the cffi cdef. Names keep the rtcore_sim_ prefix because they have external linkage
+ * inside the extension module. */
+#ifndef RTCORE_SIM_INTERNAL_H
+#define RTCORE_SIM_INTERNAL_H
+
+#include <stdint.h>
+
+#include "rtcore_exact.h"
+#include "rtcore_sim.h"
+
+/* Step sizes, as fractions of the time scales they resolve:
+ * - the motion's own, 1/|λ_slow| over-damped or 1/ω_n under-damped, when g is not zero;
+ * - 1/(the shift of the plant's eigenvalues by g's damping-like slopes): as for RK4,
+ *   h·|λ| <= 1 keeps such a mode accurate (and an explicit slope c against the exact B
+ *   is stable at long steps only while c < B, so this bound stays however damped the
+ *   plant);
+ * - 1/(the shift by g's stiffness-like slopes);
+ * - dry friction's slope, taken into the exact part at each step's start, by how fast
+ *   the velocity can leave the band where that slope still holds (rtcore_sim_damping_step_s);
+ * - the valve lag τ (LAG_STEP_FRACTION·τ at first, see rtcore_sim_integrate_segment). */
+static const double MOTION_STEP_FRACTION = 0.25;
+static const double DAMPING_STEP_FRACTION = 1.0;
+static const double STIFFNESS_STEP_FRACTION = 0.25;
+static const double LAG_STEP_FRACTION = 0.0625;
+/* a state-dependent slope (quadratic damping, cubic stiffness) shortens the step at most
+ * this much, and no held segment takes more than 2^20 steps, so a run that diverges ends */
+static const double STATE_STEP_SHRINK = 256.0;
+static const double MIN_STEP_PER_SEGMENT = 1.0 / 1048576.0;
+/* a shorter segment (a dead time a hair past a whole number of periods) changes nothing
+ * and is skipped: its step's h³ would underflow in the propagator */
+static const double MIN_SEGMENT_S = 1e-30;
+/* a kink this close to either end of a step is left there (before_kink) */
+static const double KINK_MIN_FRACTION = 1e-3;
+
+/* One finger's linear plant and the bounds on g's slopes, derived once per sample. */
+typedef struct {
+    const rtcore_sim_finger *finger;
+    rtcore_exact_plant linear; /* A, B, k: the part integrated exactly */
+    int32_t nonlinear; /* g is not identically zero */
+    int32_t state_dependent; /* a slope of g grows without bound with the state */
+    int32_t kinks; /* g has kinks (before_kink) */
+    double damping_slope_nms_per_rad; /* bound on −dg/dθ' (>= 0: g only damps) everywhere,
+                                       * the friction's apart (rtcore_sim_damping_step_s) */
+    double stiffness_slope_nm_per_rad; /* bound on |dg/dθ| everywhere */
+} sim_plant;
+
+/* rtcore_sim_step_size.c */
+double rtcore_sim_friction_slope_nms_per_rad(const rtcore_effects *e, double velocity_rad_per_s);
+double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0);
+double rtcore_sim_damping_step_s(const sim_plant *local, double velocity_rad_per_s, double reach, double net_nm,
+                                 double drift_nm, double h_cap_s);
+double rtcore_sim_parameter_step_s(const sim_plant *p);
+double rtcore_sim_state_step_s(const sim_plant *p, double angle_rad, double accel_torque_nm);
+double rtcore_sim_settle_range_rad_for(const sim_plant *p);
+double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_finger_state *s, double cap_s,
+                                 double request_cap_s, double range_rad, double drive_nm, double drift_nm);
+
+/* rtcore_sim_plant.c */
+double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s);
+void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p);
+void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
+                                  double input_kpa, double duration_s, double request_cap_s);
+
+/* rtcore_sim_advance.c */
+void rtcore_sim_advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *s,
+                               rtcore_propagator_cache *cache, double command_kpa, double dt_s, int32_t substeps);
+
+#endif /* RTCORE_SIM_INTERNAL_H */

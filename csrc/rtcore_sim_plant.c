@@ -1,0 +1,309 @@
+/* The simulated finger's dynamics: the torques beyond its linear part (the effects, the
+ * object), its local linear plant, one ETDRK4 step, the kinks that cut a step, and the
+ * integration of a segment under a held valve input (the step sizes it takes:
+ * rtcore_sim_step_size.c). */
+#include <math.h>
+
+#include "rtcore_exact.h"
+#include "rtcore_internal.h"
+#include "rtcore_sim_internal.h"
+
+/* ---- dynamics ---------------------------------------------------------------------- */
+
+/* The finger is A·θ'' + B·θ' + k·θ = u(t): a linear plant, integrated exactly for any step
+ * (e^(L·h), L = [[0, 1], [−k/A, −B/A]], in closed form), driven by the torque
+ * u = N·p_eff(t) + g(θ, θ'), where g is every torque beyond k·θ + B·θ' (the effects and
+ * the contact). Over a step the chamber's torque is the quadratic through its exact values
+ * at the start, middle and end; g is integrated by ETDRK4 (Cox & Matthews 2002), whose
+ * last stage is the exact response to a quadratic torque too. The plain linear finger
+ * without a valve lag is exact at any step; with effects the step resolves what the
+ * explicit g needs (rtcore_sim_parameter_step_s, rtcore_sim_state_step_s), with a lag
+ * the chamber's exponential (rtcore_sim_integrate_segment). */
+
+/* The object's normal force at the force point while touching: the spring-damper,
+ * pushing only (>= 0), continued across the surface so that a step keeps one formula. */
+static double touching_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s)
+{
+    const double force_n = f->prbm.lever_arm_m
+                           * (f->contact_stiffness_n_per_m * (angle_rad - f->contact_angle_deg * RTCORE_RAD_PER_DEG)
+                              + f->contact_damping_ns_per_m * velocity_rad_per_s);
+    return force_n > 0.0 ? force_n : 0.0;
+}
+
+static int32_t touches(const rtcore_sim_finger *f, double angle_rad)
+{
+    return f->contact_stiffness_n_per_m > 0.0
+           && f->prbm.lever_arm_m * (angle_rad - f->contact_angle_deg * RTCORE_RAD_PER_DEG) > 0.0;
+}
+
+/* normal force of the object on the finger at the force point (>= 0, pushes back) */
+double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s)
+{
+    return touches(f, angle_rad) ? touching_force_n(f, angle_rad, velocity_rad_per_s) : 0.0;
+}
+
+/* g(θ, θ'): the torque beyond N·p_eff − k·θ − B·θ', with the object touching or not as a
+ * step has it (the damper makes the force jump as the finger reaches the surface, so a
+ * step that reaches it ends there and the next one starts touching). rtcore_model_torque_nm
+ * (shared with the controller) includes the plain k·θ, which the linear part takes. */
+static double nonlinear_torque_nm(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s,
+                                  int32_t touching)
+{
+    const rtcore_prbm *m = &f->prbm;
+    const double torque_nm = m->stiffness_nm_per_rad * angle_rad
+                             - rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);
+    return touching ? torque_nm - m->lever_arm_m * touching_force_n(f, angle_rad, velocity_rad_per_s) : torque_nm;
+}
+
+static double pressure_torque_nm(const rtcore_sim_finger *f, double chamber_kpa)
+{
+    return f->prbm.pressure_gain_nm_per_kpa
+           * rtcore_effective_pressure_kpa(&f->prbm.effects, chamber_kpa);
+}
+
+void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p)
+{
+    const rtcore_prbm *m = &f->prbm;
+    const rtcore_effects *e = &m->effects;
+    const int32_t contact = f->contact_stiffness_n_per_m > 0.0;
+    const double r2 = m->lever_arm_m * m->lever_arm_m;
+    p->finger = f;
+    rtcore_exact_plant_init(&p->linear, m->inertia_kgm2, m->damping_nms_per_rad, m->stiffness_nm_per_rad);
+    p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0;
+    p->nonlinear = p->state_dependent || contact || e->coulomb_torque_nm > 0.0 || e->gravity_torque_nm != 0.0
+                   || e->asymmetric_stiffness_ratio != 1.0;
+    p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0;
+    p->damping_slope_nms_per_rad = contact ? f->contact_damping_ns_per_m * r2 : 0.0;
+    p->stiffness_slope_nm_per_rad = fabs(e->asymmetric_stiffness_ratio - 1.0) * m->stiffness_nm_per_rad
+                                    + fabs(e->gravity_torque_nm)
+                                    + (contact ? f->contact_stiffness_n_per_m * r2 : 0.0);
+}
+
+/* The same plant with the damping B + extra: the linear part a step integrates exactly. */
+static void with_damping(const sim_plant *base, double extra_nms_per_rad, sim_plant *out)
+{
+    *out = *base;
+    if (extra_nms_per_rad == 0.0) {
+        return;
+    }
+    rtcore_exact_plant_init(&out->linear, base->linear.inertia_kgm2, base->linear.damping_nms_per_rad + extra_nms_per_rad,
+                            base->linear.stiffness_nm_per_rad);
+}
+
+/* One step h; the chamber's torque is p_start, p_mid and p_end at t = 0, h/2 and h, and
+ * g_start = g(x) + c0·θ'. p is the plant with the damping B + c0, c0 =
+ * linearized_nms_per_rad (the friction's and the drag's slopes, rtcore_sim_damping_step_s), which g gives back. Without g: the exact response to that quadratic. With g, ETDRK4 (Cox &
+ * Matthews 2002): stages a and b from x and c from a over h/2, each with the total torque
+ * held (at x, at a, and 2·(at b) − (at x)), then the exact response to the quadratic
+ * through the torque at x, the mean of those at a and b, and at c. */
+static void step(const sim_plant *p, rtcore_propagator_cache *cache, double *angle_rad, double *velocity_rad_per_s,
+                 double h, double p_start, double p_mid, double p_end, double g_start, int32_t touching,
+                 double linearized_nms_per_rad)
+{
+    const rtcore_sim_finger *f = p->finger;
+    const int32_t slot = rtcore_exact_propagators(&p->linear, cache, h, p->nonlinear);
+    const rtcore_propagator *full = &cache->full[slot];
+    const rtcore_propagator *half = &cache->half[slot];
+    double th_a;
+    double w_a;
+    double th_b;
+    double w_b;
+    double th_c;
+    double w_c;
+    double n_x;
+    double n_a;
+    double n_b;
+    double n_c;
+    if (!p->nonlinear) {
+        rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, p_start, p_mid, p_end);
+        return;
+    }
+    n_x = p_start + g_start;
+    rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_x, &th_a, &w_a);
+    n_a = p_mid + nonlinear_torque_nm(f, th_a, w_a, touching) + linearized_nms_per_rad * w_a;
+    rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_a, &th_b, &w_b);
+    n_b = p_mid + nonlinear_torque_nm(f, th_b, w_b, touching) + linearized_nms_per_rad * w_b;
+    rtcore_exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
+    n_c = p_end + nonlinear_torque_nm(f, th_c, w_c, touching) + linearized_nms_per_rad * w_c;
+    rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, n_x, 0.5 * (n_a + n_b), n_c);
+}
+
+/* Where g has a kink or a jump (the object's surface, the contact force reaching 0 as
+ * the finger leaves, θ = 0 with an asymmetric stiffness) a step is only as accurate as
+ * that allows: a step that crosses one is cut where it does, by linear interpolation
+ * between its ends. The fraction of the step before the first crossing (1 for none), and
+ * in *surface whether that one is the object's surface. */
+static double before_kink(const sim_plant *p, int32_t touching, double angle0_rad, double velocity0_rad_per_s,
+                          double angle1_rad, double velocity1_rad_per_s, int32_t *surface)
+{
+    const rtcore_sim_finger *f = p->finger;
+    double fraction = 1.0;
+    *surface = 0;
+    if (f->contact_stiffness_n_per_m > 0.0) {
+        const double surface_rad = f->contact_angle_deg * RTCORE_RAD_PER_DEG;
+        const double depth0 = angle0_rad - surface_rad;
+        const double depth1 = angle1_rad - surface_rad;
+        if (touching ? depth1 < 0.0 && depth0 > 0.0 : depth1 > 0.0 && depth0 < 0.0) {
+            fraction = depth0 / (depth0 - depth1);
+            *surface = 1;
+        }
+        if (touching && f->contact_damping_ns_per_m > 0.0) {
+            const double push0 = f->contact_stiffness_n_per_m * depth0 + f->contact_damping_ns_per_m * velocity0_rad_per_s;
+            const double push1 = f->contact_stiffness_n_per_m * depth1 + f->contact_damping_ns_per_m * velocity1_rad_per_s;
+            if (((push0 > 0.0 && push1 < 0.0) || (push0 < 0.0 && push1 > 0.0)) && push0 / (push0 - push1) < fraction) {
+                fraction = push0 / (push0 - push1);
+                *surface = 0;
+            }
+        }
+    }
+    if (f->prbm.effects.asymmetric_stiffness_ratio != 1.0
+        && ((angle0_rad < 0.0 && angle1_rad > 0.0) || (angle0_rad > 0.0 && angle1_rad < 0.0))
+        && angle0_rad / (angle0_rad - angle1_rad) < fraction) {
+        fraction = angle0_rad / (angle0_rad - angle1_rad);
+        *surface = 0;
+    }
+    return fraction;
+}
+
+/* the chamber t after the start of a held segment: its exact first-order solution */
+static double chamber_at(double start_kpa, double input_kpa, double tau_s, double t_s)
+{
+    return input_kpa + (start_kpa - input_kpa) * exp(-t_s / tau_s);
+}
+
+/* Integrate over duration_s with the valve input held at input_kpa, in steps of at most
+ * step_cap_s, and of what rtcore_sim_state_step_s allows for the state at the start (the input is
+ * held, so what the segment will reach is known there). The chamber follows its exact
+ * solution, on one side of the dead zone's threshold throughout (integrate_held splits
+ * there). While its torque moves the step is at most LAG_STEP_FRACTION·τ·(S/|p − u|)^(1/3),
+ * S the supply's span and p − u what the chamber still lacks of its input: what the
+ * quadratic misses of the exponential, ∝ |p − u|·(h/τ)³, stays as small as in the first
+ * step of a full-span change (τ/16), so a change costs about 3/LAG_STEP_FRACTION = 48
+ * steps however long it is held, and a nearly settled chamber (every later sample period)
+ * costs none. That keeps the angle within about 5e-7 of its range, so that an effect
+ * switched on, whose shorter steps follow the lag more closely, moves the result by no
+ * more. The
+ * last step ends the segment exactly and a kink cuts a step where it lies, so the steps
+ * and the result move continuously with every parameter. */
+void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
+                                  double input_kpa, double duration_s, double request_cap_s)
+{
+    const rtcore_sim_finger *f = p->finger;
+    const double tau_s = f->prbm.effects.valve_lag_tau_s;
+    const double start_kpa = tau_s > 0.0 ? s->chamber_kpa : input_kpa;
+    const double end_kpa = tau_s > 0.0 ? chamber_at(start_kpa, input_kpa, tau_s, duration_s) : input_kpa;
+    const double deadzone_kpa = f->prbm.effects.pressure_deadzone_kpa;
+    /* the torque is constant without a lag, without a gain, at the input already, or below
+     * the dead zone throughout (the chamber is monotonic within a segment) */
+    const int32_t moving = tau_s > 0.0 && f->prbm.pressure_gain_nm_per_kpa > 0.0 && start_kpa != input_kpa
+                           && !(deadzone_kpa > 0.0 && start_kpa <= deadzone_kpa && end_kpa <= deadzone_kpa);
+    const double min_step_s = duration_s * MIN_STEP_PER_SEGMENT;
+    const double lag_span_kpa = fmax(f->supply_max_kpa - f->supply_min_kpa, 1.0);
+    const double torque_last = pressure_torque_nm(f, end_kpa);
+    double torque_start = pressure_torque_nm(f, start_kpa);
+    const double step_cap_s = fmin(request_cap_s, s->max_step_s);
+    const double settle_range_rad = rtcore_sim_settle_range_rad_for(p);
+    double cap_s = step_cap_s;
+    double t_s = 0.0;
+    int32_t last = 0;
+    int32_t next_touching = -1; /* after a step cut at the surface: the side it goes on to */
+
+    if (!(duration_s > MIN_SEGMENT_S)) {
+        s->chamber_kpa = end_kpa;
+        return;
+    }
+    if (p->state_dependent) {
+        /* the torque out of balance at the start, with the chamber now and at the end */
+        const double g_nm = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
+        const double linear_nm = p->linear.stiffness_nm_per_rad * s->angle_rad + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
+        const double accel_nm = fmax(fabs(torque_start + g_nm - linear_nm), fabs(torque_last + g_nm - linear_nm));
+        cap_s = fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm),
+                                      step_cap_s / STATE_STEP_SHRINK));
+    }
+    while (!last) {
+        const double remaining_s = duration_s - t_s;
+        int32_t touching = next_touching >= 0 ? next_touching : touches(f, s->angle_rad);
+        double g_start = p->nonlinear ? nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
+        double h = settle_range_rad > 0.0 && cap_s < request_cap_s
+                       ? rtcore_sim_settled_step_s(p, s, cap_s, request_cap_s, settle_range_rad,
+                                                   torque_start + g_start, fabs(torque_last - torque_start))
+                       : cap_s;
+        double slope0 = 0.0; /* the friction's slope here, integrated exactly over the step */
+        sim_plant local;
+        double torque_mid = torque_start;
+        double torque_end = torque_start;
+        int32_t cut = 0; /* the step was shortened to end at a kink */
+        int32_t flipped = 0; /* the step was taken again on the far side of the surface */
+
+        next_touching = -1;
+        if (moving) {
+            /* from how far the chamber still is from its input, not from when this
+             * segment began: a chamber nearly settled (every sample period after a step)
+             * needs no short steps, and a new segment does not restart them */
+            const double gap_kpa = fabs(chamber_at(start_kpa, input_kpa, tau_s, t_s) - input_kpa);
+            if (gap_kpa > 0.0) {
+                h = fmin(h, LAG_STEP_FRACTION * tau_s * cbrt(lag_span_kpa / gap_kpa));
+            }
+        }
+        if (f->prbm.effects.coulomb_torque_nm > 0.0 || f->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0) {
+            const double net_nm = torque_start + g_start - p->linear.stiffness_nm_per_rad * s->angle_rad
+                                  - p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
+            const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
+                                         ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
+                                         : 0.0;
+            slope0 = friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s);
+            with_damping(p, slope0, &local);
+            h = fmin(h, rtcore_sim_damping_step_s(&local, s->velocity_rad_per_s,
+                                                  rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0), net_nm,
+                                                  torque_last - torque_start, h));
+            g_start += slope0 * s->velocity_rad_per_s;
+        } else {
+            local = *p;
+        }
+        h = fmax(h, min_step_s);
+        if (!(h * (1.0 + 1e-9) < remaining_s)) { /* no sliver of a step after this one */
+            h = remaining_s;
+            last = 1;
+        }
+        for (;;) {
+            double angle_rad = s->angle_rad;
+            double velocity_rad_per_s = s->velocity_rad_per_s;
+            double fraction = 1.0;
+            int32_t surface = 0;
+            if (moving) {
+                torque_mid = pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h));
+                torque_end = last ? torque_last
+                                  : pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s, t_s + h));
+            }
+            step(&local, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
+                 touching, slope0);
+            if (p->kinks && !cut) {
+                fraction = before_kink(p, touching, s->angle_rad, s->velocity_rad_per_s, angle_rad,
+                                       velocity_rad_per_s, &surface);
+            }
+            if (fraction < 1.0 && fraction > KINK_MIN_FRACTION) {
+                h *= fraction; /* the next step starts at the kink, past the surface if it is that */
+                last = 0;
+                cut = 1;
+                next_touching = surface ? !touching : -1;
+                continue;
+            }
+            if (fraction < 1.0 && surface && !flipped) {
+                touching = !touching; /* the surface is where the step starts: take it past */
+                flipped = 1;
+                g_start = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching)
+                          + slope0 * s->velocity_rad_per_s;
+                continue;
+            }
+            s->angle_rad = angle_rad;
+            s->velocity_rad_per_s = velocity_rad_per_s;
+            break;
+        }
+        torque_start = torque_end;
+        t_s += h;
+        if (!(isfinite(s->angle_rad) && isfinite(s->velocity_rad_per_s))) {
+            break; /* diverged: the state stays non-finite, the chamber still follows */
+        }
+    }
+    s->chamber_kpa = end_kpa;
+}
