@@ -105,7 +105,8 @@ def test_build_refuses_headers_out_of_step() -> None:
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
-@pytest.mark.parametrize("header", [HEADER, *HEADERS, HEADER.with_name("rtcore_internal.h")],
+@pytest.mark.parametrize("header", [HEADER, *HEADERS, *(HEADER.with_name(f"rtcore_{name}internal.h")
+                                                        for name in ("", "sim_"))],
                          ids=lambda path: path.name)
 def test_each_header_compiles_on_its_own(header: Path) -> None:
     """Every header includes what it uses."""
