@@ -1,5 +1,6 @@
-"""The simulator's integrator (csrc/rtcore_sim_plant.c, rtcore_sim_step_size.c): the linear part exact, the effects by
-ETDRK4 in steps set by the dynamics, not by the sample rate or the plant's stiffness.
+"""The simulator's integrator (csrc/rtcore_sim_plant.c, rtcore_sim_step_size.c): the linear
+part exact, the effects by ETDRK4 in steps set by the dynamics, not by the sample rate or the
+plant's stiffness.
 
 - The plain linear finger at one step per sample against the exact discretisation
   (scipy's zero-order hold), from under-damped to B/A = 20 000/s, at 0.25 Hz to 1 kHz.
