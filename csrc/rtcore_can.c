@@ -469,13 +469,20 @@ static void take_sample(rtcore_can *can, rtcore_can_io *io, const rtcore_can_mes
     }
 }
 
+/* The end of one phase of the tick: its time (from the end of the one before) into
+ * io->phase_ns; returns the clock read. */
+static int64_t phase_end(rtcore_can_io *io, int32_t phase, int64_t begin_ns)
+{
+    const int64_t now = rtcore_clock_now_ns();
+    io->phase_ns[phase] = now - begin_ns;
+    return now;
+}
+
 static void decode_batch(rtcore_can *can, rtcore_can_io *io)
 {
     const int32_t n_rx = io->n_rx < 0 ? 0 : (io->n_rx > RTCORE_CAN_MAX_RX ? RTCORE_CAN_MAX_RX : io->n_rx);
     rtcore_can_message message;
     int32_t k;
-    io->n_messages = 0;
-    io->messages_lost = 0;
     io->samples = 0;
     io->lost_in_a_row = 0;
     for (k = 0; k < n_rx; ++k) {
@@ -486,11 +493,6 @@ static void decode_batch(rtcore_can *can, rtcore_can_io *io)
         message.received_s = io->rx_received_s[k];
         if (message.kind == RTCORE_CAN_SENSOR) {
             take_sample(can, io, &message);
-        }
-        if (io->n_messages < RTCORE_CAN_MAX_MESSAGES) {
-            io->messages[io->n_messages++] = message;
-        } else {
-            io->messages_lost += 1;
         }
     }
     io->n_rx = 0;
@@ -503,15 +505,16 @@ int32_t rtcore_can_tick(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io, i
     int32_t events;
     int32_t fresh;
     int32_t i;
+    int64_t start_ns;
+    int64_t end_ns;
     if (tick == 0 || can == 0 || io == 0 || tick->inputs == 0) {
         return RTCORE_TICK_OUTPUT;
     }
+    start_ns = rtcore_clock_now_ns();
     if (rx_trylock(io)) {
         decode_batch(can, io);
         rx_unlock(io);
     } else { /* the reader thread is adding a frame (it may be preempted): next tick */
-        io->n_messages = 0;
-        io->messages_lost = 0;
         io->samples = 0;
         io->lost_in_a_row = 0;
         io->busy_ticks += 1;
@@ -523,7 +526,9 @@ int32_t rtcore_can_tick(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io, i
             tick->inputs->pressure_meas_kpa[i] = io->sample.pressure_meas_kpa[i];
         }
     }
+    end_ns = phase_end(io, RTCORE_CAN_PHASE_DECODE, start_ns);
     events = rtcore_tick_control(tick, refs, vent, missed_last, fresh, io->lost_in_a_row, woke_ns);
+    end_ns = phase_end(io, RTCORE_CAN_PHASE_CONTROL, end_ns);
     memset(&command, 0, sizeof command);
     command.kind = RTCORE_CAN_VALVE;
     command.sequence = command_sequence;
@@ -540,7 +545,10 @@ int32_t rtcore_can_tick(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io, i
         io->n_tx = rtcore_can_encode(can, &command, io->tx_id, io->tx_len, io->tx_data, RTCORE_MAX_FINGERS);
         events |= RTCORE_TICK_OUTPUT;
     }
-    return events | rtcore_tick_follow(tick);
+    end_ns = phase_end(io, RTCORE_CAN_PHASE_ENCODE, end_ns);
+    events |= rtcore_tick_follow(tick);
+    (void)phase_end(io, RTCORE_CAN_PHASE_FOLLOW, end_ns);
+    return events;
 }
 
 int32_t rtcore_can_tick_at(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io, int64_t deadline_ns,

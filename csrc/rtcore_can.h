@@ -46,7 +46,12 @@ extern "C" {
 #define RTCORE_CAN_NO_FRAME -1 /* rx id of an error or remote frame: counted as ignored */
 #define RTCORE_CAN_FRAME_BYTES 8
 #define RTCORE_CAN_MAX_RX 256 /* frames one rtcore_can_tick decodes */
-#define RTCORE_CAN_MAX_MESSAGES 64 /* messages one rtcore_can_tick hands back */
+/* The phases of one rtcore_can_tick, in order (rtcore_can_io.phase_ns) */
+#define RTCORE_CAN_PHASE_DECODE 0 /* the batch decoded, the newest sample into the inputs */
+#define RTCORE_CAN_PHASE_CONTROL 1 /* rtcore_tick_control */
+#define RTCORE_CAN_PHASE_ENCODE 2 /* the command frames encoded */
+#define RTCORE_CAN_PHASE_FOLLOW 3 /* rtcore_tick_follow */
+#define RTCORE_CAN_PHASES 4
 
 /* One protocol message, the fields of its kind set (wire.messages in Python). */
 typedef struct {
@@ -120,10 +125,6 @@ typedef struct {
     double rx_received_s[RTCORE_CAN_MAX_RX]; /* when each arrived */
     int32_t rx_dropped; /* frames that found the batch full (the caller counts them) */
     int64_t busy_ticks; /* ticks that found the batch being added to, and left it */
-    /* every message the received frames completed, in order */
-    int32_t n_messages;
-    int32_t messages_lost; /* beyond RTCORE_CAN_MAX_MESSAGES */
-    rtcore_can_message messages[RTCORE_CAN_MAX_MESSAGES];
     /* the samples taken (fresh), the newest of them, and the longest run of samples lost
      * between two taken ones (SensorSample.lost_in_a_row) */
     int32_t samples;
@@ -134,6 +135,10 @@ typedef struct {
     int32_t tx_id[RTCORE_MAX_FINGERS];
     int32_t tx_len[RTCORE_MAX_FINGERS];
     uint8_t tx_data[RTCORE_MAX_FINGERS * RTCORE_CAN_FRAME_BYTES];
+    /* how long each phase of the last rtcore_can_tick ran (ns, RTCORE_CAN_PHASE_*), from the
+     * monotonic clock read at its start and at the end of each phase: they add up to the
+     * tick's time from its start to the end of the follow check */
+    int64_t phase_ns[RTCORE_CAN_PHASES];
 } rtcore_can_io;
 
 /* AUTOSAR E2E profile-2 CRC-8 (polynomial 0x2F) over data[1..len-1] and data_id. */
@@ -158,12 +163,14 @@ int32_t rtcore_can_encode(const rtcore_can *can, const rtcore_can_message *messa
 /* A received frame into io's batch for the next rtcore_can_tick (any thread): 1, or 0 when
  * the batch is full (counted in rx_dropped) or len is beyond a frame. */
 int32_t rtcore_can_rx_add(rtcore_can_io *io, int32_t id, const uint8_t *data, int32_t len, double received_s);
-/* A tick over can-v1: decode io's n_rx received frames (then n_rx = 0) into io->messages;
- * the newest sample taken, if any, into the step's inputs (fresh, after io->lost_in_a_row
- * lost ones); rtcore_tick_control(refs, vent, missed_last, woke_ns); the command sent_kpa
- * encoded with command_sequence into io's tx frames (0 kPa when vented);
- * rtcore_tick_follow. Returns the RTCORE_TICK_* bits of both halves. A command the wire
- * cannot carry sends a vent instead and returns RTCORE_TICK_OUTPUT. */
+/* A tick over can-v1: decode io's n_rx received frames (then n_rx = 0); the newest sample
+ * taken, if any, into the step's inputs (fresh, after io->lost_in_a_row lost ones);
+ * rtcore_tick_control(refs, vent, missed_last, woke_ns); the command sent_kpa encoded with
+ * command_sequence into io's tx frames (0 kPa when vented);
+ * rtcore_tick_follow; the time of each of these phases into io->phase_ns. Returns the
+ * RTCORE_TICK_* bits of both halves. A command the wire cannot carry sends a vent instead
+ * and returns RTCORE_TICK_OUTPUT. The other messages in the batch (status, version) are
+ * not the tick's: the caller's reader thread decodes them as they arrive. */
 int32_t rtcore_can_tick(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io, int32_t refs,
                         int32_t vent, int32_t missed_last, int64_t woke_ns, int32_t command_sequence);
 /* The scheduled tick over can-v1, with no Python between the wake-up and the end: sleep to

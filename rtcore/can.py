@@ -23,6 +23,12 @@ VERSION_REQUEST = lib.RTCORE_CAN_VERSION_REQUEST
 FAULT_INJECT = lib.RTCORE_CAN_FAULT_INJECT
 NO_FRAME = lib.RTCORE_CAN_NO_FRAME  # the id of an error or remote frame
 FRAME_BYTES = lib.RTCORE_CAN_FRAME_BYTES
+# the phases of a tick over can-v1, in order (rtcore_can_io.phase_ns, CanTickCore.phase_ns)
+PHASES = ("decode", "control", "encode", "follow")
+assert len(PHASES) == lib.RTCORE_CAN_PHASES
+PHASE_INDEX = (lib.RTCORE_CAN_PHASE_DECODE, lib.RTCORE_CAN_PHASE_CONTROL, lib.RTCORE_CAN_PHASE_ENCODE,
+               lib.RTCORE_CAN_PHASE_FOLLOW)
+assert tuple(range(len(PHASES))) == PHASE_INDEX
 MAX_FINGERS = lib.RTCORE_MAX_FINGERS
 MESSAGE_BYTES = ffi.sizeof("rtcore_can_message")
 # rtcore_can_io from n_tx to tx_data's end: n_tx, tx_id[], tx_len[], tx_data[] (one copy per tick)
@@ -144,6 +150,12 @@ class CanTickCore:
         return int(self.io.sample.sequence)
 
     @property
+    def phase_ns(self) -> tuple[int, ...]:
+        """How long each phase of the last tick ran (ns, in the order of PHASES); their sum is
+        the tick's time from its start to the end of the follow check."""
+        return tuple(self.io.phase_ns)
+
+    @property
     def dropped(self) -> int:
         """Frames that found the batch full."""
         return int(self.io.rx_dropped)
@@ -154,5 +166,5 @@ class CanTickCore:
         return int(self.io.busy_ticks)
 
 
-__all__ = ["FAULT_INJECT", "FRAME_BYTES", "MAX_FINGERS", "NONE", "NO_FRAME", "SENSOR", "STATUS", "VALVE",
-           "VERSION", "VERSION_REQUEST", "CanCore", "CanTickCore", "e2e_crc", "message", "tx_frames"]
+__all__ = ["FAULT_INJECT", "FRAME_BYTES", "MAX_FINGERS", "NONE", "NO_FRAME", "PHASES", "SENSOR", "STATUS",
+           "VALVE", "VERSION", "VERSION_REQUEST", "CanCore", "CanTickCore", "e2e_crc", "message", "tx_frames"]

@@ -29,6 +29,7 @@ from hand_service.service.timing import SWITCH_INTERVAL_S, TickStats, setup_real
 from hand_service.service.trajectory import CosineSweep, Trajectory
 from hand_service.transports import Transport, transport_class
 from rtcore import clock
+from rtcore.can import PHASES, CanTickCore
 
 HANDSHAKE_TIMEOUT_S = 10.0
 
@@ -51,6 +52,25 @@ def block_ticks(profile: Profile, rate_hz: float) -> int:
         return max(1, round(rate_hz))
     watchdog_ticks = profile.safety["firmware_watchdog_ms"] / 1e3 * rate_hz
     return max(1, min(int(watchdog_ticks / 2), profile.safety["stale_sensor_ticks"] - 2))
+
+
+def bus_batch(transport: Transport) -> CanTickCore | None:
+    """The batch and C tick of a transport that ticks in C over can-v1 (its phases are read
+    after every tick), or None (the simulated hand, serial-v1, --tick-in-python)."""
+    state = getattr(transport, "tick_state", None)
+    return None if state is None else state.batch
+
+
+def phase_figures(phase_ns: list[tuple[int, ...]]) -> dict[str, float | None]:
+    """p50, p99 and max of each phase of the C tick over can-v1 (tick_decode_ns_p50, ...);
+    None for each when the tick did not run in C over can-v1."""
+    table = np.array(phase_ns, dtype=np.float64).reshape(-1, len(PHASES))
+    figures: dict[str, float | None] = {}
+    for k, name in enumerate(PHASES):
+        column = table[:, k]
+        for label, value in (("p50", 50.0), ("p99", 99.0), ("max", 100.0)):
+            figures[f"tick_{name}_ns_{label}"] = float(np.percentile(column, value)) if column.size else None
+    return figures
 
 
 def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: float = 0.0,
@@ -91,6 +111,8 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
             plant_ns.append(clock.now_ns() - start)
         sup.advance_hand = timed_advance
     shown = Progress("bench", total=n_ticks, quiet=not progress)
+    batch: CanTickCore | None = None
+    phase_ns: list[tuple[int, ...]] = []  # per tick over can-v1 in C: its phases (PHASES)
     sup.gc.start()
     with shown, switch_interval(switch_interval_s):
         try:
@@ -108,12 +130,16 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
                 sup.run_one(schedule)
             sup.stats = TickStats(sup.period_ns)
             plant_ns.clear()
+            batch = bus_batch(transport)  # bound by now (the supervisor's first tick in C)
             done = 0
             while done < n_ticks:
                 count = min(block, n_ticks - done)
                 c0 = time.thread_time()
                 for _ in range(count):
+                    in_c = batch is not None and sup.state is not State.INIT  # INIT: the handshake
                     sup.run_one(schedule)
+                    if in_c and batch is not None:
+                        phase_ns.append(batch.phase_ns)
                 c1 = time.thread_time()
                 run = clock.floor_loop(schedule, count, spin_ns)
                 transport.resume_at(schedule.index)
@@ -154,6 +180,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         "tick_return_ns_p50": s.get("tick_return_ns_p50"), "tick_return_ns_p99": s.get("tick_return_ns_p99"),
         "plant_ns_p50": float(np.percentile(plant_ns, 50)) if plant_ns else None,
         "plant_ns_p99": float(np.percentile(plant_ns, 99)) if plant_ns else None,
+        **phase_figures(phase_ns),
         "jitter_ratio_p99": (s["jitter_us_p99"] / float(np.percentile(floor, 99))
                              if np.percentile(floor, 99) > 0 else math.nan),
     }

@@ -30,6 +30,10 @@ A deadline miss is a tick that ends after its period; deadline_misses_woke_late 
 those that woke after their period had ended already, a stall no tick could make up
 (every miss of the bare loop is of that kind).
 
+Over can-v1 with the tick in C, the tick's four phases (decode the batch, control, encode
+the command, follow check) are timed in the same call, and their p50, p99 and max are
+given apart (tick_decode_ns_p50, ..., tick_follow_ns_max): where a slow tick spent its time.
+
 JSON keys (docs/formats.md): c_step_ns_p50, c_step_ns_p99, python_step_ns_p50, fingers,
 tick_ns_p50, tick_ns_p99, jitter_us_p50, jitter_us_p99, jitter_us_max, rate_hz,
 jitter_floor_us_p50, jitter_floor_us_p99, jitter_floor_us_max, deadline_misses,
@@ -173,6 +177,12 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
         r["transport"] = profile.transport["kind"]
         r["tick_path"] = "c" if getattr(transport, "tick_state", None) is not None else "python"
     print(f"  tick                   p50 {r['tick_ns_p50']:8.0f} ns   p99 {r['tick_ns_p99']:8.0f} ns")
+    if r.get("tick_decode_ns_p50") is not None:
+        from rtcore.can import PHASES
+
+        phases = "   ".join(f"{name} {r[f'tick_{name}_ns_p50'] / 1e3:.1f}/"
+                               f"{r[f'tick_{name}_ns_p99'] / 1e3:.1f}" for name in PHASES)
+        print(f"  tick phases p50/p99    {phases} us")
     if r.get("tick_return_ns_p50") is not None:
         print(f"  back in Python         p50 {r['tick_return_ns_p50']:8.0f} ns   p99 "
               f"{r['tick_return_ns_p99']:8.0f} ns   (after a tick that ended in C)")

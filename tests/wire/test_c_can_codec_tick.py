@@ -24,7 +24,8 @@ from hand_service.transports.monitor import SampleMonitor
 from hand_service.wire.can_c_codec import new_core
 from hand_service.wire.can_codec import CanCodec
 from hand_service.wire.messages import SensorReport, ValveCommand
-from rtcore.can import CanTickCore, tx_frames
+from rtcore import clock
+from rtcore.can import PHASES, CanTickCore, tx_frames
 from rtcore.tick import REFS_RUN, Tick
 
 PROFILE = load_profile("can-v1-virtual.yaml")
@@ -111,6 +112,24 @@ def test_a_full_batch_counts_what_it_drops() -> None:
     assert batch.add(0x110, bytes(8), 0.0)
 
 
+def test_the_tick_times_its_phases_inside_its_own_time() -> None:
+    """rtcore_can_tick_at: each phase's time is set, and together they fit between the
+    wake-up and the end it reports (times_ns), tick after tick."""
+    tick, _ = _tick()
+    codec = CanCodec(PROFILE.transport["dbc"], N)
+    batch = CanTickCore(new_core(codec), tick.c)
+    times = Tick.times()
+    for k in range(1, 4):
+        for frame in codec.encode(SensorReport(k, k, [1000.0] * N, [20.0] * N)):
+            batch.add(frame.arbitration_id, bytes(frame.data), 0.0)
+        batch.io.phase_ns[0:len(PHASES)] = [-1] * len(PHASES)
+        assert batch.tick_at(clock.now_ns(), 0, REFS_RUN, False, False, k, times) >= 0
+        assert batch.samples == 1
+        phases = batch.phase_ns
+        assert len(phases) == len(PHASES) and all(ns > 0 for ns in phases), phases
+        assert sum(phases) <= times[1] - times[0]
+
+
 @pytest.mark.parametrize("tick_in_python", [False, True], ids=["c", "python"])
 def test_the_bench_over_virtual_can_ticks_both_ways(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                      tick_in_python: bool) -> None:
@@ -126,6 +145,12 @@ def test_the_bench_over_virtual_can_ticks_both_ways(tmp_path: Path, capsys: pyte
     assert figures["tick_path"] == ("python" if tick_in_python else "c")
     assert figures["transport"] == "can" and figures["ticks"] == 150
     assert 0 < figures["tick_ns_p50"] <= figures["tick_ns_p99"]
+    for name in PHASES:  # the C tick's phases, timed in the same call; none on the Python path
+        p50, p99, top = (figures[f"tick_{name}_ns_{x}"] for x in ("p50", "p99", "max"))
+        if tick_in_python:
+            assert p50 is None and p99 is None and top is None
+        else:
+            assert 0 < p50 <= p99 <= top
 
 
 def test_tick_in_python_is_for_can_profiles_only(capsys: pytest.CaptureFixture[str]) -> None:
