@@ -33,6 +33,7 @@ from hand_service.transports.base import (
 )
 from hand_service.transports.checks import LinkLimits
 from hand_service.transports.monitor import SampleMonitor
+from hand_service.transports.priority import below_tick
 from hand_service.wire.messages import (
     ALL_FINGERS,
     FAULT_VALUE_MODULO,
@@ -234,6 +235,7 @@ class LinkTransport(Transport):
         self._backoff_s = min(2 * self._backoff_s, self.settings["reconnect_backoff_max_ms"] / 1e3)
 
     def _read_loop(self) -> None:
+        below_tick()
         self._backoff_s = self.settings["reconnect_backoff_min_ms"] / 1e3
         while not self._stop.is_set():
             if not self._connected:
@@ -299,6 +301,7 @@ class LinkTransport(Transport):
             self._set_phase("handshake")
 
     def _write_loop(self) -> None:
+        below_tick()
         while not self._stop.is_set():
             self._wake.wait(0.1)
             self._wake.clear()
