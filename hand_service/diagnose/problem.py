@@ -166,6 +166,18 @@ class Problem:
     def n_fit(self) -> int:
         return int(self.fit_mask.sum())
 
+    def rotated(self) -> Problem:
+        """The same recording with another quarter of its blocks held out (the first of
+        every HOLDOUT_EVERY, where the held ones are the middle): a second held-out test,
+        on samples disjoint from the first's."""
+        valid = self.fit_mask | self.held_mask
+        held = np.zeros_like(valid)
+        for i, (start, stop) in enumerate(self.blocks):
+            if i % HOLDOUT_EVERY == 0:
+                held[start:stop] = True
+        held &= valid
+        return dataclasses.replace(self, fit_mask=valid & ~held, held_mask=held)
+
     def finger(self, params: Sequence[Param], values: Sequence[float],
                base: SimFinger | None = None) -> SimFinger:
         """The base finger with `params` set to `values`."""
