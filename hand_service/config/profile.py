@@ -279,7 +279,7 @@ def load_profile(path: str | Path | None = None) -> Profile:
     control, lines = _control(data, source) if own("control") else (base.control, base.lines)
     if own("safety"):
         safety = _section(data, "safety", SAFETY_SECTION, source)
-        check_safety(safety, control.rate_hz, source, data["safety"])
+        check_safety(safety, control.rate_hz, source, data.get("safety"))
     else:
         safety = base.safety
     simulation = (_section(data, "simulation", SIMULATION_SECTION, source) if own("simulation")

@@ -127,3 +127,17 @@ def test_a_wire_that_cannot_carry_0_kpa_is_refused(tmp_path: Path) -> None:
     _check_command_range(fingers, (-100.0, 600.0, "ValveCommand.pressure_cmd_kpa"), tmp_path / "p.yaml")
     with pytest.raises(UserError, match="leaves out 0 kPa"):
         _check_command_range(fingers, (10.0, 600.0, "ValveCommand.pressure_cmd_kpa"), tmp_path / "p.yaml")
+
+
+def test_a_profile_without_a_safety_section_takes_the_documented_defaults(tmp_path: Path) -> None:
+    """`safety` is optional (docs/formats.md): a profile without it loads with every limit at
+    its default (the fuzzer found a KeyError here)."""
+    lines = SIM.splitlines(keepends=True)
+    start = next(i for i, line in enumerate(lines) if line.startswith("safety:"))
+    end = next(i for i in range(start + 1, len(lines)) if lines[i].strip() and not lines[i].startswith(" "))
+    path = tmp_path / "sim.yaml"
+    path.write_text("".join(lines[:start] + lines[end:]))
+    from hand_service.config.safety import SAFETY_SECTION
+
+    safety = load_profile(path).safety
+    assert safety == {key.name: key.default for key in SAFETY_SECTION.keys}
