@@ -178,23 +178,6 @@ void hal_serial_write(const uint8_t *buf, uint16_t len)
     UCSR0B |= (1u << UDRIE0);
 }
 
-/* This port has no CAN controller (docs/board.md says why not an MCP2515): it speaks
- * serial-v1 only, its configuration's wire, and the core never reaches these. */
-uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len)
-{
-    (void)id;
-    (void)data;
-    (void)len;
-    return 0u;
-}
-
-void hal_can_write(uint16_t id, const uint8_t *data, uint8_t len)
-{
-    (void)id;
-    (void)data;
-    (void)len;
-}
-
 void hal_watchdog_kick(void)
 {
     wdt_reset();

@@ -139,23 +139,6 @@ void hal_serial_write(const uint8_t *buf, uint16_t len)
     tx_drain();
 }
 
-/* This machine has no CAN controller: the image speaks serial-v1 only (its configuration's
- * wire), and the core never reaches these. */
-uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len)
-{
-    (void)id;
-    (void)data;
-    (void)len;
-    return 0u;
-}
-
-void hal_can_write(uint16_t id, const uint8_t *data, uint8_t len)
-{
-    (void)id;
-    (void)data;
-    (void)len;
-}
-
 void hal_watchdog_kick(void)
 {
     if (have_watchdog) {

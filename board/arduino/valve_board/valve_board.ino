@@ -169,22 +169,6 @@ extern "C" void hal_serial_write(const uint8_t *buf, uint16_t len)
     (void)Serial.write(buf, len);
 }
 
-/* serial-v1 only: the configuration's wire, so the core never reaches these */
-extern "C" uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len)
-{
-    (void)id;
-    (void)data;
-    (void)len;
-    return 0u;
-}
-
-extern "C" void hal_can_write(uint16_t id, const uint8_t *data, uint8_t len)
-{
-    (void)id;
-    (void)data;
-    (void)len;
-}
-
 extern "C" void hal_watchdog_kick(void)
 {
     wdt_reset();
