@@ -23,9 +23,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-import rtcore
 from hand_service.firmware.rig import Rig
 from hand_service.transports import SensorSample
+from tests.hil.closed_loop import step_to_angle
 
 pytestmark = pytest.mark.qemu
 
@@ -170,24 +170,9 @@ def test_closed_loop_step_of_the_index_to_45_deg(rig: QemuRig) -> None:
     rig.start_mock()
     transport = rig.transport()
     transport.open()
-    hand = rtcore.Hand(rig.profile.hand_config())
-    hand.inputs.mode[:] = rtcore.MODE_POSITION
-    hand.inputs.angle_ref_deg[:] = 45.0
-    angles = []
-    steps = round(2.5 * rig.profile.control.rate_hz)
-    end = time.monotonic() + 5 * 2.5
-    while len(angles) < steps and time.monotonic() < end:
-        sample = transport.latest()
-        if sample is None:
-            time.sleep(0.001)
-            continue
-        hand.inputs.sensor_mv[:] = sample.sensor_mv
-        hand.step()
-        transport.send(hand.outputs.pressure_cmd_kpa)
-        angles.append(hand.outputs.angle_deg.copy())
-    assert len(angles) == steps, f"only {len(angles)} samples in {5 * 2.5} s"
+    angles = step_to_angle(transport, rig.profile)
     index = [f.name for f in rig.profile.fingers].index("index")
-    after_2s = np.array(angles[round(2.0 * rig.profile.control.rate_hz):])[:, index]
+    after_2s = angles[round(2.0 * rig.profile.control.rate_hz):, index]
     print(f"\nqemu index after 2 s: mean {after_2s.mean():.2f} deg, "
           f"worst {np.abs(after_2s - 45).max():.2f} deg off")
     # within 2 deg after 2 s: the mean over 2.0-2.5 s, as the HIL suite judges the host build

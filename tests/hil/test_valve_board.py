@@ -24,12 +24,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import rtcore
 from hand_service.firmware.hold import hold
 from hand_service.firmware.rig import Rig
 from hand_service.transports import HandshakeError, SensorSample
 from hand_service.transports.link import LinkTransport
 from hand_service.wire.messages import FaultKind, SensorReport
+from tests.hil.closed_loop import step_to_angle
 
 WAIT_S = 5.0  # generous: two cores shared with other engineers' test runs
 
@@ -202,25 +202,8 @@ class TestValveBoard:
         rig.start_mock()
         transport = rig.transport()
         transport.open()
-        hand = rtcore.Hand(rig.profile.hand_config())
-        hand.inputs.mode[:] = rtcore.MODE_POSITION
-        hand.inputs.angle_ref_deg[:] = 45.0
-        angles = []
-        # 2.5 s of control at the firmware's pace: 250 steps, each on a fresh sample. A loaded
-        # host takes the newest sample after a wait, so it may need longer: 5x that, at most.
-        steps = round(2.5 * rig.profile.control.rate_hz)
-        end = time.monotonic() + 5 * 2.5
-        while len(angles) < steps and time.monotonic() < end:
-            sample = transport.latest()
-            if sample is None:
-                time.sleep(0.001)
-                continue
-            hand.inputs.sensor_mv[:] = sample.sensor_mv
-            hand.step()
-            transport.send(hand.outputs.pressure_cmd_kpa)
-            angles.append(hand.outputs.angle_deg.copy())
-        assert len(angles) == steps, f"only {len(angles)} samples in {5 * 2.5} s"
-        settled = np.array(angles[-50:])  # the last 50 steps (0.5 s)
+        angles = step_to_angle(transport, rig.profile)  # 2.5 s, 250 steps on fresh samples
+        settled = angles[-50:]  # the last 50 steps (0.5 s)
         np.testing.assert_allclose(settled.mean(axis=0), 45.0, atol=2.0)
         # nothing is lost on a pty: a host stalled long enough to overflow it times out first
         assert transport.health().sequence_gaps < 5
