@@ -21,6 +21,7 @@ from hand_service.config.model import FingerModel
 from hand_service.diagnose import excitation, noise, stability, stats
 from hand_service.diagnose.evidence import Context, sentence
 from hand_service.diagnose.fit import FAR_FACTOR, Fit, far_from_nominal, fit
+from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
 from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Prior, Problem, build_problem
 from hand_service.diagnose.search import Candidate, Progress, Selection, select
 from hand_service.diagnose.verdict import (
@@ -57,6 +58,7 @@ class Diagnosis:
     partial_effects: list[FoundEffect] = field(default_factory=list)  # significant, yet not explaining
     explained_share: float = 0.0  # of the refitted model's mismatch, by the effects found
     structure_left: str = ""  # what says the final model still misses something ('' if nothing)
+    onset: Onset | None = None  # a torque that switches on at an angle (onset.py), when found
 
     @property
     def grade(self) -> str | None:
@@ -110,6 +112,7 @@ class Diagnosis:
             "grade": self.grade,
             "explained_share": self.explained_share,
             "structure_left": self.structure_left,
+            "onset": None if self.onset is None else self.onset.to_json(),
             "notes": self.notes,
             "seconds": self.seconds,
         }
@@ -134,6 +137,7 @@ def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> l
     return params
 
 
+NAMING = ("missing_physics", "unexplained")  # verdicts with effects found, named or partial
 REPORT_FACTOR = 2.0  # a plain refit this many times off the nominal is said
 
 
@@ -258,6 +262,12 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
             warnings.append("so no effect is named: the mismatch lies outside the library "
                             "(see partial_effects)")
             verdict, notes = "unexplained", []
+    onset = onset_check(problem, final, [e.name for e in found]) if verdict in NAMING and found else None
+    if onset is not None:  # a cubic spring or gravity standing in for a contact or an end stop
+        warnings.append(onset.sentence([e.name for e in found if e.name in SMOOTH_STATIC]))
+        if verdict == "missing_physics":
+            warnings.append("so no effect is named (see partial_effects)")
+            verdict, notes = "unexplained", []
     warnings.extend(trade_offs(final, found))
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
@@ -277,7 +287,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained,
                      structure_left(final_white, final_cross) if found or partial else
-                     structure_left(refit_white, refit_cross))
+                     structure_left(refit_white, refit_cross), onset)
 
 
 EVEN_ODD = {"gravity", "cubic_stiffness"}  # a torque even in θ (1 − cos θ), one odd (θ³)
