@@ -1,5 +1,6 @@
 /*
- * rtcore_can: the host's can-v1 codec in C (csrc/rtcore_can.c).
+ * rtcore_can: the host's can-v1 codec in C (csrc/rtcore_can.c) and the tick around it
+ * (csrc/rtcore_can_tick.c).
  *
  * The pack and unpack of every frame are the C source cantools generates from
  * firmware_profiles/can-v1.dbc at build time (rtcore/_build.py writes rtcore_can_v1.[ch] into the
