@@ -201,9 +201,11 @@ void rtcore_sim_step(rtcore_sim *sim, const double *pressure_cmd_kpa, rtcore_sim
     }
     for (i = 0; i < sim->config.n_fingers; ++i) {
         rtcore_propagator_cache cache;
+        sim_plant plant;
         cache.count = 0;
         cache.next = 0;
-        rtcore_sim_advance_sample(&sim->config.finger[i], &sim->finger[i], &cache, pressure_cmd_kpa[i], sim->dt_s,
+        rtcore_sim_plant_for(&sim->config.finger[i], &plant);
+        rtcore_sim_advance_sample(&plant, &sim->finger[i], &cache, pressure_cmd_kpa[i], sim->dt_s,
                                   sim->config.substeps);
     }
     sim->time_s += sim->dt_s;
@@ -217,6 +219,7 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
 {
     rtcore_sim_finger_state s;
     rtcore_propagator_cache cache;
+    sim_plant plant;
     double dt_s;
     int32_t err;
     int32_t k;
@@ -247,8 +250,9 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
     }
     cache.count = 0;
     cache.next = 0;
+    rtcore_sim_plant_for(finger, &plant); /* the finger's alone: once for the whole run */
     for (k = 0; k + 1 < n_samples; ++k) {
-        rtcore_sim_advance_sample(finger, &s, &cache, pressure_cmd_kpa[k], dt_s, substeps);
+        rtcore_sim_advance_sample(&plant, &s, &cache, pressure_cmd_kpa[k], dt_s, substeps);
         angle_out_deg[k + 1] = s.angle_rad * RTCORE_DEG_PER_RAD;
         if (chamber_out_kpa != 0) {
             chamber_out_kpa[k + 1] = s.chamber_kpa;

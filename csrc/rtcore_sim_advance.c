@@ -67,25 +67,26 @@ static void advance_pneumatic(const rtcore_sim_finger *f, rtcore_sim_finger_stat
 /* One sample period after pushing command_kpa: the dead time puts at most one breakpoint
  * inside the period, where the older command gives way to the newer one. The step is at
  * most dt/substeps (what the caller asks for) and what the finger's parameters allow
- * (more, up to dt/substeps, once the finger has settled: rtcore_sim_settled_step_s). */
-void rtcore_sim_advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
+ * (more, up to dt/substeps, once the finger has settled: rtcore_sim_settled_step_s).
+ * `plant` is rtcore_sim_plant_for(f): it depends on the finger alone, so a run over many
+ * samples derives it once (rtcore_sim_run). */
+void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
                                double command_kpa, double dt_s, int32_t substeps)
 {
+    const rtcore_sim_finger *f = plant->finger;
     const double step_cap_s = dt_s / (double)substeps; /* the parameters' bound applies inside */
-    sim_plant plant;
     if (f->pneumatic.valve_model == RTCORE_VALVE_PNEUMATIC) {
         advance_pneumatic(f, s, cache, command_kpa, dt_s, step_cap_s);
         return;
     }
-    rtcore_sim_plant_for(f, &plant);
     s->head = (s->head + 1) % RTCORE_SIM_HISTORY;
     s->command_kpa[s->head] = saturate(f, command_kpa);
     if (s->delay_fraction > 0.0) {
         const double first_s = s->delay_fraction * dt_s;
-        integrate_held(&plant, s, cache, delayed_command(s, s->delay_samples + 1), first_s, step_cap_s);
-        integrate_held(&plant, s, cache, delayed_command(s, s->delay_samples), dt_s - first_s, step_cap_s);
+        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples + 1), first_s, step_cap_s);
+        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s - first_s, step_cap_s);
     } else {
-        integrate_held(&plant, s, cache, delayed_command(s, s->delay_samples), dt_s, step_cap_s);
+        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s, step_cap_s);
     }
     s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
 }

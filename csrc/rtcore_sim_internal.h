@@ -66,7 +66,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
                                   double input_kpa, double duration_s, double request_cap_s);
 
 /* rtcore_sim_advance.c */
-void rtcore_sim_advance_sample(const rtcore_sim_finger *f, rtcore_sim_finger_state *s,
+void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *s,
                                rtcore_propagator_cache *cache, double command_kpa, double dt_s, int32_t substeps);
 
 #endif /* RTCORE_SIM_INTERNAL_H */

@@ -203,6 +203,11 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
     double torque_start = pressure_torque_nm(f, start_kpa);
     const double step_cap_s = fmin(request_cap_s, s->max_step_s);
     const double settle_range_rad = rtcore_sim_settle_range_rad_for(p);
+    const double lag_step_s = LAG_STEP_FRACTION * tau_s;
+    /* (LAG_STEP_FRACTION·τ)³·S: a step h with h³·|p − u| below it is shorter than the lag's
+     * bound, which then need not be taken (a cube root per step saved; the same h) */
+    const double lag_cube_s3_kpa = lag_step_s * lag_step_s * lag_step_s * lag_span_kpa * (1.0 - 1e-9);
+    double chamber_now_kpa = moving ? chamber_at(start_kpa, input_kpa, tau_s, 0.0) : input_kpa;
     double cap_s = step_cap_s;
     double t_s = 0.0;
     int32_t last = 0;
@@ -232,6 +237,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
         sim_plant local;
         double torque_mid = torque_start;
         double torque_end = torque_start;
+        double chamber_end_kpa = chamber_now_kpa;
         int32_t cut = 0; /* the step was shortened to end at a kink */
         int32_t flipped = 0; /* the step was taken again on the far side of the surface */
 
@@ -239,10 +245,11 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
         if (moving) {
             /* from how far the chamber still is from its input, not from when this
              * segment began: a chamber nearly settled (every sample period after a step)
-             * needs no short steps, and a new segment does not restart them */
-            const double gap_kpa = fabs(chamber_at(start_kpa, input_kpa, tau_s, t_s) - input_kpa);
-            if (gap_kpa > 0.0) {
-                h = fmin(h, LAG_STEP_FRACTION * tau_s * cbrt(lag_span_kpa / gap_kpa));
+             * needs no short steps, and a new segment does not restart them (the chamber
+             * now is the one the last step ended at, chamber_at(t_s)) */
+            const double gap_kpa = fabs(chamber_now_kpa - input_kpa);
+            if (gap_kpa > 0.0 && !(h * h * h * gap_kpa < lag_cube_s3_kpa)) {
+                h = fmin(h, lag_step_s * cbrt(lag_span_kpa / gap_kpa));
             }
         }
         if (f->prbm.effects.coulomb_torque_nm > 0.0 || f->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0) {
@@ -272,8 +279,10 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             int32_t surface = 0;
             if (moving) {
                 torque_mid = pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h));
-                torque_end = last ? torque_last
-                                  : pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s, t_s + h));
+                if (!last) {
+                    chamber_end_kpa = chamber_at(start_kpa, input_kpa, tau_s, t_s + h);
+                }
+                torque_end = last ? torque_last : pressure_torque_nm(f, chamber_end_kpa);
             }
             step(&local, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
                  touching, slope0);
@@ -300,6 +309,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             break;
         }
         torque_start = torque_end;
+        chamber_now_kpa = chamber_end_kpa;
         t_s += h;
         if (!(isfinite(s->angle_rad) && isfinite(s->velocity_rad_per_s))) {
             break; /* diverged: the state stays non-finite, the chamber still follows */

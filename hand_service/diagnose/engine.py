@@ -15,6 +15,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
@@ -165,7 +166,20 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
              noise_model: str = "ar") -> Diagnosis:
     """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
     offset (noise.py), so that clean recordings from a lab's sensor come out clean; or
-    "white", independent samples."""
+    "white", independent samples.
+
+    BLAS runs one thread meanwhile: diagnose's own threads (search.WORKERS, the Jacobian's
+    columns in fit.py) keep the cores busy, and OpenBLAS, which threads every dot product
+    past about 10 000 samples (the residual statistics at 500 Hz and 1 kHz), would only
+    make them wait (a 30 s, 1 kHz recording: 4.0 s with its threads, 2.65 s without)."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
+                         noise_model)
+
+
+def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
+              rate_hz: float, progress: Progress | None, missing: np.ndarray | None, input_hold: str,
+              noise_model: str) -> Diagnosis:
     started = time.perf_counter()
     warnings: list[str] = []
     problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold)

@@ -4,11 +4,19 @@ The simulator (rtcore_sim_run in C) is smooth in every parameter, including the 
 time, so scipy's trust-region reflective solver with finite-difference Jacobians works
 directly on the simulated angles. Parameters are scaled by their typical magnitude and
 kept within their plausible bounds.
+
+A Jacobian's columns are independent simulations: they run side by side on the machine's
+cores (the C simulator runs without Python's lock), taken in column order, so the
+Jacobian and every fit are the same, bit for bit, as one column at a time.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import inspect
+import os
+import threading
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -87,6 +95,36 @@ def _into_bounds(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndar
     return np.clip(x, lower + 1e-9 * span, upper - 1e-9 * span)
 
 
+COLUMN_WORKERS = min(4, os.cpu_count() or 1)  # a Jacobian's columns simulated at once
+# least_squares takes `workers` from SciPy 1.16 on; before, the columns run one at a time
+_PARALLEL_COLUMNS = "workers" in inspect.signature(least_squares).parameters
+_columns: ThreadPoolExecutor | None = None
+_columns_lock = threading.Lock()
+
+
+def _column_pool() -> ThreadPoolExecutor:
+    """One pool for the process: its tasks are single simulations, which submit nothing,
+    so fits running in several threads (search.py) can share it without deadlock."""
+    global _columns
+    with _columns_lock:
+        if _columns is None:
+            _columns = ThreadPoolExecutor(max_workers=COLUMN_WORKERS, thread_name_prefix="jacobian")
+        return _columns
+
+
+def column_map(function: Callable[[np.ndarray], np.ndarray],
+               points: Iterable[np.ndarray]) -> Iterator[np.ndarray]:
+    """map() for scipy's finite differences (least_squares' `workers`): the first point in
+    the calling thread, the others on the shared pool at the same time; results in order."""
+    points = list(points)
+    if COLUMN_WORKERS < 2 or len(points) < 2:
+        return iter([function(x) for x in points])
+    pool = _column_pool()
+    later = [pool.submit(function, x) for x in points[1:]]
+    first = function(points[0])
+    return iter([first, *(f.result() for f in later)])
+
+
 def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base: SimFinger | None = None,
         max_nfev: int = 60) -> Fit:
     """Least squares over `params` from `start`, everything else held at `base`."""
@@ -117,7 +155,8 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
 
     x0 = _into_bounds(np.asarray(start, dtype=float) / scales, lower, upper)
     result = least_squares(cost_rows, x0, bounds=(lower, upper), method="trf", x_scale="jac",
-                           diff_step=1e-6, max_nfev=max_nfev, xtol=1e-7, ftol=1e-7, gtol=1e-8)
+                           diff_step=1e-6, max_nfev=max_nfev, xtol=1e-7, ftol=1e-7, gtol=1e-8,
+                           **({"workers": column_map} if _PARALLEL_COLUMNS else {}))
     values = result.x * scales
     finger = problem.finger(params, values, base)
     n = problem.n_fit
@@ -128,8 +167,9 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
         information = np.zeros(len(params))
         information[held] = (prior.weight_deg / (widths * values[held])) ** 2
         prior_cost = float(result.fun[n:] @ result.fun[n:])
-    return Fit(params, values, finger, problem.simulate(finger), float(data @ data),
-               result.jac[:n] / scales, n, information, prior_cost)
+    # the solver returns a point it evaluated: its angle comes from the problem's cache
+    return Fit(params, values, finger, problem.simulate(finger), float(data @ data), result.jac[:n] / scales,
+               n, information, prior_cost)
 
 
 def sensitivity(problem: Problem, param: Param, finger: SimFinger, angle_deg: np.ndarray) -> np.ndarray:

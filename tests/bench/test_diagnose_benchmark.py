@@ -1,6 +1,11 @@
-"""Time to diagnose a 30 s, 100 Hz concealed recording (`make bench`; target <= 20 s)."""
+"""Time to diagnose a 30 s, 100 Hz concealed recording (`make bench`; target <= 20 s), and
+issue 20's speed points: the median and the largest time over independent 100 Hz
+recordings, and each lab rate's time as a ratio of the 100 Hz time measured in the same
+run (never an absolute time asserted: the machine is shared)."""
 
 from __future__ import annotations
+
+import os
 
 import pytest
 
@@ -19,19 +24,37 @@ def test_diagnose_30_s_at_100_hz(benchmark, effect: str) -> None:
     assert result.effects[0].name == effect
 
 
+def _blas_threads() -> str:
+    """How many threads BLAS may use here: past about 10 000 samples (500 Hz and up, 30 s)
+    the residual statistics' dot products are threaded, and on 2 busy cores BLAS threads
+    that compete with diagnose's own cost several times the time (docs/diagnose.md)."""
+    return os.environ.get("OPENBLAS_NUM_THREADS", "unset (one per core)")
+
+
+RATE_SECONDS: dict[float, float] = {}  # this run's time at each rate, for the ratios
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("rate_hz", [0.25, 100.0, 500.0, 1000.0])
+@pytest.mark.parametrize("rate_hz", [100.0, 0.25, 500.0, 1000.0])  # 100 Hz first: the others' reference
 def test_diagnose_30_s_at_each_rate(benchmark, rate_hz: float) -> None:
     """The same recording at a lab's other rates (issue 20's target: within 3 × the 100 Hz
     time): 30 s, except at 0.25 Hz, where 30 s is 8 samples and diagnose asks for 100, so
     480 s (120 samples). The simulator's steps follow the dynamics, not the rate: a settled
-    finger takes long steps, a plain one is exact at any step."""
+    finger takes long steps, a plain one is exact at any step. Each time is printed as a
+    ratio of this run's 100 Hz time."""
     model = load_profile(None).finger("index").model
     c = generate(model, {"gravity": None}, "steps", duration_s=480.0 if rate_hz < 1.0 else 30.0,
                  rate_hz=rate_hz, noise_deg=0.5, seed=1, conceal_ratio=0.8)
     result = benchmark.pedantic(diagnose, args=(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, rate_hz),
                                 rounds=1, iterations=1)
     benchmark.extra_info["verdict"] = result.verdict
+    benchmark.extra_info["blas_threads"] = _blas_threads()
+    RATE_SECONDS[rate_hz] = result.seconds
+    if rate_hz != 100.0 and 100.0 in RATE_SECONDS:
+        ratio = result.seconds / RATE_SECONDS[100.0]
+        benchmark.extra_info["ratio_to_100_hz"] = ratio
+        print(f"\ndiagnose at {rate_hz:g} Hz: {result.seconds:.2f} s, {ratio:.2f} x the 100 Hz time "
+              f"({RATE_SECONDS[100.0]:.2f} s; BLAS threads: {_blas_threads()})")
     if rate_hz >= 1.0:  # at 0.25 Hz every sample is the settled, static finger: a timing case
         assert result.effects[0].name == "gravity"
 
@@ -86,5 +109,6 @@ def test_diagnose_median_and_max_over_independent_100_hz_recordings(benchmark, t
     benchmark.pedantic(run_all, rounds=1, iterations=1)
     benchmark.extra_info["median_s"] = float(np.median(seconds))
     benchmark.extra_info["max_s"] = float(np.max(seconds))
+    benchmark.extra_info["blas_threads"] = _blas_threads()
     print(f"\ndiagnose per 30 s, 100 Hz recording: median {np.median(seconds):.2f} s, "
           f"max {np.max(seconds):.2f} s")

@@ -66,3 +66,21 @@ def lab_sensor_noise(rng: np.random.Generator, n: int, rate_hz: float, white_deg
 
 def quantise(angle_deg: np.ndarray, step_deg: float) -> np.ndarray:
     return np.round(angle_deg / step_deg) * step_deg if step_deg > 0 else angle_deg
+
+
+def stepped_recording(seed: int, seconds: float, rate_hz: float, stiffness_factor: float,
+                      effects: dict | None = None):
+    """A Problem of the truth finger on random steps with 0.3° white noise, against a
+    nominal whose k is `stiffness_factor` times the truth's (and with `effects`)."""
+    from hand_service.config.model import FingerModel
+    from hand_service.diagnose.problem import build_problem
+
+    truth = LinearFinger()
+    rng = np.random.default_rng(seed)
+    n = int(seconds * rate_hz)
+    pressure = random_steps(rng, n, rate_hz, 0.0, 80.0)
+    angle = truth.angle_deg(pressure, rate_hz) + rng.normal(0.0, 0.3, n)
+    nominal = FingerModel(inertia_kgm2=truth.inertia_kgm2, damping_nms_per_rad=truth.damping_nms_per_rad,
+                          stiffness_nm_per_rad=stiffness_factor * truth.stiffness_nm_per_rad,
+                          pressure_gain_nm_per_kpa=truth.pressure_gain_nm_per_kpa, effects=effects or {})
+    return build_problem(nominal, np.arange(n) / rate_hz, pressure, angle, rate_hz)

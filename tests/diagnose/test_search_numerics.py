@@ -6,28 +6,19 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 import pytest
 
-from hand_service.config.model import FingerModel
 from hand_service.diagnose import search
 from hand_service.diagnose.fit import fit
-from hand_service.diagnose.problem import PLAIN, Param, build_problem
-from tests.diagnose.linear_truth import LinearFinger, random_steps
+from hand_service.diagnose.problem import PLAIN, Param
+from tests.diagnose.linear_truth import stepped_recording
 
 RATE_HZ = 100.0
 
 
 def _problem(seed: int = 4):
-    truth = LinearFinger()
-    rng = np.random.default_rng(seed)
-    n = int(20 * RATE_HZ)
-    pressure = random_steps(rng, n, RATE_HZ, 0.0, 80.0)
-    angle = truth.angle_deg(pressure, RATE_HZ) + rng.normal(0.0, 0.3, n)
-    nominal = FingerModel(inertia_kgm2=truth.inertia_kgm2, damping_nms_per_rad=truth.damping_nms_per_rad,
-                          stiffness_nm_per_rad=0.5 * truth.stiffness_nm_per_rad,  # the refit doubles k
-                          pressure_gain_nm_per_kpa=truth.pressure_gain_nm_per_kpa)
-    problem = build_problem(nominal, np.arange(n) / RATE_HZ, pressure, angle, RATE_HZ)
+    problem = stepped_recording(seed, 20.0, RATE_HZ, 0.5)  # the refit doubles k
+    nominal = problem.base.prbm
     params = [Param.plain(name, getattr(nominal, name)) for name in PLAIN]
     return problem, fit(problem, params, problem.values(params))
 
