@@ -54,7 +54,8 @@ class Onset:
         return (f"the missing torque switches on {side} {self.angle_deg:.1f}° ({100 * self.share_past:.0f} % "
                 f"of the samples) and is zero on the other side, as a contact or an end stop makes it "
                 f"(∝ |θ − θc|^{self.power:g}): it explains the residual better than {' and '.join(names)} "
-                f"(ΔBIC {self.delta_bic:.0f}, both linearised), which only approximate it over the range; "
+                f"(ΔBIC {self.delta_bic:.0f}, both linearised), which only approximate"
+                f"{'s' if len(names) == 1 else ''} it over the range; "
                 "this is outside the library")
 
 
