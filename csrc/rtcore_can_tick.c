@@ -158,14 +158,8 @@ int32_t rtcore_can_tick_at(rtcore_tick *tick, rtcore_can *can, rtcore_can_io *io
                            int64_t spin_ns, int32_t refs, int32_t vent, int32_t missed_last,
                            int32_t command_sequence, int64_t *times_ns)
 {
-    int64_t woke;
+    const int64_t woke = rtcore_tick_wake(deadline_ns, spin_ns, times_ns);
     int32_t events;
-    if (times_ns == 0) {
-        return -1;
-    }
-    woke = rtcore_sleep_until_ns(deadline_ns, spin_ns);
-    times_ns[0] = woke;
-    times_ns[1] = woke;
     if (woke < 0) {
         return -1;
     }

@@ -185,18 +185,24 @@ int32_t rtcore_tick_sim(rtcore_tick *tick, rtcore_sim_link *link, int64_t tick_i
     return events | rtcore_tick_follow(tick);
 }
 
-int32_t rtcore_tick_sim_at(rtcore_tick *tick, rtcore_sim_link *link, int64_t deadline_ns,
-                           int64_t spin_ns, int64_t tick_index, int32_t refs, int32_t missed_last,
-                           double t_s, int32_t state, int64_t *times_ns)
+int64_t rtcore_tick_wake(int64_t deadline_ns, int64_t spin_ns, int64_t *times_ns)
 {
     int64_t woke;
-    int32_t events;
     if (times_ns == 0) {
         return -1;
     }
     woke = rtcore_sleep_until_ns(deadline_ns, spin_ns);
     times_ns[0] = woke;
     times_ns[1] = woke;
+    return woke;
+}
+
+int32_t rtcore_tick_sim_at(rtcore_tick *tick, rtcore_sim_link *link, int64_t deadline_ns,
+                           int64_t spin_ns, int64_t tick_index, int32_t refs, int32_t missed_last,
+                           double t_s, int32_t state, int64_t *times_ns)
+{
+    const int64_t woke = rtcore_tick_wake(deadline_ns, spin_ns, times_ns);
+    int32_t events;
     if (woke < 0) {
         return -1;
     }

@@ -114,6 +114,12 @@ int32_t rtcore_tick_sim_at(rtcore_tick *tick, rtcore_sim_link *link, int64_t dea
                            double t_s, int32_t state, int64_t *times_ns);
 /* END CDEF */
 
+/* The wake-up of a scheduled tick (rtcore_tick_sim_at, rtcore_can_tick_at): sleep to
+ * deadline_ns (rtcore_sleep_until_ns, spin_ns), the time woken into times_ns[0] and [1].
+ * Returns it, or a negative value with nothing else done when the sleep failed or
+ * times_ns is null. */
+int64_t rtcore_tick_wake(int64_t deadline_ns, int64_t spin_ns, int64_t *times_ns);
+
 #ifdef __cplusplus
 }
 #endif
