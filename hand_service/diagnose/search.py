@@ -272,9 +272,9 @@ def second_split_z(problem: Problem, base: Fit, joint: Fit) -> float:
     without = fit(other, base.params, base.values, base=base.finger)
     with_effect = fit(other, joint.params, joint.values, base=base.finger)
     held = other.held_mask
-    sigma = other.innovation_sigma(other.innovations(without.angle_deg), len(without.params))
-    return stats.heldout_z_innovations(other.innovations(without.angle_deg)[held],
-                                       other.innovations(with_effect.angle_deg)[held], sigma)
+    before = other.innovations(without.angle_deg)
+    sigma = other.innovation_sigma(before, len(without.params))
+    return stats.heldout_z_innovations(before[held], other.innovations(with_effect.angle_deg)[held], sigma)
 
 
 def prior_chi2(problem: Problem, f: Fit) -> float:
