@@ -231,8 +231,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     final_e, nominal_e = problem.innovations(final.angle_deg), problem.innovations(nominal_angle)
     final_white = stats.ljung_box(final_e[fit_mask], lags)
     u = problem.pressure_kpa[fit_mask]
-    refit_cross = stats.input_independence(refit_e[fit_mask], u, lags)
-    final_cross = stats.input_independence(final_e[fit_mask], u, lags)
+    first_lag = 1 if problem.input_hold == "zoh" else 0  # see stats.input_independence
+    refit_cross = stats.input_independence(refit_e[fit_mask], u, lags, first_lag)
+    final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
     xcorr = stats.cross_correlation(refit_e[fit_mask], u, lags, rate_hz)
     rmse = {"nominal": stats.rmse((measured - nominal_angle)[held]),
             "refit": stats.rmse((measured - refit.angle_deg)[held]),
@@ -254,7 +255,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         kept = [first]
         final_e = problem.innovations(final.angle_deg)
         final_white = stats.ljung_box(final_e[fit_mask], lags)
-        final_cross = stats.input_independence(final_e[fit_mask], u, lags)
+        final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
         rmse["augmented"] = stats.rmse((measured - final.angle_deg)[held])
     explained = explained_share(problem, refit, final) if found else 0.0
     if found and any(c.prior_gain > 0.0 for c in kept):  # the refit's distance from the nominal was evidence

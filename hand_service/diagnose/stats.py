@@ -84,20 +84,27 @@ def cross_correlation(residual: np.ndarray, signal: np.ndarray, lags: int,
     return CrossCorrelation(np.arange(lags + 1) / rate_hz, rho, Z99 / np.sqrt(n))
 
 
-def input_independence(innovations: np.ndarray, signal: np.ndarray, lags: int) -> Whiteness:
+def input_independence(innovations: np.ndarray, signal: np.ndarray, lags: int,
+                       first_lag: int = 0) -> Whiteness:
     """Do the innovations follow the past input? The input is prewhitened by its own AR
     filter, so that under a right model (innovations white and independent of the input)
-    each cross-correlation ρ(τ), τ = 0..lags, is about N(0, 1/n) on its own and
-    Q = n·Σρ² is χ² with lags + 1 degrees of freedom. A model that leaves out how the output
-    answers the input (an object in the way, a missing effect) fails it even when an AR
-    noise filter has made its innovations look white."""
+    each cross-correlation ρ(τ), τ = first_lag..lags, is about N(0, 1/n) on its own and
+    Q = n·Σρ² is χ² with as many degrees of freedom as lags. A model that leaves out how
+    the output answers the input (an object in the way, a missing effect) fails it even
+    when an AR noise filter has made its innovations look white.
+
+    `first_lag` 1 for a command held from its sample on (zero-order hold): that command
+    cannot move the angle sampled at the same instant, so a correlation at lag 0 is the
+    other way round, a controller answering the sensor's noise in a closed-loop recording
+    (a PI loop on the angle leaves z ≈ −15 there on a right model), and is no evidence
+    against the model."""
     u = signal - signal.mean()
     order = choose_order(u)
     u, e = prewhiten(u, order)[order:], innovations[order:]  # past the filter's start
-    rho = cross_correlation(e, u, lags, 1.0).rho
+    rho = cross_correlation(e, u, lags, 1.0).rho[first_lag:]
     n = e.size
     q = float(n * np.sum(rho**2))
-    return Whiteness(q, lags + 1, float(stats.chi2.sf(q, lags + 1)), float(np.max(np.abs(rho))),
+    return Whiteness(q, rho.size, float(stats.chi2.sf(q, rho.size)), float(np.max(np.abs(rho))),
                      Z99 / np.sqrt(n))
 
 
