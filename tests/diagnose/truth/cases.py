@@ -25,7 +25,9 @@ the physics is not exercised by the recording:
 | coulomb_friction | always (every recording stops or reverses the finger) |
 
 or when the effect, even at its largest plausible size, leaves v < 0.4 (the plain model
-absorbs it).
+absorbs it); or, for gravity and a cubic spring, when what the other of the two and the
+plain model together leave of it is under 0.4 × the noise (distinct.py: a finger that bends
+one way only cannot tell θ³ from 1 − cos θ unless the effect is large).
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from tests.diagnose.truth import excitation as ex
+from tests.diagnose.truth.distinct import COMPETITORS, distinct_visibility
 from tests.diagnose.truth.linear import LinearModel, refit
 from tests.diagnose.truth.plant import DEG, FAMILIES, Family, Trajectory, Truth, simulate
 from tests.diagnose.truth.sensor import Sensor
@@ -286,6 +289,15 @@ def _visibility(traj: Trajectory, plan: ex.Plan, start: LinearModel, sensor: Sen
     return fit.residual_rms_deg / sensor.noise_rms_deg
 
 
+def _distinct(effect: str, traj: Trajectory, plan: ex.Plan, start: LinearModel,
+              sensor: Sensor) -> tuple[str, float]:
+    """The effect's competitor and what is left of it once the competitor is fitted too
+    (distinct.distinct_visibility)."""
+    fit = refit(traj.theta_deg, traj.command_kpa, plan.rate_hz, start, plan.theta0_deg)
+    return distinct_visibility(effect, traj.theta_deg, traj.command_kpa, plan.rate_hz, fit.model,
+                               fit.residual_deg, plan.theta0_deg, sensor.noise_rms_deg)
+
+
 def exercised(effect: str, truth: Truth, plan: ex.Plan, traj: Trajectory) -> tuple[bool, str]:
     """The physics rules of the module's table."""
     cmd, th, rate = traj.command_kpa, traj.theta_deg, plan.rate_hz
@@ -375,6 +387,11 @@ def build(spec: CaseSpec) -> Case:
     ok, reason = exercised(spec.effect, truth, plan, traj)
     if ok and spec.effect in LIBRARY and v < 0.4:
         ok, reason = False, "absorbed by k, B and N at every plausible size tried"
+    if ok and spec.effect in COMPETITORS:
+        competitor, distinct = _distinct(spec.effect, traj, plan, start, sensor)
+        if distinct < 0.4:
+            ok, reason = False, (f"indistinct from {competitor}: k, B, N and {competitor} leave "
+                                 f"{distinct:.2f} × the noise of it")
     return Case(
         spec,
         truth,

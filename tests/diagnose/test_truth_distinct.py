@@ -1,0 +1,55 @@
+"""The battery's judgement of whether a recording can tell gravity from a cubic spring
+(tests/diagnose/truth/distinct.py), checked against the arithmetic it rests on and on two
+battery cases."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tests.diagnose.truth import cases as cs
+from tests.diagnose.truth.distinct import distinct_visibility, plain_sensitivities, torque_response_rad
+from tests.diagnose.truth.linear import DEG, LinearModel, response_deg
+
+RATE_HZ = 100.0
+MODEL = LinearModel(1e-4, 0.02, 0.5, 0.01)
+
+
+def _left_of(effect: str, torque, theta_deg: np.ndarray, command_kpa: np.ndarray) -> float:
+    """What distinct_visibility leaves of `torque`(θ) acting on the finger, the noise RMS
+    set so that what k, B and N leave of the effect is 1 × the noise."""
+    response = torque_response_rad(MODEL, torque(theta_deg * DEG), RATE_HZ) / DEG
+    plain = plain_sensitivities(MODEL, command_kpa, RATE_HZ, 0.0)
+    residual = response - plain @ np.linalg.lstsq(plain, response, rcond=None)[0]
+    noise = float(np.sqrt(np.mean(residual**2)))
+    return distinct_visibility(effect, theta_deg, command_kpa, RATE_HZ, MODEL, residual, 0.0, noise)[1]
+
+
+def test_one_way_bending_leaves_a_few_percent_of_gravity_beyond_a_cubic_spring() -> None:
+    """Over 0 to 60°, what k, B and N leave of 1 − cos θ is θ³'s to within about a fifth of
+    its RMS (a twentieth of its energy); bent both ways, the even 1 − cos θ is orthogonal
+    to the odd θ³ and θ, and nearly all of it is left."""
+    t = np.arange(3000) / RATE_HZ
+    command = 30.0 + 29.0 * np.sin(2 * np.pi * 0.1 * t)
+    one_way = response_deg(MODEL, command, RATE_HZ)
+    assert one_way.min() > -1.0 and one_way.max() > 55.0
+    gravity = lambda theta: 1.0 - np.cos(theta)  # noqa: E731
+    assert _left_of("gravity", gravity, one_way, command) < 0.3
+    both_ways = response_deg(MODEL, command - 30.0, RATE_HZ)
+    assert both_ways.min() < -25.0 and both_ways.max() > 25.0
+    assert _left_of("gravity", gravity, both_ways, command - 30.0) > 0.8
+    # a spring's own θ³ against gravity's form, the same both ways
+    cubic = lambda theta: theta**3  # noqa: E731
+    assert _left_of("cubic_stiffness", cubic, one_way, command) < 0.3
+    assert _left_of("cubic_stiffness", cubic, both_ways, command - 30.0) > 0.8
+
+
+def test_a_concealed_load_on_a_finger_bent_one_way_is_not_scored_as_gravity() -> None:
+    """A ramp bends the stiff finger 0 to 60°: its concealed gravity (mounted at −11°) is
+    0.74 × the noise above the plain refit, but a cubic spring takes all but 0.15 of it; at
+    the evident size 0.75 is left, and the case is scored."""
+    concealed = cs.build(cs.CaseSpec("gravity", "ramp", 2, "concealed", "stiff", 100.0, 0.3906944025265979))
+    assert 0.4 <= concealed.visibility <= 1.5
+    assert not concealed.observable
+    assert concealed.reason.startswith("indistinct from cubic_stiffness"), concealed.reason
+    evident = cs.build(cs.CaseSpec("gravity", "ramp", 2, "evident", "stiff", 100.0, 2.2611203138856992))
+    assert evident.observable, evident.reason
