@@ -21,9 +21,9 @@ from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose import excitation, noise, stability, stats
 from hand_service.diagnose.evidence import Context, sentence
-from hand_service.diagnose.fit import FAR_FACTOR, Fit, far_from_nominal, fit
+from hand_service.diagnose.fit import FAR_FACTOR, Fit, far_from_nominal, fit, nominal_prior
 from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
-from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Prior, Problem, build_problem
+from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
 from hand_service.diagnose.search import Candidate, Progress, Selection, select
 from hand_service.diagnose.verdict import (
     SEPARABLE_MIN,
@@ -149,11 +149,9 @@ def refit_with_prior(problem: Problem, params: list[Param], refit: Fit,
     the plain refit; the one with the lower cost."""
     if progress:
         progress("the recording cannot pin every plain parameter: refitting with the nominal as a prior")
-    nominal = problem.values(params)
-    problem.prior = Prior({p.label: float(v) for p, v in zip(params, nominal, strict=True) if v > 0.0},
-                          {p.label: PRIOR_RELATIVE_WIDTH for p, v in zip(params, nominal, strict=True)
-                           if v > 0.0}, refit.sigma_deg)
-    return min((fit(problem, params, start) for start in (nominal, refit.values)), key=lambda f: f.cost_deg2)
+    problem.prior = nominal_prior(problem, params, refit.sigma_deg)
+    return min((fit(problem, params, start) for start in (problem.values(params), refit.values)),
+               key=lambda f: f.cost_deg2)
 
 
 def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from hand_service.diagnose.problem import Param, Problem
+from hand_service.diagnose.problem import PRIOR_RELATIVE_WIDTH, Param, Prior, Problem
 from rtcore.sim import SimFinger
 
 DIVERGED_DEG = 1e4  # residual that stands for a simulation that ran away
@@ -193,3 +193,11 @@ def far_from_nominal(problem: Problem, refit: Fit, factor: float = FAR_FACTOR) -
         if not p.is_effect and centre > 0.0 and value > 0.0 and abs(np.log(value / centre)) > np.log(factor):
             far.append((p.label, float(value / centre)))
     return far
+
+
+def nominal_prior(problem: Problem, params: Sequence[Param], sigma_deg: float) -> Prior:
+    """The nominal's uncertainty on the plain parameters among `params`: a log-normal prior
+    of PRIOR_RELATIVE_WIDTH about the model's values, weighted by the noise's std."""
+    plain = [(p.label, float(v)) for p, v in zip(params, problem.values(params), strict=True)
+             if not p.is_effect and v > 0.0]
+    return Prior(dict(plain), {label: PRIOR_RELATIVE_WIDTH for label, _ in plain}, sigma_deg)

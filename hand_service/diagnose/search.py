@@ -27,7 +27,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose import stats
-from hand_service.diagnose.fit import Fit, far_from_nominal, fit, sensitivity
+from hand_service.diagnose.fit import Fit, far_from_nominal, fit, nominal_prior, sensitivity
 from hand_service.diagnose.problem import EffectScales, Param, Problem
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
@@ -244,6 +244,14 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
         neutral = start_value(screened.param, fx.BY_NAME[screened.name].neutral, 0.0)
         joint = min(joint, fit(problem, params, [*base.values, neutral], base=base.finger),
                     key=lambda f: f.cost_deg2)
+    if problem.prior.weight_deg == 0.0 and unpinned(joint):
+        # The plain refit was pinned by the data, but with the effect beside it k, B and N
+        # slide together (a slow sine below resonance fixes only their ratios, and a gravity
+        # load made a ringing finger's k, B, N and G 40 times the nominal at equal cost): the
+        # nominal's uncertainty holds them, as it holds a refit the data cannot pin.
+        problem = dataclasses.replace(problem, prior=nominal_prior(problem, base.params, base.sigma_deg))
+        joint = min((fit(problem, params, start, base=base.finger) for start in starts),
+                    key=lambda f: f.cost_deg2)
     held = problem.held_mask
     measured = problem.measured_deg[held]
     before, after = problem.innovations(base.angle_deg), problem.innovations(joint.angle_deg)
@@ -260,6 +268,16 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
                      screened.starts[0], joint, bic, z, stats.rmse(measured - joint.angle_deg[held]),
                      prior_gain)
+
+
+UNPINNED_RELATIVE_STD = 0.1  # the bar the plain refit is held to (engine.MAX_RELATIVE_STD)
+
+
+def unpinned(joint: Fit) -> bool:
+    """Is any of k, B and N known worse than UNPINNED_RELATIVE_STD in this joint fit?"""
+    plain = [i for i, p in enumerate(joint.params) if not p.is_effect]
+    relative = joint.std()[plain] / np.maximum(np.abs(joint.values[plain]), 1e-300)
+    return bool(np.any(~(relative < UNPINNED_RELATIVE_STD)))
 
 
 def second_split_z(problem: Problem, base: Fit, joint: Fit) -> float:
