@@ -382,7 +382,9 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
     shortest_s, longest_s = 0.5, 3.0
-    if released(base, float(pressure_kpa[0]), angle0, angle_deg):
+    # judged on the first sample: a ringing finger let go swings through rest within the
+    # 50 ms the median spans (32° to −20° in 50 ms), which then looked like a start at rest
+    if released(base, float(pressure_kpa[0]), float(angle_deg[0]), angle_deg):
         # a release: the finger was held still away from rest, so its start is known; it
         # moves at once, so the first sample (not a median over 50 ms of swing) places it.
         # Its swings die within a second: short blocks put held-out data among them.
