@@ -25,9 +25,10 @@ the physics is not exercised by the recording:
 | coulomb_friction | always (every recording stops or reverses the finger) |
 
 or when the effect, even at its largest plausible size, leaves v < 0.4 (the plain model
-absorbs it); or, for gravity and a cubic spring, when what the other of the two and the
-plain model together leave of it is under 0.4 × the noise (distinct.py: a finger that bends
-one way only cannot tell θ³ from 1 − cos θ unless the effect is large).
+absorbs it); or when what the plain model, the sensor's offset and drift and, for gravity
+and a cubic spring, the other of the two leave of it together is under 0.4 × the noise
+(distinct.py: a finger that bends one way only cannot tell θ³ from 1 − cos θ unless the
+effect is large; dry friction on a finger that moves one way only is an offset).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from tests.diagnose.truth import excitation as ex
-from tests.diagnose.truth.distinct import COMPETITORS, distinct_visibility
+from tests.diagnose.truth.distinct import distinct_visibility
 from tests.diagnose.truth.linear import LinearModel, refit
 from tests.diagnose.truth.plant import DEG, FAMILIES, Family, Trajectory, Truth, simulate
 from tests.diagnose.truth.sensor import Sensor
@@ -387,10 +388,13 @@ def build(spec: CaseSpec) -> Case:
     ok, reason = exercised(spec.effect, truth, plan, traj)
     if ok and spec.effect in LIBRARY and v < 0.4:
         ok, reason = False, "absorbed by k, B and N at every plausible size tried"
-    if ok and spec.effect in COMPETITORS:
+    if ok and spec.effect in LIBRARY:
         competitor, distinct = _distinct(spec.effect, traj, plan, start, sensor)
-        if distinct < 0.4:
-            ok, reason = False, (f"indistinct from {competitor}: k, B, N and {competitor} leave "
+        if distinct < 0.4 and competitor:
+            ok, reason = False, (f"indistinct from {competitor}: k, B, N, the sensor's offset and drift "
+                                 f"and {competitor} leave {distinct:.2f} × the noise of it")
+        elif distinct < 0.4:
+            ok, reason = False, (f"absorbed by k, B, N and the sensor's offset and drift: they leave "
                                  f"{distinct:.2f} × the noise of it")
     return Case(
         spec,

@@ -1,5 +1,6 @@
-"""Whether a recording can tell the truth's effect from a second library effect, judged on
-the truth's side, apart from diagnose.
+"""Whether a recording can tell the truth's effect from what a lab's analysis must allow
+besides it (the sensor's offset and slow drift, and for gravity and a cubic spring the other
+of the two), judged on the truth's side, apart from diagnose.
 
 A finger that bends one way only (0 to 70°, say) cannot tell a posture-dependent gravity
 load from a stiffening spring: over 0 ≤ θ ≤ 1 rad, θ³ lies within 3 % (by energy) of a
@@ -8,13 +9,19 @@ the angle alone, so they differ in the response only by that remainder. The pair
 apart where the finger also bends the other way (θ³ is odd, 1 − cos θ even), or where the
 effect is large enough that the remainder itself stands above the noise.
 
-`distinct_visibility` measures the remainder as the battery measures concealment: the
+A dry friction on a finger that only ever moves one way (a release, a vent) is a
+constant torque while it moves, and stops the finger where it would have rested with a
+shifted zero: the sensor's unknown offset absorbs it exactly (on a first-order finger).
+A dead zone whose threshold the command never leaves is a constant torque too.
+
+`distinct_visibility` measures what is left as the battery measures concealment: the
 residual RMS that the best plain linear model leaves (cases._visibility), after the
-competitor's torque and the plain parameters are fitted to it as well (linearised around
-that refit: the linear finger's response to the competitor's torque along the true
-trajectory, and the sensitivities to k, B and N), over the sensor's noise RMS. Below the
-battery's observability bar (0.4), the case cannot be scored as naming one of the two;
-diagnose is then right to say the recording cannot tell them apart, or to name the truth.
+nuisance is fitted to it as well and, for gravity and a cubic spring, the competitor's
+torque with k, B and N readjusted (linearised around that refit: the linear finger's
+response to the competitor's torque along the true trajectory, and the sensitivities to
+k, B and N, these held by the lab's ±25 % knowledge of them), over the sensor's noise
+RMS. Below the battery's observability bar (0.4), the case cannot be scored as naming the
+effect; diagnose is then right to say the recording cannot tell, or to name the truth.
 """
 
 from __future__ import annotations
@@ -26,6 +33,8 @@ import numpy as np
 from scipy import signal
 
 from tests.diagnose.truth.linear import DEG, LinearModel, discrete_tf, response_deg
+
+NOMINAL_RELATIVE_WIDTH = 0.25  # how well a lab knows k, B and N (docs/diagnose.md: the prior)
 
 # the competitor of each effect, in the library's own form (docs/formats.md): a torque of θ (rad)
 COMPETITORS: dict[str, tuple[str, Callable[[np.ndarray], np.ndarray]]] = {
@@ -53,19 +62,39 @@ def plain_sensitivities(model: LinearModel, command_kpa: np.ndarray, rate_hz: fl
     return np.column_stack(cols)
 
 
+def nuisance_columns(n: int) -> np.ndarray:
+    """A lab sensor's offset and slow drift over the recording: a constant, a slope and a
+    curvature (the truth's drift has a period of 90 s or more). A dry friction that only
+    ever moves the finger one way is a constant torque, and a dead zone the command never
+    leaves is one too: each shifts the angle as an offset would."""
+    x = np.linspace(-1.0, 1.0, n)
+    return np.column_stack((np.ones(n), x, 1.5 * x**2 - 0.5))
+
+
 def distinct_visibility(effect: str, theta_deg: np.ndarray, command_kpa: np.ndarray, rate_hz: float,
                         fitted: LinearModel, residual_deg: np.ndarray, theta0_deg: float,
                         noise_rms_deg: float) -> tuple[str, float]:
-    """(competitor, what the truth's effect leaves above the plain model and the competitor
-    together, over the noise RMS); ('', inf) for an effect without a competitor."""
-    if effect not in COMPETITORS:
-        return "", float("inf")
-    competitor, form = COMPETITORS[effect]
+    """(what absorbs it, what the truth's effect leaves above the plain model, the sensor's
+    offset and drift and, for gravity and a cubic spring, the other of the two, over the
+    noise RMS). `what` is the competitor's name, or '' when the plain model and the
+    nuisance alone are fitted."""
+    competitor, form = COMPETITORS.get(effect, ("", None))
+    nuisance = nuisance_columns(len(residual_deg))
+    if form is None:
+        # the refit has taken what k, B and N can: only the sensor's offset and drift are left
+        coeffs, *_ = np.linalg.lstsq(nuisance, residual_deg, rcond=None)
+        left = residual_deg - nuisance @ coeffs
+        return "", float(np.sqrt(np.mean(left**2)) / noise_rms_deg)
+    # the competitor's torque has a part in θ that k takes: k, B and N are refitted with it,
+    # linearised about the refit and held by a lab's ±25 % knowledge of them (rows of
+    # σ·Δln/0.25), so that a recording that pins only their ratios cannot slide them far
+    plain = plain_sensitivities(fitted, command_kpa, rate_hz, theta0_deg)
     theta_rad = np.asarray(theta_deg, dtype=float) * DEG
-    columns = np.column_stack((plain_sensitivities(fitted, command_kpa, rate_hz, theta0_deg),
+    stacked = np.column_stack((plain, nuisance,
                                torque_response_rad(fitted, form(theta_rad), rate_hz) / DEG))
-    scale = np.sqrt(np.sum(columns**2, axis=0))
-    scale[scale == 0.0] = 1.0
-    coeffs, *_ = np.linalg.lstsq(columns / scale, residual_deg, rcond=None)
-    left = residual_deg - (columns / scale) @ coeffs
+    prior = np.zeros((plain.shape[1], stacked.shape[1]))
+    prior[:, : plain.shape[1]] = np.eye(plain.shape[1]) * noise_rms_deg / NOMINAL_RELATIVE_WIDTH
+    target = np.concatenate((residual_deg, np.zeros(plain.shape[1])))
+    coeffs, *_ = np.linalg.lstsq(np.vstack((stacked, prior)), target, rcond=None)
+    left = residual_deg - stacked @ coeffs
     return competitor, float(np.sqrt(np.mean(left**2)) / noise_rms_deg)
