@@ -292,11 +292,10 @@ def _visibility(traj: Trajectory, plan: ex.Plan, start: LinearModel, sensor: Sen
 
 def _distinct(effect: str, traj: Trajectory, plan: ex.Plan, start: LinearModel,
               sensor: Sensor) -> tuple[str, float]:
-    """The effect's competitor and what is left of it once the competitor is fitted too
-    (distinct.distinct_visibility)."""
-    fit = refit(traj.theta_deg, traj.command_kpa, plan.rate_hz, start, plan.theta0_deg)
-    return distinct_visibility(effect, traj.theta_deg, traj.command_kpa, plan.rate_hz, fit.model,
-                               fit.residual_deg, plan.theta0_deg, sensor.noise_rms_deg)
+    """What absorbs the effect besides k, B and N, and what is left of it
+    (distinct.distinct_visibility, about the truth's own plain finger `start`)."""
+    return distinct_visibility(effect, traj.theta_deg, traj.command_kpa, plan.rate_hz, start,
+                               plan.theta0_deg, sensor.noise_rms_deg)
 
 
 def exercised(effect: str, truth: Truth, plan: ex.Plan, traj: Trajectory) -> tuple[bool, str]:

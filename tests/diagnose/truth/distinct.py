@@ -14,14 +14,13 @@ constant torque while it moves, and stops the finger where it would have rested 
 shifted zero: the sensor's unknown offset absorbs it exactly (on a first-order finger).
 A dead zone whose threshold the command never leaves is a constant torque too.
 
-`distinct_visibility` measures what is left as the battery measures concealment: the
-residual RMS that the best plain linear model leaves (cases._visibility), after the
-nuisance is fitted to it as well and, for gravity and a cubic spring, the competitor's
-torque with k, B and N readjusted (linearised around that refit: the linear finger's
-response to the competitor's torque along the true trajectory, and the sensitivities to
-k, B and N, these held by the lab's ±25 % knowledge of them), over the sensor's noise
-RMS. Below the battery's observability bar (0.4), the case cannot be scored as naming the
-effect; diagnose is then right to say the recording cannot tell, or to name the truth.
+`distinct_visibility` measures what is left on the scale of concealment (the RMS over the
+sensor's noise RMS): the effect's signature (the truth's angle less its plain finger's),
+after k, B and N (within a lab's ±25 % knowledge of them), the sensor's offset and drift
+and, for gravity and a cubic spring, the other of the two are fitted to it, linearised
+about the truth's plain finger. Below the battery's observability bar (0.4), the case
+cannot be scored as naming the effect; diagnose is then right to say the recording cannot
+tell, or to name the truth.
 """
 
 from __future__ import annotations
@@ -72,29 +71,29 @@ def nuisance_columns(n: int) -> np.ndarray:
 
 
 def distinct_visibility(effect: str, theta_deg: np.ndarray, command_kpa: np.ndarray, rate_hz: float,
-                        fitted: LinearModel, residual_deg: np.ndarray, theta0_deg: float,
+                        plain_model: LinearModel, theta0_deg: float,
                         noise_rms_deg: float) -> tuple[str, float]:
-    """(what absorbs it, what the truth's effect leaves above the plain model, the sensor's
-    offset and drift and, for gravity and a cubic spring, the other of the two, over the
-    noise RMS). `what` is the competitor's name, or '' when the plain model and the
-    nuisance alone are fitted."""
+    """(the competitor's name or '', what the truth's effect leaves over the noise RMS once
+    k, B and N, the sensor's offset and drift and the competitor are fitted to it).
+
+    The fit is linearised about `plain_model`, the truth's own plain finger (what a lab's
+    nominal model is centred on): the effect's signature is the truth's angle less that
+    model's; k, B and N enter by their sensitivities, held by the lab's ±25 % knowledge of
+    them (rows of σ·Δln/0.25: a recording that pins only their ratios cannot slide them
+    along the ratio to absorb an effect, and a slow valve that a free refit mimics by
+    scaling all three stays visible); the nuisance and the competitor enter freely."""
     competitor, form = COMPETITORS.get(effect, ("", None))
-    nuisance = nuisance_columns(len(residual_deg))
-    if form is None:
-        # the refit has taken what k, B and N can: only the sensor's offset and drift are left
-        coeffs, *_ = np.linalg.lstsq(nuisance, residual_deg, rcond=None)
-        left = residual_deg - nuisance @ coeffs
-        return "", float(np.sqrt(np.mean(left**2)) / noise_rms_deg)
-    # the competitor's torque has a part in θ that k takes: k, B and N are refitted with it,
-    # linearised about the refit and held by a lab's ±25 % knowledge of them (rows of
-    # σ·Δln/0.25), so that a recording that pins only their ratios cannot slide them far
-    plain = plain_sensitivities(fitted, command_kpa, rate_hz, theta0_deg)
-    theta_rad = np.asarray(theta_deg, dtype=float) * DEG
-    stacked = np.column_stack((plain, nuisance,
-                               torque_response_rad(fitted, form(theta_rad), rate_hz) / DEG))
+    plain_deg = response_deg(plain_model, command_kpa, rate_hz, theta0_deg)
+    signature = np.asarray(theta_deg, dtype=float) - plain_deg
+    plain = plain_sensitivities(plain_model, command_kpa, rate_hz, theta0_deg)
+    columns = [plain, nuisance_columns(len(signature))]
+    if form is not None:
+        theta_rad = np.asarray(theta_deg, dtype=float) * DEG
+        columns.append(torque_response_rad(plain_model, form(theta_rad), rate_hz)[:, None] / DEG)
+    stacked = np.column_stack(columns)
     prior = np.zeros((plain.shape[1], stacked.shape[1]))
     prior[:, : plain.shape[1]] = np.eye(plain.shape[1]) * noise_rms_deg / NOMINAL_RELATIVE_WIDTH
-    target = np.concatenate((residual_deg, np.zeros(plain.shape[1])))
+    target = np.concatenate((signature, np.zeros(plain.shape[1])))
     coeffs, *_ = np.linalg.lstsq(np.vstack((stacked, prior)), target, rcond=None)
-    left = residual_deg - stacked @ coeffs
+    left = signature - stacked @ coeffs
     return competitor, float(np.sqrt(np.mean(left**2)) / noise_rms_deg)
