@@ -4,7 +4,8 @@
  *
  *   rtcore_step.h   the 100 Hz control step: filter, model (PRBM and effects), PID, the
  *                   step's configs and state, its inputs and outputs, the return codes
- *                   (csrc/rtcore_step.c, rtcore_filter.c, rtcore_model.c, rtcore_pid.c)
+ *                   (csrc/rtcore_config.c, rtcore_step.c, rtcore_filter.c, rtcore_model.c,
+ *                   rtcore_pid.c)
  *   rtcore_pneumatic.h  the simulator's pneumatic valve mode (rtcore_pneumatic.c over the
  *                   board's board/plant/pneumatics.c and board/core/regulator.c)
  *   rtcore_sim.h    the simulated hand and its in-process link (rtcore_sim*.c,

@@ -1,6 +1,7 @@
 /*
  * rtcore_step: the 100 Hz control step for a pneumatic soft hand (1 to 8 fingers),
- * in csrc/rtcore_step.c with csrc/rtcore_filter.c, rtcore_model.c and rtcore_pid.c.
+ * in csrc/rtcore_step.c (its configuration and reset in csrc/rtcore_config.c) with
+ * csrc/rtcore_filter.c, rtcore_model.c and rtcore_pid.c.
  *
  * One call, rtcore_hand_step(), runs for every finger:
  *   sensor mV -> deg (linear calibration) -> Butterworth low-pass (order 2 or 4)
