@@ -38,7 +38,9 @@ def test_a_dead_zone_recorded_under_a_pi_loop_is_named(tmp_path: Path) -> None:
 
     spec = cs.CaseSpec("pressure_deadzone", "pi_steps", 0, "concealed", "ringing", 500.0, 0.8609165416137365)
     case = cs.build(spec)
-    assert case.observable and 0.4 <= case.visibility <= 1.5
+    # concealed: 0.4-1.5 x the noise above a free plain refit (the battery scores it as
+    # unobservable, its threshold seldom crossed; diagnose naming the truth is right there too)
+    assert 0.4 <= case.visibility <= 1.5
     rec, model = cs.write(case, tmp_path)
     out = tmp_path / "diagnose.json"
     assert main(diagnose_argv(rec, model, out)) == 0

@@ -202,8 +202,10 @@ def test_a_concealed_effect_leaves_0_4_to_1_5_times_the_noise_after_the_refit(
     (k, B, N from the family's own values) on the noise-free truth agrees."""
     case = cs.build(cs.CaseSpec(effect, excitation, 0, "concealed", family, 100.0, None, 20.0))
     # exercised and above the plain model's reach (a one-way stiffening may still be
-    # indistinct from gravity: distinct.py)
-    assert case.observable or case.reason.startswith("indistinct"), case.reason
+    # indistinct from gravity, a dead zone seldom crossed an offset: distinct.py)
+    assert case.observable or case.reason.startswith(("indistinct", "absorbed by k, B, N and the sensor")), (
+        case.reason
+    )
     assert 0.4 <= case.visibility <= 1.5, case.calibration
     start = LinearModel(
         case.truth.family.inertia_kgm2,
