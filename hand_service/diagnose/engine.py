@@ -21,7 +21,15 @@ from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose import excitation, noise, stability, stats
 from hand_service.diagnose.evidence import Context, sentence
-from hand_service.diagnose.fit import FAR_FACTOR, Fit, far_from_nominal, fit, nominal_prior
+from hand_service.diagnose.fit import (
+    FAR_FACTOR,
+    Fit,
+    far_from_nominal,
+    fit,
+    nominal_prior,
+    relative_std,
+    unpinned,
+)
 from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
 from hand_service.diagnose.search import Candidate, Progress, Selection, select
@@ -34,8 +42,6 @@ from hand_service.diagnose.verdict import (
     structure_left,
     trade_offs,
 )
-
-MAX_RELATIVE_STD = 0.1  # a plain parameter known worse than ±10 % is not identified
 
 
 @dataclass
@@ -206,8 +212,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]
-    relative_std = refit.std() / np.maximum(np.abs(refit.values), 1e-300)
-    unidentified = [p.label for p, r in zip(params, relative_std, strict=True) if not r < MAX_RELATIVE_STD]
+    relative = relative_std(refit)  # what the data alone say (the prior below may hold some)
+    unidentified = unpinned(refit)
     if unidentified or far_from_nominal(problem, refit, FAR_FACTOR):
         # What the recording cannot pin is held near the nominal by its prior, so that the
         # effects can still be tested (a closed loop pins only k/N; a slow ramp not B). A
@@ -260,7 +266,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         explained = max(explained, prior_share(problem, refit, final))
     round1 = selection.rounds[0].candidates if selection.rounds else []
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
-    verdict, notes = judge(unidentified, params, relative_std, selection, found, (refit_white, refit_cross),
+    verdict, notes = judge(unidentified, params, relative, selection, found, (refit_white, refit_cross),
                            (final_white, final_cross),
                            refit_gain, refit_bic, inseparable, warnings, rmse,
                            excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,

@@ -201,3 +201,19 @@ def nominal_prior(problem: Problem, params: Sequence[Param], sigma_deg: float) -
     plain = [(p.label, float(v)) for p, v in zip(params, problem.values(params), strict=True)
              if not p.is_effect and v > 0.0]
     return Prior(dict(plain), {label: PRIOR_RELATIVE_WIDTH for label, _ in plain}, sigma_deg)
+
+
+MAX_RELATIVE_STD = 0.1  # a plain parameter known worse than ±10 % is not identified
+
+
+def relative_std(f: Fit) -> np.ndarray:
+    """Each parameter's standard error over its value."""
+    return f.std() / np.maximum(np.abs(f.values), 1e-300)
+
+
+def unpinned(f: Fit) -> list[str]:
+    """The plain parameters (k, B, N) this fit knows worse than MAX_RELATIVE_STD: what the
+    recording cannot pin, which the nominal's prior then holds (the plain refit in engine.py,
+    a joint fit in search.py)."""
+    return [p.label for p, r in zip(f.params, relative_std(f), strict=True)
+            if not p.is_effect and not r < MAX_RELATIVE_STD]

@@ -382,11 +382,10 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
     shortest_s, longest_s = 0.5, 3.0
-    # judged on the first sample: a ringing finger let go swings through rest within the
-    # 50 ms the median spans (32° to −20° in 50 ms), which then looked like a start at rest
     if released(base, float(pressure_kpa[0]), float(angle_deg[0]), angle_deg):
         # a release: the finger was held still away from rest, so its start is known; it
-        # moves at once, so the first sample (not a median over 50 ms of swing) places it.
+        # moves at once, so the first sample (not a median over 50 ms of swing: a ringing
+        # finger let go from 32° is at −20° 50 ms later) tells it and places it.
         # Its swings die within a second: short blocks put held-out data among them.
         start, angle0, shortest_s, longest_s = 0, float(angle_deg[0]), RELEASE_BLOCK_S, RELEASE_BLOCK_S
     fit, held, blocks = split_blocks(len(t_s), rate_hz, start, shortest_s, longest_s)

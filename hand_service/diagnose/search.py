@@ -27,7 +27,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose import stats
-from hand_service.diagnose.fit import Fit, far_from_nominal, fit, nominal_prior, sensitivity
+from hand_service.diagnose.fit import Fit, far_from_nominal, fit, nominal_prior, sensitivity, unpinned
 from hand_service.diagnose.problem import EffectScales, Param, Problem
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
@@ -268,16 +268,6 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
                      screened.starts[0], joint, bic, z, stats.rmse(measured - joint.angle_deg[held]),
                      prior_gain)
-
-
-UNPINNED_RELATIVE_STD = 0.1  # the bar the plain refit is held to (engine.MAX_RELATIVE_STD)
-
-
-def unpinned(joint: Fit) -> bool:
-    """Is any of k, B and N known worse than UNPINNED_RELATIVE_STD in this joint fit?"""
-    plain = [i for i, p in enumerate(joint.params) if not p.is_effect]
-    relative = joint.std()[plain] / np.maximum(np.abs(joint.values[plain]), 1e-300)
-    return bool(np.any(~(relative < UNPINNED_RELATIVE_STD)))
 
 
 def second_split_z(problem: Problem, base: Fit, joint: Fit) -> float:
