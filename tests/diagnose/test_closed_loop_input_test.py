@@ -4,14 +4,13 @@ sample on (stats.input_independence, `first_lag`)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from hand_service.diagnose import stats
 from tests.diagnose.truth import cases as cs
-from tests.diagnose.truth.battery import diagnose_argv
+from tests.diagnose.truth.battery import diagnose_in_process
 
 
 def test_a_loop_answering_the_noise_fails_lag_0_only() -> None:
@@ -34,17 +33,12 @@ def test_a_dead_zone_recorded_under_a_pi_loop_is_named(tmp_path: Path) -> None:
     to the sensor at lag 0 (z ≈ −13) made the refit and the augmented model fail the input
     test, and the verdict was `unexplained`; from lag 1 on the input test passes and the
     dead zone is named, its threshold within 20 %."""
-    from hand_service.cli import main
-
     spec = cs.CaseSpec("pressure_deadzone", "pi_steps", 0, "concealed", "ringing", 500.0, 0.8609165416137365)
     case = cs.build(spec)
     # concealed: 0.4-1.5 x the noise above a free plain refit (the battery scores it as
     # unobservable, its threshold seldom crossed; diagnose naming the truth is right there too)
     assert 0.4 <= case.visibility <= 1.5
-    rec, model = cs.write(case, tmp_path)
-    out = tmp_path / "diagnose.json"
-    assert main(diagnose_argv(rec, model, out)) == 0
-    result = json.loads(out.read_text())
+    result = diagnose_in_process(*cs.write(case, tmp_path), tmp_path)
     assert [e["name"] for e in result["effects"]] == ["pressure_deadzone"], result["warnings"]
     found = result["effects"][0]["params"]["threshold_kpa"]
     assert abs(found / case.library_equivalent["threshold_kpa"] - 1.0) < 0.2

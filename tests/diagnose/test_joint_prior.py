@@ -1,26 +1,21 @@
-"""A joint fit that loses the scale the plain refit had (search.unpinned): the nominal's
-uncertainty holds k, B and N, as it holds a plain refit the recording cannot pin."""
+"""A joint fit that loses the scale the plain refit had (fit.unpinned, in search.score):
+the nominal's uncertainty holds k, B and N, as it holds a plain refit the recording cannot
+pin."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
 import hand_service.diagnose.search as search
 from tests.diagnose.truth import cases as cs
-from tests.diagnose.truth.battery import diagnose_argv
+from tests.diagnose.truth.battery import diagnose_in_process
 
 
 def _diagnose(tmp_path: Path, spec: cs.CaseSpec) -> tuple[cs.Case, dict]:
-    from hand_service.cli import main
-
     case = cs.build(spec)
-    rec, model = cs.write(case, tmp_path)
-    out = tmp_path / "diagnose.json"
-    assert main(diagnose_argv(rec, model, out)) == 0
-    return case, json.loads(out.read_text())
+    return case, diagnose_in_process(*cs.write(case, tmp_path), tmp_path)
 
 
 SLOW_SINE = cs.CaseSpec("gravity", "slow_sine", 2, "evident", "ringing", 200.0, None, 20.0)

@@ -114,6 +114,17 @@ def diagnose_argv(recording: Path, model: Path, out: Path, noise_model: str = "a
             "--noise-model", noise_model]
 
 
+def diagnose_in_process(recording: Path, model: Path, folder: Path) -> dict:
+    """`hand-service diagnose` on one case in this process (for tests): its JSON, the command
+    checked to have exited 0."""
+    from hand_service.cli import main
+
+    out = folder / "diagnose.json"
+    code = main(diagnose_argv(recording, model, out))
+    assert code == 0, f"diagnose exited {code}"
+    return json.loads(out.read_text())
+
+
 def diagnose_cli(
     recording: Path, model: Path, out: Path, noise_model: str = "ar", timeout_s: float = 600.0
 ) -> tuple[dict, float, str]:
