@@ -11,10 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import operator
-import threading
-from collections import OrderedDict
-from collections.abc import Hashable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +19,7 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose.noise import WHITE, NoiseModel
+from hand_service.diagnose.simcache import SimulationCache, finger_key
 from hand_service.simulator import sim_finger
 from rtcore.sim import SimFinger, simulate
 
@@ -46,7 +44,6 @@ PLAIN_RANGE = 1000.0  # k, B and N may go this many times above or below the nom
 # used when the recording alone cannot pin them (closed loop: only k/N; a ramp: not B)
 PRIOR_RELATIVE_WIDTH = 0.25
 HISTORY_SAMPLES = 1000  # the simulator's command history (RTCORE_SIM_HISTORY) with a margin
-SIMULATION_CACHE_BYTES = 64 * 2**20  # the simulated angles a recording keeps (SimulationCache)
 
 
 @dataclass(frozen=True)
@@ -147,74 +144,6 @@ class Prior:
 
 
 NO_PRIOR = Prior()
-
-
-def _leaf_paths(obj: object, prefix: str = "") -> list[str]:
-    """The dotted names of every field of a (nested) dataclass that is not a dataclass."""
-    return [path for f in dataclasses.fields(obj)  # type: ignore[arg-type]
-            for path in (_leaf_paths(getattr(obj, f.name), f"{prefix}{f.name}.")
-                         if dataclasses.is_dataclass(getattr(obj, f.name)) else [prefix + f.name])]
-
-
-_LEAVES: dict[type, operator.attrgetter] = {}  # per finger type: all its leaves at once
-
-
-def finger_key(obj: object) -> tuple[str, ...]:
-    """Every field of a (nested) dataclass, each by its repr, which tells every two floats
-    apart (0.0 from −0.0 too): two fingers with the same key simulate the same, bit for bit."""
-    leaves = _LEAVES.get(type(obj)) or _LEAVES.setdefault(type(obj), operator.attrgetter(*_leaf_paths(obj)))
-    values = leaves(obj)
-    return tuple(map(repr, values if isinstance(values, tuple) else (values,)))
-
-
-class SimulationCache:
-    """The angles of a recording's recent simulations, by the finger simulated: diagnose
-    simulates the same finger more than once (a fit's solution, a Jacobian's columns at a
-    point another fit reached, the refit's point again in a second split), and the simulator
-    is deterministic, so the angles are the same, bit for bit. The least recently used go
-    first, past SIMULATION_CACHE_BYTES; each caller gets its own copy. Thread-safe: the
-    effects are fitted side by side (search.py)."""
-
-    def __init__(self, budget_bytes: int = SIMULATION_CACHE_BYTES) -> None:
-        self._angles: OrderedDict[Hashable, np.ndarray] = OrderedDict()
-        self._lock = threading.Lock()
-        self._command: np.ndarray | None = None
-        self._bytes = 0
-        self.budget_bytes = budget_bytes
-        self.hits = 0
-        self.misses = 0
-
-    def serves(self, command_kpa: np.ndarray) -> bool:
-        """Is this the cache of runs on `command_kpa` (the first command asked binds it)? A
-        copy of a problem with another command array simulates without it."""
-        with self._lock:
-            if self._command is None:
-                self._command = command_kpa
-            return self._command is command_kpa
-
-    def get(self, key: Hashable) -> np.ndarray | None:
-        with self._lock:
-            angle = self._angles.get(key)
-            if angle is None:
-                self.misses += 1
-                return None
-            self._angles.move_to_end(key)
-            self.hits += 1
-        return angle.copy()
-
-    def put(self, key: Hashable, angle_deg: np.ndarray) -> None:
-        stored = angle_deg.copy()
-        with self._lock:
-            if key in self._angles or stored.nbytes > self.budget_bytes:
-                return
-            self._angles[key] = stored
-            self._bytes += stored.nbytes
-            while self._bytes > self.budget_bytes:
-                _, dropped = self._angles.popitem(last=False)
-                self._bytes -= dropped.nbytes
-
-    def __len__(self) -> int:
-        return len(self._angles)
 
 
 @dataclass

@@ -14,7 +14,8 @@ import pytest
 
 from hand_service.diagnose import fit as fit_module
 from hand_service.diagnose.fit import column_map, fit
-from hand_service.diagnose.problem import PLAIN, Param, Problem, SimulationCache, finger_key
+from hand_service.diagnose.problem import PLAIN, Param, Problem
+from hand_service.diagnose.simcache import SimulationCache, finger_key
 from tests.diagnose.linear_truth import stepped_recording
 
 RATE_HZ = 100.0
