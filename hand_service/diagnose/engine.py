@@ -12,7 +12,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -32,7 +32,12 @@ from hand_service.diagnose.fit import (
 )
 from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
-from hand_service.diagnose.search import Candidate, Progress, Selection, select
+from hand_service.diagnose.search import (
+    Candidate,
+    Progress,
+    Selection,
+    select,
+)
 from hand_service.diagnose.verdict import (
     SEPARABLE_MIN,
     FoundEffect,
@@ -206,9 +211,20 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         other = fit(problem, params, start)
         if other.rss_deg2 < refit.rss_deg2:
             refit = other
+    moving = None
+    if noise_model == "ar" and problem.from_start is not None:
+        # The first decay times count from here on, with the refitted finger's free motion
+        # from an unknown start as a nuisance: a start not quite at rest is absorbed, and
+        # what the physics does as the command first moves (a dead zone crossed only
+        # then) shows.
+        moving = noise.start_motion(refit.finger, problem.measured_deg.size, rate_hz)
+        fit_mask, held, blocks = problem.from_start
+        problem = replace(problem, fit_mask=fit_mask, held_mask=held, blocks=blocks, from_start=None,
+                          noise=noise.nuisance_only(measured.size, rate_hz, moving))
+        refit = fit(problem, params, refit.values)
     lags = stats.whiteness_lags(rate_hz)
     if noise_model == "ar":  # every test from here on runs on the innovations
-        problem.noise = noise.estimate(refit.residual(problem), fit_mask | held, rate_hz)
+        problem.noise = noise.estimate(refit.residual(problem), fit_mask | held, rate_hz, start=moving)
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]

@@ -14,10 +14,14 @@ score and the whiteness test computed on them mean what they say.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg, signal
+
+from rtcore.config import Effects
+from rtcore.sim import SimFinger, simulate
 
 MAX_ORDER = 40  # AR orders tried: enough for a filtered, partly correlated sensor at 1 kHz
 DRIFT_PERIOD_S = 20.0  # slower than this is sensor drift (a few terms over a recording)
@@ -75,15 +79,32 @@ def yule_walker(x: np.ndarray, order: int) -> tuple[np.ndarray, float]:
     return a, float(max(gamma[0] - a @ gamma[1: order + 1], 0.0))
 
 
-def drift_basis(n: int, rate_hz: float) -> np.ndarray:
+def drift_basis(n: int, rate_hz: float, start: np.ndarray | None = None) -> np.ndarray:
     """Orthonormal columns spanning a constant and the drifts slower than DRIFT_PERIOD_S:
-    a cosine series with periods down to about that, at least the constant and a slope."""
+    a cosine series with periods down to about that, at least the constant and a slope;
+    and the `start` columns (n × m), if given (start_motion)."""
     duration_s = n / rate_hz
     terms = max(1, int(2.0 * duration_s / DRIFT_PERIOD_S))
     x = (np.arange(n) + 0.5) / n
     columns = [np.ones(n)] + [np.cos(np.pi * k * x) for k in range(1, terms + 1)]
+    if start is not None:
+        columns += list(start.T)
     q, _ = np.linalg.qr(np.column_stack(columns))
     return q
+
+
+def start_motion(finger: SimFinger, n: int, rate_hz: float) -> np.ndarray:
+    """The plain finger's free motion (no command, no effect) from a unit angle and from a
+    unit velocity, every sample (n × 2, deg): what a start not quite at rest adds to the
+    angle, dying out over the first decay times. Taken out of every residual as a nuisance,
+    it lets those first samples count without trusting the start."""
+    plain = SimFinger(dataclasses.replace(finger.prbm, effects=Effects()), supply_min_kpa=0.0,
+                      supply_max_kpa=max(finger.supply_max_kpa, 0.0))  # no valve, no object: free
+    still = np.zeros(n)
+    rate_per_s = np.sqrt(plain.prbm.stiffness_nm_per_rad / plain.prbm.inertia_kgm2)
+    moved, _ = simulate(plain, still, rate_hz, 1, 1.0, 0.0, 0.0)
+    pushed, _ = simulate(plain, still, rate_hz, 1, 0.0, rate_per_s, 0.0)
+    return np.column_stack((moved, pushed))
 
 
 def choose_order(x: np.ndarray, max_order: int = MAX_ORDER) -> int:
@@ -104,23 +125,25 @@ def choose_order(x: np.ndarray, max_order: int = MAX_ORDER) -> int:
     return best_order
 
 
-def estimate(residual: np.ndarray, valid: np.ndarray, rate_hz: float, with_drift: bool = True) -> NoiseModel:
+def estimate(residual: np.ndarray, valid: np.ndarray, rate_hz: float, with_drift: bool = True,
+             start: np.ndarray | None = None) -> NoiseModel:
     """The noise model from the plain model's residual (every sample; `valid` marks those
-    that are data): nuisance offset and drift first, then the AR order of what is left."""
-    basis = drift_basis(residual.size, rate_hz) if with_drift else None
+    that are data): nuisance offset and drift (and the `start` columns) first, then the AR
+    order of what is left."""
+    basis = drift_basis(residual.size, rate_hz, start) if with_drift else None
     left = NoiseModel(0, basis, np.zeros(0), 0.0).detrend(residual)[valid]
     order = choose_order(left)
     a, variance = yule_walker(left, order) if order else (np.zeros(0), float(np.var(left)))
     return NoiseModel(order, basis, a, float(np.sqrt(variance)))
 
 
-def nuisance_only(n: int, rate_hz: float) -> NoiseModel:
-    """Offset and slow drift, no AR filter yet (for the plain refit, before its residual
-    tells the order)."""
-    return NoiseModel(0, drift_basis(n, rate_hz), np.zeros(0), 0.0)
+def nuisance_only(n: int, rate_hz: float, start: np.ndarray | None = None) -> NoiseModel:
+    """Offset and slow drift (and the `start` columns), no AR filter yet (for the plain
+    refit, before its residual tells the order)."""
+    return NoiseModel(0, drift_basis(n, rate_hz, start), np.zeros(0), 0.0)
 
 
 WHITE = NoiseModel(0, None, np.zeros(0), 0.0)
 
 __all__ = ["WHITE", "NoiseModel", "autocovariance", "choose_order", "drift_basis", "estimate",
-           "nuisance_only", "prewhiten", "yule_walker"]
+           "nuisance_only", "prewhiten", "start_motion", "yule_walker"]

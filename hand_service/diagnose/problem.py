@@ -160,6 +160,9 @@ class Problem:
     held_mask: np.ndarray  # samples held out from every fit
     blocks: list[tuple[int, int]]  # (start, stop) index of every block, for the report
     input_hold: str = "zoh"
+    # the fit and held-out masks and blocks counting the first decay times too, where these
+    # skip them (the start is not known to be at rest): for use with noise.start_motion
+    from_start: tuple[np.ndarray, np.ndarray, list[tuple[int, int]]] | None = None
     noise: NoiseModel = WHITE  # set once the plain model's residual is known (engine)
     prior: Prior = NO_PRIOR  # set when the recording alone cannot pin k, B, N (engine)
     # shared by the copies that differ in their masks (rotated(), a half of the fitting set)
@@ -301,7 +304,9 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     The finger is taken to start at rest at its first angle (the median of the first
     samples, to keep the sensor noise out), with the chamber at the first command. The
     first three decay times are left out of every fit and score, so that a start that is
-    not quite at rest does not count; so are `missing` samples (see regular_grid)."""
+    not quite at rest does not count (`from_start` has the masks that count them, for a
+    noise model that takes the motion of such a start as a nuisance); so are `missing`
+    samples (see regular_grid)."""
     base = sim_finger(model)
     # the valves as recorded: a signed command (vacuum, a bipolar drive) or one above the
     # usual supply is simulated as it is, never clamped
@@ -317,10 +322,13 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
         # finger let go from 32° is at −20° 50 ms later) tells it and places it.
         # Its swings die within a second: short blocks put held-out data among them.
         start, angle0, shortest_s, longest_s = 0, float(angle_deg[0]), RELEASE_BLOCK_S, RELEASE_BLOCK_S
-    fit, held, blocks = split_blocks(len(t_s), rate_hz, start, shortest_s, longest_s)
+    firsts = (start, 0) if start > 0 else (0,)
+    splits = [split_blocks(len(t_s), rate_hz, first, shortest_s, longest_s) for first in firsts]
     if missing is not None:  # samples the recording lacks (skipped ticks): in no fit or score
-        fit &= ~missing
-        held &= ~missing
+        for fit, held, _ in splits:
+            fit &= ~missing
+            held &= ~missing
+    (fit, held, blocks), from_start = splits[0], (splits[1] if start > 0 else None)
     return Problem(base, np.ascontiguousarray(pressure_kpa, dtype=float),
                    np.ascontiguousarray(angle_deg, dtype=float), np.asarray(t_s, dtype=float), rate_hz,
-                   substeps, angle0, float(pressure_kpa[0]), fit, held, blocks, input_hold)
+                   substeps, angle0, float(pressure_kpa[0]), fit, held, blocks, input_hold, from_start)
