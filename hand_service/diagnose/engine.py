@@ -33,9 +33,11 @@ from hand_service.diagnose.fit import (
 from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
 from hand_service.diagnose.search import (
+    SIGNIFICANT_BIC,
     Candidate,
     Progress,
     Selection,
+    data_alone_bic,
     select,
 )
 from hand_service.diagnose.verdict import (
@@ -239,6 +241,15 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         refit_e = problem.innovations(refit.angle_deg)
         refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     selection = select(problem, refit, missing, progress)
+    if unidentified and selection.accepted:
+        first = selection.accepted[0]
+        free_bic = data_alone_bic(problem, refit, first)
+        if free_bic < SIGNIFICANT_BIC:
+            warnings.append(f"{first.name} is favoured (ΔBIC {first.delta_bic:.0f}) only while k, B and N "
+                            f"are held near the nominal; with them free, the recording is explained as "
+                            f"well without it (ΔBIC {free_bic:.0f}): this recording cannot tell "
+                            f"{first.name} from a change of k, B and N, so it is not named")
+            selection = Selection(rounds=selection.rounds, final=refit)
     final = selection.final or refit
     for label, factor in far_from_nominal(problem, final, REPORT_FACTOR):  # what the report shows
         warnings.append(f"the refitted {label} is {factor:.3g} times the nominal's: this rig is far from "

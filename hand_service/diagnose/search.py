@@ -28,7 +28,7 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.diagnose import stats
 from hand_service.diagnose.fit import Fit, far_from_nominal, fit, nominal_prior, sensitivity, unpinned
-from hand_service.diagnose.problem import EffectScales, Param, Problem
+from hand_service.diagnose.problem import NO_PRIOR, EffectScales, Param, Problem
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
 SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
@@ -283,6 +283,18 @@ def second_split_z(problem: Problem, base: Fit, joint: Fit) -> float:
     before = other.innovations(without.angle_deg)
     sigma = other.innovation_sigma(before, len(without.params))
     return stats.heldout_z_innovations(before[held], other.innovations(with_effect.angle_deg)[held], sigma)
+
+
+def data_alone_bic(problem: Problem, refit: Fit, accepted: Candidate) -> float:
+    """ΔBIC of an accepted effect with k, B and N free of the nominal's prior, the model
+    without and with it each refitted so. Where the recording cannot pin k, B and N and
+    the prior holds them, an effect may win only because it does what the prior keeps them
+    from doing: on a slow ramp a valve lag delays the finger as extra damping B would."""
+    free = dataclasses.replace(problem, prior=NO_PRIOR)
+    without = fit(free, refit.params, refit.values, base=refit.finger)
+    with_effect = fit(free, accepted.fit.params, accepted.fit.values, base=refit.finger)
+    return stats.delta_bic(free.fit_rss(free.innovations(without.angle_deg)),
+                           free.fit_rss(free.innovations(with_effect.angle_deg)), free.n_fit)
 
 
 def prior_chi2(problem: Problem, f: Fit) -> float:

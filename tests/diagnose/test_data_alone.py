@@ -1,0 +1,34 @@
+"""An effect favoured only while the nominal's prior holds k, B and N is not named
+(search.data_alone_bic, in engine.py): out-of-library hysteresis on a slow ramp, which a
+recording cannot pin k, B, N from, lags the finger; the prior keeps B from taking that
+lag, and a valve lag takes it instead."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+import hand_service.diagnose.engine as engine
+from tests.diagnose.truth import cases as cs
+from tests.diagnose.truth.battery import diagnose_in_process
+
+HYSTERESIS_RAMP = cs.CaseSpec("hysteresis", "ramp", 0, "concealed", "stiff", 100.0)
+
+
+def _diagnose(tmp_path: Path) -> dict:
+    return diagnose_in_process(*cs.write(cs.build(HYSTERESIS_RAMP), tmp_path), tmp_path)
+
+
+def test_a_lag_the_prior_alone_asks_for_is_not_named(tmp_path: Path) -> None:
+    result = _diagnose(tmp_path)
+    assert not result["effects"], result["effects"]
+    assert any("only while k, B and N are held near the nominal" in w for w in result["warnings"])
+    assert result["verdict"] in ("insufficient_excitation", "unexplained")
+
+
+def test_without_the_check_the_hysteresis_is_named_a_valve_lag(tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))
+    result = _diagnose(tmp_path)
+    assert [e["name"] for e in result["effects"]] == ["valve_lag"], result["verdict"]
