@@ -322,13 +322,11 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
         # finger let go from 32° is at −20° 50 ms later) tells it and places it.
         # Its swings die within a second: short blocks put held-out data among them.
         start, angle0, shortest_s, longest_s = 0, float(angle_deg[0]), RELEASE_BLOCK_S, RELEASE_BLOCK_S
-    firsts = (start, 0) if start > 0 else (0,)
-    splits = [split_blocks(len(t_s), rate_hz, first, shortest_s, longest_s) for first in firsts]
+    fit, held, blocks = split_blocks(len(t_s), rate_hz, start, shortest_s, longest_s)
+    from_start = split_blocks(len(t_s), rate_hz, 0, shortest_s, longest_s) if start > 0 else None
     if missing is not None:  # samples the recording lacks (skipped ticks): in no fit or score
-        for fit, held, _ in splits:
-            fit &= ~missing
-            held &= ~missing
-    (fit, held, blocks), from_start = splits[0], (splits[1] if start > 0 else None)
+        for mask in (fit, held, *(from_start[:2] if from_start else ())):
+            mask &= ~missing
     return Problem(base, np.ascontiguousarray(pressure_kpa, dtype=float),
                    np.ascontiguousarray(angle_deg, dtype=float), np.asarray(t_s, dtype=float), rate_hz,
                    substeps, angle0, float(pressure_kpa[0]), fit, held, blocks, input_hold, from_start)
