@@ -80,35 +80,34 @@ static void transition(const rtcore_exact_plant *p, double h, double e[4])
     e[3] = decay * (c - sigma * s);
 }
 
-/* φ_k(z) = Σ_m z^m/(m + k)! for k = 1, 2, 3: (e^z − 1)/z, (e^z − 1 − z)/z²,
- * (e^z − 1 − z − z²/2)/z³, from the series where those would cancel. */
-static double phi(int32_t k, double z)
+/* φ_k(z) = Σ_m z^m/(m + k)! for k = 1, 2, 3 at once ((e^z − 1)/z, (e^z − 1 − z)/z²,
+ * (e^z − 1 − z − z²/2)/z³): for |z| < 1 φ_3 from its series, summed until a term no
+ * longer changes it, and φ_2 = 1/2 + z·φ_3, φ_1 = 1 + z·φ_2 (no cancellation: |z·φ_3| <
+ * 1/5); beyond, φ_1 from one expm1 and φ_(k+1) = (φ_k − 1/k!)/z. */
+static void phis(double z, double out[3])
 {
     if (fabs(z) < 1.0) {
-        double term = 1.0;
+        double term = 1.0 / 6.0;
         double sum = 0.0;
         int32_t m;
-        for (m = 1; m <= k; ++m) {
-            term /= (double)m;
-        }
-        for (m = 0; m < 20; ++m) {
+        for (m = 0; m < 24 && sum + term != sum; ++m) {
             sum += term;
-            term *= z / (double)(m + k + 1);
+            term *= z / (double)(m + 4);
         }
-        return sum;
+        out[2] = sum;
+        out[1] = 0.5 + z * sum;
+        out[0] = 1.0 + z * out[1];
+        return;
     }
-    if (k == 1) {
-        return expm1(z) / z;
-    }
-    if (k == 2) {
-        return (expm1(z) - z) / (z * z);
-    }
-    return (expm1(z) - z - 0.5 * z * z) / (z * z * z);
+    out[0] = expm1(z) / z;
+    out[1] = (out[0] - 1.0) / z;
+    out[2] = (out[1] - 0.5) / z;
 }
 
 /* G_j = ∫_0^h e^(L(h−s))·b·s^j ds, b = (0, 1/A), the response to the torque t^j, each
  * accurate to its own size (the Q's divide them by h and h²):
- * - a short step, ‖L‖·h <= 1: the series Σ_m (Lh)^m·b·h^(j+1)·j!/(m + j + 1)!;
+ * - a short step, ‖L‖·h <= 1: G_j = j!·h^(j+1)·φ_(j+1)(Lh)·b, φ_3 from its series and
+ *   the others from φ_k(M) = I/k! + M·φ_(k+1)(M);
  * - over-damped with distinct modes (|λ_fast| >= 3·|λ_slow|): from the modes,
  *   G_j = [(1, λ1)·I_j(λ1) − (1, λ2)·I_j(λ2)]/(A·(λ1 − λ2)), I_j(λ) = j!·h^(j+1)·φ_(j+1)(λh);
  * - otherwise (ringing or near critical damping, where the particular solution's terms are
@@ -122,29 +121,31 @@ static void forced_responses(const rtcore_exact_plant *p, double h, const double
     int32_t j;
     const double norm_h = (sqrt(rate_k) + rate_b) * h; /* bounds ‖Lh‖ with θ scaled by ω_n */
     if (norm_h <= 1.0) {
-        double w[2]; /* (Lh)^m·b */
-        double factorial; /* (m + j + 1)! */
-        double bound; /* ‖Lh‖^m/(m + j + 1)!: the size of term m against the first */
+        /* v3 = φ_3(Lh)·b from its series, then v2 = b/2 + Lh·v3 and v1 = b + Lh·v2 (the
+         * angle's part of each is Lh's, h·θ', so nothing cancels), G_j = j!·h^(j+1)·v_(j+1) */
+        double w[2] = {0.0, inv_a}; /* (Lh)^m·b/(m + 3)! */
+        double v3[2] = {0.0, 0.0};
+        double v2[2];
+        double v1[2];
+        double bound = 1.0; /* ‖Lh‖^m·3!/(m + 3)!: the size of term m against the first */
         int32_t m;
-        for (j = 0; j < 3; ++j) {
-            const double scale = h * (j == 0 ? 1.0 : j == 1 ? h : 2.0 * h * h); /* h^(j+1)·j! */
-            g[j][0] = 0.0;
-            g[j][1] = 0.0;
-            w[0] = 0.0;
-            w[1] = inv_a;
-            factorial = j == 0 ? 1.0 : j == 1 ? 2.0 : 6.0;
-            bound = 1.0;
-            for (m = 0; m < 24 && bound > 1e-18; ++m) {
-                const double th = w[0];
-                g[j][0] += w[0] / factorial;
-                g[j][1] += w[1] / factorial;
-                w[0] = h * w[1];
-                w[1] = h * (-rate_k * th - rate_b * w[1]);
-                factorial *= (double)(m + j + 2);
-                bound *= norm_h / (double)(m + j + 2);
-            }
-            g[j][0] *= scale;
-            g[j][1] *= scale;
+        w[1] /= 6.0;
+        for (m = 0; m < 24 && bound > 1e-18; ++m) {
+            const double th = w[0];
+            v3[0] += w[0];
+            v3[1] += w[1];
+            w[0] = h * w[1] / (double)(m + 4);
+            w[1] = h * (-rate_k * th - rate_b * w[1]) / (double)(m + 4);
+            bound *= norm_h / (double)(m + 4);
+        }
+        v2[0] = h * v3[1];
+        v2[1] = 0.5 * inv_a + h * (-rate_k * v3[0] - rate_b * v3[1]);
+        v1[0] = h * v2[1];
+        v1[1] = inv_a + h * (-rate_k * v2[0] - rate_b * v2[1]);
+        for (j = 0; j < 2; ++j) {
+            g[0][j] = h * v1[j];
+            g[1][j] = h * h * v2[j];
+            g[2][j] = 2.0 * h * h * h * v3[j];
         }
         return;
     }
@@ -153,9 +154,13 @@ static void forced_responses(const rtcore_exact_plant *p, double h, const double
         const double fast = p->lambda_per_s[2];
         const double inv = inv_a / (slow - fast);
         double power = h;
+        double phi_slow[3];
+        double phi_fast[3];
+        phis(slow * h, phi_slow);
+        phis(fast * h, phi_fast);
         for (j = 0; j < 3; ++j) {
-            const double i_slow = power * phi(j + 1, slow * h);
-            const double i_fast = power * phi(j + 1, fast * h);
+            const double i_slow = power * phi_slow[j];
+            const double i_fast = power * phi_fast[j];
             g[j][0] = inv * (i_slow - i_fast);
             g[j][1] = inv * (slow * i_slow - fast * i_fast);
             power *= h * (double)(j + 1);
