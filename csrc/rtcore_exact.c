@@ -191,14 +191,14 @@ static void forced_responses(const rtcore_exact_plant *p, double h, const double
     }
 }
 
-/* E, G0 and the Q's of a step: the quadratic through u_s, u_m, u_e is
+/* E, G0 and the Q's of a step from its E and G's: the quadratic through u_s, u_m, u_e is
  * u_s + (−3u_s + 4u_m − u_e)·t/h + 2(u_s − 2u_m + u_e)·t²/h². */
-static void compute_propagator(const rtcore_exact_plant *p, double h, rtcore_propagator *out)
+static void finish_propagator(double h, const double e[4], double g[3][2], rtcore_propagator *out)
 {
-    double g[3][2];
     int32_t i;
-    transition(p, h, out->e);
-    forced_responses(p, h, out->e, g);
+    for (i = 0; i < 4; ++i) {
+        out->e[i] = e[i];
+    }
     for (i = 0; i < 2; ++i) {
         const double g1 = g[1][i] / h;
         const double g2 = g[2][i] / (h * h);
@@ -207,6 +207,52 @@ static void compute_propagator(const rtcore_exact_plant *p, double h, rtcore_pro
         out->q[1][i] = 4.0 * g1 - 4.0 * g2;
         out->q[2][i] = -g1 + 2.0 * g2;
     }
+}
+
+static void compute_propagator(const rtcore_exact_plant *p, double h, rtcore_propagator *out)
+{
+    double e[4];
+    double g[3][2];
+    transition(p, h, e);
+    forced_responses(p, h, e, g);
+    finish_propagator(h, e, g, out);
+}
+
+void rtcore_exact_propagator(const rtcore_exact_plant *p, double h, rtcore_propagator *out)
+{
+    compute_propagator(p, h, out);
+}
+
+/* A step h and its half at once (ETDRK4 takes both), the step from two halves:
+ * E(h) = E(h/2)², and with s = h/2 + u over the second half, t^j's response
+ * G_j(h) = E(h/2)·G_j(h/2) + Σ_i C(j, i)·(h/2)^(j−i)·G_i(h/2): G0 + G0', G1 + (h/2)·G0 + G1',
+ * G2 + (h/2)²·G0 + h·G1 + G2' (the primes E(h/2)·). Every term of the size of the result
+ * (the same sign for a short step), so each G stays accurate to its own size. */
+static void compute_step_and_half(const rtcore_exact_plant *p, double h, rtcore_propagator *full,
+                                  rtcore_propagator *half)
+{
+    const double a = 0.5 * h;
+    double e[4];
+    double g[3][2];
+    double e2[4];
+    double g2[3][2];
+    int32_t j;
+    transition(p, a, e);
+    forced_responses(p, a, e, g);
+    finish_propagator(a, e, g, half);
+    e2[0] = e[0] * e[0] + e[1] * e[2];
+    e2[1] = e[0] * e[1] + e[1] * e[3];
+    e2[2] = e[2] * e[0] + e[3] * e[2];
+    e2[3] = e[2] * e[1] + e[3] * e[3];
+    for (j = 0; j < 3; ++j) {
+        g2[j][0] = e[0] * g[j][0] + e[1] * g[j][1] + g[j][0];
+        g2[j][1] = e[2] * g[j][0] + e[3] * g[j][1] + g[j][1];
+    }
+    for (j = 0; j < 2; ++j) {
+        g2[2][j] += a * a * g[0][j] + h * g[1][j];
+        g2[1][j] += a * g[0][j];
+    }
+    finish_propagator(h, e2, g2, full);
 }
 
 /* The slot of the cache for step h, computed if it is not there (the half too if asked). */
@@ -227,6 +273,11 @@ int32_t rtcore_exact_propagators(const rtcore_exact_plant *p, rtcore_propagator_
         cache->step_s[i] = h;
         cache->damping_nms_per_rad[i] = p->damping_nms_per_rad;
         cache->has_half[i] = 0;
+        if (need_half) {
+            compute_step_and_half(p, h, &cache->full[i], &cache->half[i]);
+            cache->has_half[i] = 1;
+            return i;
+        }
         compute_propagator(p, h, &cache->full[i]);
     }
     if (need_half && !cache->has_half[i]) {

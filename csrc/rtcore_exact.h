@@ -45,6 +45,8 @@ typedef struct {
 void rtcore_exact_eigenvalues(double inertia, double damping, double stiffness, double lambda_per_s[4]);
 void rtcore_exact_plant_init(rtcore_exact_plant *p, double inertia_kgm2, double damping_nms_per_rad,
                              double stiffness_nm_per_rad);
+/* E, G0 and the Q's of a step h of plant p */
+void rtcore_exact_propagator(const rtcore_exact_plant *p, double h, rtcore_propagator *out);
 /* The slot of the cache for step h of plant p, computed if it is not there (the half too
  * if asked). */
 int32_t rtcore_exact_propagators(const rtcore_exact_plant *p, rtcore_propagator_cache *cache, double h,
