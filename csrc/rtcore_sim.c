@@ -220,6 +220,8 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
     rtcore_sim_finger_state s;
     rtcore_propagator_cache cache;
     sim_plant plant;
+    sim_span span;
+    int32_t spans;
     double dt_s;
     int32_t err;
     int32_t k;
@@ -227,7 +229,7 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
     if (finger == 0 || pressure_cmd_kpa == 0 || angle_out_deg == 0) {
         return RTCORE_ERR_NULL;
     }
-    if (!(isfinite(sample_rate_hz) && sample_rate_hz > 0.0) || substeps < 1 || substeps > 10000
+    if (!(isfinite(sample_rate_hz) && sample_rate_hz > 0.0) || substeps < 0 || substeps > 10000
         || n_samples < 1) {
         return RTCORE_ERR_SAMPLE_RATE;
     }
@@ -251,12 +253,28 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
     cache.count = 0;
     cache.next = 0;
     rtcore_sim_plant_for(finger, &plant); /* the finger's alone: once for the whole run */
-    for (k = 0; k + 1 < n_samples; ++k) {
-        rtcore_sim_advance_sample(&plant, &s, &cache, pressure_cmd_kpa[k], dt_s, substeps);
+    spans = substeps == 0 && rtcore_sim_span_eligible(&plant);
+    memset(span.has, 0, sizeof span.has);
+    span.dt_s = dt_s;
+    span.damping_nms_per_rad = plant.linear.damping_nms_per_rad;
+    for (k = 0; k + 1 < n_samples;) {
+        double held_kpa = 0.0;
+        const int32_t count = spans ? rtcore_sim_held_samples(finger, &s, pressure_cmd_kpa + k, n_samples - 1 - k,
+                                                              &held_kpa)
+                                    : 0;
+        if (count >= 2) {
+            span.angle_out_deg = angle_out_deg + k + 1;
+            rtcore_sim_advance_span(&plant, &s, &cache, &span, pressure_cmd_kpa + k, count, held_kpa,
+                                    chamber_out_kpa != 0 ? chamber_out_kpa + k + 1 : 0);
+            k += count;
+            continue;
+        }
+        rtcore_sim_advance_sample(&plant, &s, &cache, pressure_cmd_kpa[k], dt_s, substeps > 0 ? substeps : 1);
         angle_out_deg[k + 1] = s.angle_rad * RTCORE_DEG_PER_RAD;
         if (chamber_out_kpa != 0) {
             chamber_out_kpa[k + 1] = s.chamber_kpa;
         }
+        k += 1;
     }
     return RTCORE_OK;
 }

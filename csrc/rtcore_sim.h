@@ -106,8 +106,10 @@ void rtcore_sim_sample(rtcore_sim *sim, rtcore_sim_outputs *out);
 /* Hold pressure_cmd_kpa[i] for one sample period, then read the sensors. */
 void rtcore_sim_step(rtcore_sim *sim, const double *pressure_cmd_kpa, rtcore_sim_outputs *out);
 /* Noise-free batch run of one finger, for fitting: angle_out_deg[0] = angle0_deg and
- * angle_out_deg[k+1] follows command k. chamber_out_kpa may be NULL. Returns RTCORE_OK
- * or a negative RTCORE_ERR_*. */
+ * angle_out_deg[k+1] follows command k. chamber_out_kpa may be NULL. substeps >= 1: steps
+ * of at most a sample period / substeps; 0: the steps the dynamics need, and over a run of
+ * samples that hold one valve input, steps of several periods (csrc/rtcore_sim_span.c).
+ * Returns RTCORE_OK or a negative RTCORE_ERR_*. */
 int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, int32_t substeps,
                        int32_t n_samples, const double *pressure_cmd_kpa, double angle0_deg,
                        double velocity0_deg_per_s, double chamber0_kpa, double *angle_out_deg,

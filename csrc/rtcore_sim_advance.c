@@ -3,12 +3,13 @@
  * driving the finger's integration (rtcore_sim_plant.c). */
 #include <math.h>
 
+#include "rtcore_internal.h"
 #include "rtcore_sim_internal.h"
 
 /* A held segment, split where the chamber crosses the dead zone's threshold, so that the
  * torque is smooth within each part. */
 static void integrate_held(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                           double input_kpa, double duration_s, double request_cap_s)
+                           double input_kpa, double duration_s, double request_cap_s, sim_span *span)
 {
     const double tau_s = p->finger->prbm.effects.valve_lag_tau_s;
     const double deadzone_kpa = p->finger->prbm.effects.pressure_deadzone_kpa;
@@ -18,12 +19,15 @@ static void integrate_held(const sim_plant *p, rtcore_sim_finger_state *s, rtcor
             || (start_kpa > deadzone_kpa && input_kpa < deadzone_kpa))) {
         const double cross_s = tau_s * log((start_kpa - input_kpa) / (deadzone_kpa - input_kpa));
         if (cross_s > 0.0 && cross_s < duration_s) {
-            rtcore_sim_integrate_segment(p, s, cache, input_kpa, cross_s, request_cap_s);
-            rtcore_sim_integrate_segment(p, s, cache, input_kpa, duration_s - cross_s, request_cap_s);
+            rtcore_sim_integrate_segment(p, s, cache, input_kpa, cross_s, request_cap_s, span);
+            if (span != 0) {
+                span->t0_s = cross_s;
+            }
+            rtcore_sim_integrate_segment(p, s, cache, input_kpa, duration_s - cross_s, request_cap_s, span);
             return;
         }
     }
-    rtcore_sim_integrate_segment(p, s, cache, input_kpa, duration_s, request_cap_s);
+    rtcore_sim_integrate_segment(p, s, cache, input_kpa, duration_s, request_cap_s, span);
 }
 
 /* The valve regulates within its supply; a garbled (NaN) command vents to the floor. */
@@ -58,7 +62,7 @@ static void advance_pneumatic(const rtcore_sim_finger *f, rtcore_sim_finger_stat
         const double mean_kpa = rtcore_pneumatic_advance(&f->pneumatic, f->prbm.pressure_gain_nm_per_kpa,
                                                          &s->pneumatic, command_kpa, s->angle_rad,
                                                          s->velocity_rad_per_s, dt_s / (double)pieces);
-        rtcore_sim_integrate_segment(&plant, s, cache, mean_kpa, dt_s / (double)pieces, step_cap_s);
+        rtcore_sim_integrate_segment(&plant, s, cache, mean_kpa, dt_s / (double)pieces, step_cap_s, 0);
     }
     s->chamber_kpa = s->pneumatic.chamber_kpa;
     s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
@@ -83,10 +87,74 @@ void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *
     s->command_kpa[s->head] = saturate(f, command_kpa);
     if (s->delay_fraction > 0.0) {
         const double first_s = s->delay_fraction * dt_s;
-        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples + 1), first_s, step_cap_s);
-        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s - first_s, step_cap_s);
+        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples + 1), first_s, step_cap_s, 0);
+        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s - first_s, step_cap_s, 0);
     } else {
-        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s, step_cap_s);
+        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s, step_cap_s, 0);
+    }
+    s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
+}
+
+/* The command held over sample i from now (the valve's input after the dead time): the
+ * i-th of command_kpa, saturated, for i >= 0, and the history's before. */
+static double held_command(const rtcore_sim_finger *f, const rtcore_sim_finger_state *s, const double *command_kpa,
+                           int32_t i)
+{
+    return i >= 0 ? saturate(f, command_kpa[i]) : delayed_command(s, -1 - i);
+}
+
+/* How many of the next `available` sample periods (command_kpa[0] the one pushed now)
+ * hold one and the same valve input throughout, dead time's breakpoint included, and that
+ * input: 0 when fewer than two do (a command that changes every sample costs two reads). */
+int32_t rtcore_sim_held_samples(const rtcore_sim_finger *f, const rtcore_sim_finger_state *s, const double *command_kpa,
+                                int32_t available, double *held_kpa)
+{
+    const int32_t d = s->delay_samples;
+    double input_kpa;
+    int32_t count = 2;
+    if (available < 2 || f->pneumatic.valve_model == RTCORE_VALVE_PNEUMATIC) {
+        return 0;
+    }
+    input_kpa = held_command(f, s, command_kpa, -d);
+    if (held_command(f, s, command_kpa, 1 - d) != input_kpa
+        || (s->delay_fraction > 0.0 && held_command(f, s, command_kpa, -d - 1) != input_kpa)) {
+        return 0;
+    }
+    while (count < available && held_command(f, s, command_kpa, count - d) == input_kpa) {
+        ++count;
+    }
+    *held_kpa = input_kpa;
+    return count;
+}
+
+/* `count` sample periods under the one input held_kpa (rtcore_sim_held_samples), as one
+ * segment (rtcore_sim_span.c): the angle at each sample into span's angle_out_deg, the
+ * chamber's into chamber_out_kpa (may be NULL). */
+void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
+                             sim_span *span, const double *command_kpa, int32_t count, double held_kpa,
+                             double *chamber_out_kpa)
+{
+    const rtcore_sim_finger *f = plant->finger;
+    const double tau_s = f->prbm.effects.valve_lag_tau_s;
+    const double chamber0_kpa = s->chamber_kpa;
+    int32_t i;
+    for (i = 0; i < count; ++i) {
+        s->head = (s->head + 1) % RTCORE_SIM_HISTORY;
+        s->command_kpa[s->head] = saturate(f, command_kpa[i]);
+    }
+    span->count = count;
+    span->next = 1;
+    span->t0_s = 0.0;
+    integrate_held(plant, s, cache, held_kpa, (double)count * span->dt_s, rtcore_sim_span_cap_s(plant, span->dt_s),
+                   span);
+    for (i = span->next; i <= count; ++i) { /* none but after a divergence: the state it left */
+        span->angle_out_deg[i - 1] = s->angle_rad * RTCORE_DEG_PER_RAD;
+    }
+    if (chamber_out_kpa != 0) {
+        for (i = 1; i <= count; ++i) {
+            chamber_out_kpa[i - 1] = tau_s > 0.0 ? held_kpa + (chamber0_kpa - held_kpa) * exp(-(double)i * span->dt_s / tau_s)
+                                                 : held_kpa;
+        }
     }
     s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
 }

@@ -59,14 +59,43 @@ double rtcore_sim_settle_range_rad_for(const sim_plant *p);
 double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_finger_state *s, double cap_s,
                                  double request_cap_s, double range_rad, double drive_nm, double drift_nm);
 
+/* A run of samples under one held input, integrated as one segment whose steps may span
+ * several sample periods (rtcore_sim_span.c): the state at the samples inside a step from
+ * the exact propagators of the linear part at whole sample periods (computed once per run,
+ * RTCORE_SPAN_SAMPLES of them), under the step's own quadratic torque. */
+#define RTCORE_SPAN_SAMPLES 32
+typedef struct {
+    double dt_s;
+    int32_t count; /* samples in the span: outputs 1..count */
+    int32_t next; /* the next sample to output */
+    double t0_s; /* the segment's start, from the span's */
+    double *angle_out_deg; /* count of them */
+    double damping_nms_per_rad; /* the finger's B, whose propagators these are */
+    int32_t has[RTCORE_SPAN_SAMPLES];
+    rtcore_propagator at[RTCORE_SPAN_SAMPLES]; /* at[i]: a step of i sample periods (i >= 1) */
+} sim_span;
+
+/* rtcore_sim_span.c */
+double rtcore_sim_span_step_s(const sim_span *out, double t_s, double h_s);
+void rtcore_sim_span_emit(sim_span *out, const rtcore_exact_plant *linear, double t_s, double h_s,
+                          double angle0_rad, double velocity0_rad_per_s, const double torque_nm[3],
+                          double angle1_rad, double velocity1_rad_per_s);
+int32_t rtcore_sim_span_eligible(const sim_plant *p);
+double rtcore_sim_span_cap_s(const sim_plant *p, double dt_s);
+
 /* rtcore_sim_plant.c */
 double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s);
 void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p);
 void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                                  double input_kpa, double duration_s, double request_cap_s);
+                                  double input_kpa, double duration_s, double request_cap_s, sim_span *span);
 
 /* rtcore_sim_advance.c */
 void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *s,
                                rtcore_propagator_cache *cache, double command_kpa, double dt_s, int32_t substeps);
+int32_t rtcore_sim_held_samples(const rtcore_sim_finger *f, const rtcore_sim_finger_state *s, const double *command_kpa,
+                                int32_t available, double *held_kpa);
+void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
+                             sim_span *span, const double *command_kpa, int32_t count, double held_kpa,
+                             double *chamber_out_kpa);
 
 #endif /* RTCORE_SIM_INTERNAL_H */

@@ -98,7 +98,7 @@ static void with_damping(const sim_plant *base, double extra_nms_per_rad, sim_pl
  * through the torque at x, the mean of those at a and b, and at c. */
 static void step(const sim_plant *p, rtcore_propagator_cache *cache, double *angle_rad, double *velocity_rad_per_s,
                  double h, double p_start, double p_mid, double p_end, double g_start, int32_t touching,
-                 double linearized_nms_per_rad)
+                 double linearized_nms_per_rad, double torque_nm[3])
 {
     const rtcore_sim_finger *f = p->finger;
     const int32_t slot = rtcore_exact_propagators(&p->linear, cache, h, p->nonlinear);
@@ -115,6 +115,9 @@ static void step(const sim_plant *p, rtcore_propagator_cache *cache, double *ang
     double n_b;
     double n_c;
     if (!p->nonlinear) {
+        torque_nm[0] = p_start;
+        torque_nm[1] = p_mid;
+        torque_nm[2] = p_end;
         rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, p_start, p_mid, p_end);
         return;
     }
@@ -125,7 +128,10 @@ static void step(const sim_plant *p, rtcore_propagator_cache *cache, double *ang
     n_b = p_mid + nonlinear_torque_nm(f, th_b, w_b, touching) + linearized_nms_per_rad * w_b;
     rtcore_exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
     n_c = p_end + nonlinear_torque_nm(f, th_c, w_c, touching) + linearized_nms_per_rad * w_c;
-    rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, n_x, 0.5 * (n_a + n_b), n_c);
+    torque_nm[0] = n_x;
+    torque_nm[1] = 0.5 * (n_a + n_b);
+    torque_nm[2] = n_c;
+    rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, n_x, torque_nm[1], n_c);
 }
 
 /* Where g has a kink or a jump (the object's surface, the contact force reaching 0 as
@@ -184,9 +190,10 @@ static double chamber_at(double start_kpa, double input_kpa, double tau_s, doubl
  * switched on, whose shorter steps follow the lag more closely, moves the result by no
  * more. The
  * last step ends the segment exactly and a kink cuts a step where it lies, so the steps
- * and the result move continuously with every parameter. */
+ * and the result move continuously with every parameter. Over a span of samples (span not
+ * NULL: rtcore_sim_span.c) the steps fit the samples and the angle at each is written. */
 void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                                  double input_kpa, double duration_s, double request_cap_s)
+                                  double input_kpa, double duration_s, double request_cap_s, sim_span *span)
 {
     const rtcore_sim_finger *f = p->finger;
     const double tau_s = f->prbm.effects.valve_lag_tau_s;
@@ -258,14 +265,24 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
                                          ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
                                          : 0.0;
+            /* the chamber's torque moves within the step by no more than over h from now (it
+             * is monotonic): over a span of held samples the segment's whole change would
+             * hold every step to what the chamber does in the first */
+            const double drift_nm = moving ? pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s,
+                                                                              fmin(t_s + h, duration_s)))
+                                                 - torque_start
+                                           : 0.0;
             slope0 = friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s);
             with_damping(p, slope0, &local);
             h = fmin(h, rtcore_sim_damping_step_s(&local, s->velocity_rad_per_s,
                                                   rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0), net_nm,
-                                                  torque_last - torque_start, h));
+                                                  drift_nm, h));
             g_start += slope0 * s->velocity_rad_per_s;
         } else {
             local = *p;
+        }
+        if (span != 0) {
+            h = rtcore_sim_span_step_s(span, t_s, h);
         }
         h = fmax(h, min_step_s);
         if (!(h * (1.0 + 1e-9) < remaining_s)) { /* no sliver of a step after this one */
@@ -276,6 +293,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             double angle_rad = s->angle_rad;
             double velocity_rad_per_s = s->velocity_rad_per_s;
             double fraction = 1.0;
+            double torque_nm[3];
             int32_t surface = 0;
             if (moving) {
                 torque_mid = pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h));
@@ -285,7 +303,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
                 torque_end = last ? torque_last : pressure_torque_nm(f, chamber_end_kpa);
             }
             step(&local, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
-                 touching, slope0);
+                 touching, slope0, torque_nm);
             if (p->kinks && !cut) {
                 fraction = before_kink(p, touching, s->angle_rad, s->velocity_rad_per_s, angle_rad,
                                        velocity_rad_per_s, &surface);
@@ -303,6 +321,10 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
                 g_start = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching)
                           + slope0 * s->velocity_rad_per_s;
                 continue;
+            }
+            if (span != 0) {
+                rtcore_sim_span_emit(span, &local.linear, t_s, h, s->angle_rad, s->velocity_rad_per_s, torque_nm,
+                                     angle_rad, velocity_rad_per_s);
             }
             s->angle_rad = angle_rad;
             s->velocity_rad_per_s = velocity_rad_per_s;

@@ -123,7 +123,9 @@ def simulate(finger: SimFinger, pressure_cmd_kpa: np.ndarray, sample_rate_hz: fl
              substeps: int = 10, angle0_deg: float = 0.0, velocity0_deg_per_s: float = 0.0,
              chamber0_kpa: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Noise-free angle (deg) and chamber pressure (kPa) at every sample; angle[0] is the
-    initial angle and angle[k+1] follows command k."""
+    initial angle and angle[k+1] follows command k. `substeps` >= 1 bounds the steps to a
+    sample period / substeps; 0 leaves them to the dynamics, several periods long over a
+    run of samples that hold one command (csrc/rtcore_sim_span.c)."""
     commands = np.ascontiguousarray(pressure_cmd_kpa, dtype=np.float64)
     n = commands.size
     angle = np.empty(n)

@@ -1,7 +1,8 @@
 /* The simulator's integrator: the plain linear finger exact against closed forms at one
- * step per sample (under-, critically and over-damped, undamped), no overflow however
- * stiff the plant and long the step, a diverging finger that ends its run, and a sliver
- * of a segment that changes nothing. */
+ * step per sample and over spans of held samples (under-, critically and over-damped,
+ * undamped), no overflow however stiff the plant and long the step, a diverging finger
+ * that ends its run, a sliver of a segment that changes nothing, and spans against a step
+ * per sample. */
 #include "check.h"
 
 static rtcore_sim_finger plain_finger(double inertia, double damping, double stiffness)
@@ -49,12 +50,16 @@ static void check_free_decay(double a, double b, double k, double rate_hz, const
     for (i = 0; i < N; ++i) {
         command[i] = 0.0;
     }
-    CHECK(rtcore_sim_run(&f, rate_hz, 1, N, command, 30.0, 0.0, 0.0, angle, 0) == RTCORE_OK, "%s runs", name);
-    for (i = 0; i < N; ++i) {
-        const double exact = free_decay(a, b, k, 30.0, (double)i / rate_hz);
-        worst = fmax(worst, fabs(angle[i] - exact));
+    int substeps;
+    for (substeps = 1; substeps >= 0; --substeps) { /* 0: the held zero is one span */
+        CHECK(rtcore_sim_run(&f, rate_hz, substeps, N, command, 30.0, 0.0, 0.0, angle, 0) == RTCORE_OK, "%s runs",
+              name);
+        for (i = 0; i < N; ++i) {
+            const double exact = free_decay(a, b, k, 30.0, (double)i / rate_hz);
+            worst = fmax(worst, fabs(angle[i] - exact));
+        }
+        CHECK(worst < 1e-9, "%s, substeps %d: exact (%g deg off)", name, substeps, worst);
     }
-    CHECK(worst < 1e-9, "%s: one step per sample is exact (%g deg off)", name, worst);
 }
 
 /* a step of pressure from rest: θss − (the free decay from θss), whatever the step */
@@ -96,6 +101,58 @@ static void check_divergence_ends(void)
     CHECK(!isfinite(angle[N - 1]) || fabs(angle[N - 1]) > 1e6, "diverged: %g deg", angle[N - 1]);
     CHECK(chamber[N - 1] == 200.0 && chamber[8] == 0.0, "the chamber still follows (a NaN vents): %g, %g",
           chamber[N - 1], chamber[8]);
+    f.prbm.effects.quadratic_damping_nms2_per_rad2 = 0.0; /* spans of it, at 1 kHz */
+    CHECK(rtcore_sim_run(&f, 1000.0, 0, N, command, 0.0, 0.0, 0.0, angle, chamber) == RTCORE_OK, "runs away");
+    CHECK(!isfinite(angle[N - 1]) || fabs(angle[N - 1]) > 1e6, "diverged over spans: %g deg", angle[N - 1]);
+    CHECK(chamber[N - 1] == 200.0 && chamber[8] == 0.0, "the chamber still follows: %g, %g", chamber[N - 1],
+          chamber[8]);
+}
+
+/* Held levels at 1 kHz with the steps left to the dynamics (substeps 0): spans of several
+ * periods, cut by the object's surface and the dead zone's crossing, agree with a step per
+ * sample; a negative substeps is refused. */
+static void check_spans(void)
+{
+    enum { N = 3000 };
+    static double command[N];
+    static double spanned[N];
+    static double stepped[N];
+    static double chamber_spanned[N];
+    static double chamber_stepped[N];
+    rtcore_sim_finger f = plain_finger(1.6e-4, 0.003, 0.57);
+    double worst = 0.0;
+    double lowest = INFINITY;
+    double highest = -INFINITY;
+    int i;
+    f.prbm.effects.valve_lag_tau_s = 0.03;
+    f.prbm.effects.dead_time_s = 0.0137;
+    f.prbm.effects.gravity_torque_nm = 0.05;
+    f.prbm.effects.pressure_deadzone_kpa = 20.0;
+    f.contact_angle_deg = 40.0;
+    f.contact_stiffness_n_per_m = 2000.0;
+    f.contact_damping_ns_per_m = 5.0;
+    for (i = 0; i < N; ++i) {
+        command[i] = (double)((i / 300) * 37 % 120); /* a level every 0.3 s */
+    }
+    int friction;
+    for (friction = 0; friction < 2; ++friction) { /* with dry friction: the cubic inside a step */
+        f.prbm.effects.coulomb_torque_nm = friction ? 0.01 : 0.0;
+        CHECK(rtcore_sim_run(&f, 1000.0, 0, N, command, -5.0, 0.0, 0.0, spanned, chamber_spanned) == RTCORE_OK,
+              "spans");
+        CHECK(rtcore_sim_run(&f, 1000.0, 1, N, command, -5.0, 0.0, 0.0, stepped, chamber_stepped) == RTCORE_OK,
+              "steps");
+        for (i = 0; i < N; ++i) {
+            worst = fmax(worst, fabs(spanned[i] - stepped[i]));
+            lowest = fmin(lowest, stepped[i]);
+            highest = fmax(highest, stepped[i]);
+            CHECK(fabs(chamber_spanned[i] - chamber_stepped[i]) < 1e-9, "chamber at %d: %g against %g", i,
+                  chamber_spanned[i], chamber_stepped[i]);
+        }
+        CHECK(highest > 40.0 && worst < 1e-4 * (highest - lowest),
+              "friction %d: spans within 1e-4 of the range: %g deg of %g", friction, worst, highest - lowest);
+    }
+    CHECK(rtcore_sim_run(&f, 1000.0, -1, N, command, 0.0, 0.0, 0.0, spanned, 0) == RTCORE_ERR_SAMPLE_RATE,
+          "substeps -1 refused");
 }
 
 /* a dead time a hair above 0 leaves a sliver of a segment: no NaN from it, and no change */
@@ -136,4 +193,5 @@ void run_sim_tests(void)
     check_stiff_long_steps();
     check_divergence_ends();
     check_sliver_of_a_segment();
+    check_spans();
 }

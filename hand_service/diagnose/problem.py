@@ -124,6 +124,12 @@ class EffectScales:
                             float(np.percentile(speed, 99)) if speed.size else 0.0, angle_rad)
 
 
+# what a fit asks of the simulator: no bound of its own on the steps (rtcore_sim_run's 0), so
+# that the dynamics alone choose them and a run of samples under one held command (a step's
+# hundreds at 1 kHz) takes the steps its motion needs, not one per sample (csrc/rtcore_sim_span.c)
+FIT_SUBSTEPS = 0
+
+
 def substeps_for(rate_hz: float) -> int:
     """Integration steps asked per sample: one. The simulator (csrc/rtcore_sim*.c) takes the
     plain linear finger exactly at any step, and chooses its own finer steps from the
@@ -312,7 +318,7 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     # usual supply is simulated as it is, never clamped
     base = dataclasses.replace(base, supply_min_kpa=min(base.supply_min_kpa, float(np.min(pressure_kpa))),
                                supply_max_kpa=max(base.supply_max_kpa, float(np.max(pressure_kpa))))
-    substeps = substeps_for(rate_hz)
+    substeps = FIT_SUBSTEPS
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
     shortest_s, longest_s = 0.5, 3.0

@@ -156,9 +156,10 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
         if not param.lower < value < param.upper:
             continue
         angle = problem.simulate(problem.finger([param], [value], base.finger))
-        r = problem.misfit(angle)[mask]
-        r -= basis @ (basis.T @ r)
-        cost = float(r @ r)
+        with np.errstate(invalid="ignore"):  # a point that drives the finger unstable: cost NaN, never best
+            r = problem.misfit(angle)[mask]
+            r -= basis @ (basis.T @ r)
+            cost = float(r @ r)
         if cost < best_cost:
             best, best_cost = value, cost
     return best, best_cost

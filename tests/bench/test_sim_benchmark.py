@@ -3,9 +3,10 @@ of times (`make bench`; in `make test` each case runs once, as a smoke test).
 
 The cases of the over-damped soft actuator (B/A = 5000/s, no resonance) over a 2-minute
 25 Hz recording, and of the paper's index finger at 0.25 Hz, 100 Hz and 1 kHz for 30 s,
-each with the step left to the simulator (substeps = 1) and capped at 1 ms (what
-hand_service/diagnose asks for today, substeps_for). Compare the cases as ratios within one
-run; the step counts behind them are in csrc/rtcore_sim_step_size.c (rtcore_sim_parameter_step_s)."""
+each with at least a step per sample (substeps = 1), with the steps left to the dynamics
+over the held levels (substeps = 0, what hand_service/diagnose asks: csrc/rtcore_sim_span.c)
+and capped at 1 ms. Compare the cases as ratios within one run; the step counts behind them
+are in csrc/rtcore_sim_step_size.c (rtcore_sim_parameter_step_s)."""
 
 from __future__ import annotations
 
@@ -40,7 +41,7 @@ def commands(rate_hz: float, seconds: float) -> np.ndarray:
     return np.repeat(np.random.default_rng(0).uniform(0.0, 120.0, n // hold + 2), hold)[:n]
 
 
-@pytest.mark.parametrize("substeps", ["free", "1ms"])
+@pytest.mark.parametrize("substeps", ["free", "spans", "1ms"])
 @pytest.mark.parametrize("effects", ["plain", "lag+friction"])
 @pytest.mark.parametrize("case", list(CASES))
 def test_one_simulation(benchmark, case: str, effects: str, substeps: str) -> None:
@@ -49,6 +50,6 @@ def test_one_simulation(benchmark, case: str, effects: str, substeps: str) -> No
         prbm = Prbm(**{**prbm.__dict__, "effects": Effects(valve_lag_tau_s=0.03, coulomb_torque_nm=0.002)})
     finger = SimFinger(prbm)
     command = commands(rate_hz, seconds)
-    n = 1 if substeps == "free" else steps_of_1_ms(rate_hz)
+    n = {"free": 1, "spans": 0}.get(substeps) if substeps != "1ms" else steps_of_1_ms(rate_hz)
     angle, _ = benchmark(simulate, finger, command, rate_hz, n)
     assert np.all(np.isfinite(angle))

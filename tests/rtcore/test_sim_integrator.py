@@ -129,15 +129,19 @@ def fine_reference(f: SimFinger, command_kpa: np.ndarray, rate_hz: float, angle0
     return np.array(angle)
 
 
+@pytest.mark.parametrize("substeps", [1, 0])
 @pytest.mark.parametrize("rate_hz", RATES_HZ)
 @pytest.mark.parametrize("damping_per_s", [0.0, 10.0, CRITICAL_PER_S, 5000.0, 20000.0])
-def test_plain_finger_is_exact_at_one_step_per_sample(rate_hz: float, damping_per_s: float) -> None:
+def test_plain_finger_is_exact_at_one_step_per_sample(rate_hz: float, damping_per_s: float,
+                                                      substeps: int) -> None:
     """B/A = 0 (undamped), 10/s (ringing), 2·√(k/A) = 447/s (critical), 5000/s and 20000/s,
     A = 1e-5, k = 0.5: the zero-order hold's discretisation to 1e-9 of the range (measured:
-    4e-12 at worst), one step per sample (substeps = 1) from 4 s down to 1 ms."""
+    4e-12 at worst), one step per sample (substeps = 1) from 4 s down to 1 ms; and with the
+    steps left to the dynamics (substeps = 0), several periods each over a held level, the
+    samples inside from the propagators at whole periods."""
     m = dataclasses.replace(OVERDAMPED, damping_nms_per_rad=damping_per_s * OVERDAMPED.inertia_kgm2)
     command = held_levels(rate_hz, max(8.0 / rate_hz, seconds_for(rate_hz)))
-    angle, chamber = simulate(SimFinger(m), command, rate_hz, substeps=1, angle0_deg=10.0,
+    angle, chamber = simulate(SimFinger(m), command, rate_hz, substeps=substeps, angle0_deg=10.0,
                               velocity0_deg_per_s=-300.0)
     exact = zoh_reference(m, command, rate_hz, 10.0, -300.0)
     assert np.max(np.abs(angle - exact)) <= 1e-9 * np.ptp(exact)
@@ -175,9 +179,45 @@ def test_effects_against_a_fine_reference(plant: str, effect: str, rate_hz: floa
     assert np.max(np.abs(angle - reference)) <= EFFECTS_TOLERANCE * np.ptp(reference)
 
 
+@pytest.mark.parametrize("touching", [False, True])
+@pytest.mark.parametrize("plant", sorted(PLANTS))
+@pytest.mark.parametrize("effect", sorted(EFFECTS))
+def test_spans_of_held_samples_against_a_fine_reference(plant: str, effect: str, touching: bool) -> None:
+    """At 1 kHz with the steps left to the dynamics (substeps = 0, as diagnose asks), a level
+    held for 500 samples is one segment whose steps span several periods (not with the
+    drag: csrc/rtcore_sim_span.c): within the same 5e-4 of the range of LSODA's, the
+    object's kinks and the dead zone's crossing cutting steps between samples; the chamber
+    as a step per sample has it."""
+    effects = EFFECTS[effect]
+    finger = SimFinger(dataclasses.replace(PLANTS[plant], effects=effects), **(OBJECT if touching else {}))
+    command = held_levels(1000.0, 1.0)
+    start = {"angle0_deg": -5.0, "chamber0_kpa": float(command[0])}
+    angle, chamber = simulate(finger, command, 1000.0, substeps=0, **start)
+    reference = fine_reference(finger, command, 1000.0, -5.0)
+    assert np.max(np.abs(angle - reference)) <= EFFECTS_TOLERANCE * np.ptp(reference)
+    _, stepped = simulate(finger, command, 1000.0, substeps=1, **start)
+    np.testing.assert_allclose(chamber, stepped, rtol=0.0, atol=1e-9)
+
+
+def test_spans_move_continuously_with_a_parameter() -> None:
+    """Over held levels at 1 kHz a step spans whole periods, so how many changes with the
+    parameters; the angles still move smoothly across 201 values of the gravity torque (no
+    difference between neighbours stands out), as the fits' finite differences need."""
+    command = held_levels(1000.0, 2.0)
+    valve = {"valve_lag_tau_s": 0.03, "dead_time_s": 0.0137}
+    base = SimFinger(dataclasses.replace(PAPER, effects=Effects(**valve)))
+    angles = np.array([
+        simulate(base.replace(effects=Effects(**valve, gravity_torque_nm=float(g))), command, 1000.0,
+                 substeps=0, angle0_deg=-5.0)[0]
+        for g in np.linspace(0.0500, 0.0501, 201)])
+    step = np.max(np.abs(np.diff(angles, axis=0)), axis=1)
+    assert step.max() <= 10.0 * np.median(step)
+
+
+@pytest.mark.parametrize("substeps", [1, 0])
 @pytest.mark.parametrize("plant", sorted(PLANTS))
 @pytest.mark.parametrize("rate_hz", [25.0, 100.0, 1000.0])
-def test_friction_that_sticks_against_a_fine_reference(plant: str, rate_hz: float) -> None:
+def test_friction_that_sticks_against_a_fine_reference(plant: str, rate_hz: float, substeps: int) -> None:
     """Dry friction strong enough to hold the finger (Tc at 10 % of the drive's torque,
     smoothed over 0.2 deg/s: a slope Tc/ω_s up to 30 000 times B/A on the paper's finger)
     while the finger bends to 100 kPa and is released to 0 kPa, where it stops short of rest
@@ -190,22 +230,25 @@ def test_friction_that_sticks_against_a_fine_reference(plant: str, rate_hz: floa
                                                               coulomb_smoothing_deg_per_s=0.2)))
     command = np.full(int(2.0 * rate_hz) + 1, 100.0)
     command[len(command) // 2:] = 0.0
-    angle, _ = simulate(finger, command, rate_hz, substeps=1, angle0_deg=-5.0, chamber0_kpa=float(command[0]))
+    angle, _ = simulate(finger, command, rate_hz, substeps=substeps, angle0_deg=-5.0,
+                        chamber0_kpa=float(command[0]))
     reference = fine_reference(finger, command, rate_hz, -5.0)
     assert 1.0 < abs(reference[-1]) < math.degrees(torque_nm / m.stiffness_nm_per_rad)  # held short of 0
     assert np.max(np.abs(angle - reference)) <= EFFECTS_TOLERANCE * np.ptp(reference)
 
 
-def test_result_moves_continuously_with_a_parameter() -> None:
+@pytest.mark.parametrize(("rate_hz", "substeps"), [(25.0, 1), (1000.0, 0)])
+def test_result_moves_continuously_with_a_parameter(rate_hz: float, substeps: int) -> None:
     """Dry friction sets the step (its slope Tc/ω_s): across 201 values of Tc the number of
     steps changes many times, but the angles move smoothly (the fits' finite differences
     need that): no difference between neighbours stands out from the rest. Equal steps of
-    ceil(T/h) per sample made jumps of 50 times the median."""
-    command = held_levels(25.0, 4.0)
+    ceil(T/h) per sample made jumps of 50 times the median. At 1 kHz over held levels with
+    the steps left to the dynamics, the samples inside a step from its ends' cubic."""
+    command = held_levels(rate_hz, 4.0 if rate_hz < 100.0 else 1.0)
     base = SimFinger(dataclasses.replace(PAPER, effects=EFFECTS["coulomb_friction"]))
     angles = np.array([
-        simulate(base.replace(effects=Effects(coulomb_torque_nm=float(torque))), command, 25.0, substeps=1,
-                 angle0_deg=-5.0)[0]
+        simulate(base.replace(effects=Effects(coulomb_torque_nm=float(torque))), command, rate_hz,
+                 substeps=substeps, angle0_deg=-5.0)[0]
         for torque in np.linspace(0.0100, 0.0101, 201)])
     step = np.max(np.abs(np.diff(angles, axis=0)), axis=1)
     assert step.max() <= 10.0 * np.median(step)
@@ -234,3 +277,6 @@ def test_a_diverging_finger_ends_its_run() -> None:
     angle, chamber = simulate(runaway, np.full(200, 200.0), 100.0, substeps=10)
     assert not np.isfinite(angle[-1]) or abs(angle[-1]) > 1e6
     assert chamber[-1] == 200.0
+    softening = SimFinger(dataclasses.replace(PAPER, effects=Effects(cubic_stiffness_nm_per_rad3=-5.0)))
+    angle, chamber = simulate(softening, np.full(2000, 200.0), 1000.0, substeps=0)  # one held span
+    assert not np.isfinite(angle[-1]) and chamber[-1] == 200.0
