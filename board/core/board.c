@@ -32,7 +32,6 @@
 
 #define CATCH_UP_SAMPLES 25u
 #define DEFAULT_BOOT_MS 200u
-#define OPEN_CIRCUIT_MV 65535.0f
 #define DEFAULT_DRIFT_PPM 20000u
 
 struct board_config board_config_defaults(void)
@@ -75,7 +74,7 @@ static int config_ok(const struct board_config *c)
         && (c->wire == BOARD_WIRE_SERIAL || c->wire == BOARD_WIRE_CAN);
 }
 
-static void vent_valves(struct board *b)
+void board_vent_valves(struct board *b)
 {
     for (uint8_t i = 0; i < BOARD_MAX_FINGERS; i++) {
         b->command_kpa[i] = 0.0f;
@@ -87,7 +86,7 @@ static void vent_valves(struct board *b)
     }
 }
 
-static int reached(uint32_t now_us, uint32_t when_us)
+int board_reached(uint32_t now_us, uint32_t when_us)
 {
     return (int32_t)(now_us - when_us) >= 0;
 }
@@ -126,7 +125,7 @@ void board_emit(struct board *b, struct board_unit *unit)
     }
 }
 
-static void send_status(struct board *b)
+void board_send_status(struct board *b)
 {
     if (b->cfg.wire == BOARD_WIRE_CAN) {
         wire_can_status(b);
@@ -144,11 +143,11 @@ static void send_version(struct board *b)
     }
 }
 
-static void set_state(struct board *b, uint8_t state)
+void board_set_state(struct board *b, uint8_t state)
 {
     if (b->state != state) {
         b->state = state;
-        send_status(b);
+        board_send_status(b);
     }
 }
 
@@ -165,7 +164,7 @@ static void announce(struct board *b)
     b->refused = 0u;
     b->next_sample_us = b->now_us + b->cfg.sample_period_us;
     send_version(b);
-    send_status(b);
+    board_send_status(b);
 }
 
 int board_init(struct board *b, const struct board_config *cfg)
@@ -177,7 +176,7 @@ int board_init(struct board *b, const struct board_config *cfg)
         b->cfg.n_fingers = cfg->n_fingers >= 1u && cfg->n_fingers <= BOARD_MAX_FINGERS ? cfg->n_fingers : 1u;
         b->state = BOARD_FAULT;
         b->fault_code = BOARD_FAULT_INTERNAL;
-        vent_valves(b);
+        board_vent_valves(b);
         return -1;
     }
     serial_v1_decoder_init(&b->decoder);
@@ -190,7 +189,7 @@ int board_init(struct board *b, const struct board_config *cfg)
     b->state = BOARD_BOOTING;
     b->boot_end_us = b->now_us;
     b->next_inner_us = b->now_us;
-    vent_valves(b);
+    board_vent_valves(b);
     return 0;
 }
 
@@ -221,7 +220,7 @@ void board_on_valve_command(struct board *b, uint8_t sequence, const float *pres
     }
     b->command_sequence = sequence;
     b->last_command_us = b->now_us;
-    set_state(b, BOARD_RUNNING);
+    board_set_state(b, BOARD_RUNNING);
 }
 
 void board_on_version_request(struct board *b, uint16_t protocol_version)
@@ -231,10 +230,10 @@ void board_on_version_request(struct board *b, uint16_t protocol_version)
     }
     b->refused = protocol_version != b->cfg.protocol_version;
     if (b->refused && b->state == BOARD_RUNNING) {
-        vent_valves(b);
+        board_vent_valves(b);
         b->state = BOARD_IDLE;
     }
-    send_status(b);
+    board_send_status(b);
     send_version(b);
 }
 
@@ -246,7 +245,7 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
         return;
     }
     if (kind == INJECT_REBOOT) { /* reset now: vent, go silent for `value` ms, announce again */
-        vent_valves(b);
+        board_vent_valves(b);
         inject_clear(&b->inject);
         b->fault_code = BOARD_FAULT_NONE;
         b->fault_injected = 0u;
@@ -262,7 +261,7 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
         return; /* not on this link or this board (as the mock ignores what its link cannot carry) */
     }
     inject_request(&b->inject, kind, finger, duration_ms, value, b->now_us);
-    send_status(b);
+    board_send_status(b);
     if (kind == INJECT_PROTOCOL_CHANGE) {
         send_version(b);
     }
@@ -273,140 +272,6 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
     (void)value;
     board_on_bad_frame(b);
 #endif
-}
-
-/* -- faults of the board's own --------------------------------------------------------- */
-
-static void enter_fault(struct board *b, uint8_t code)
-{
-    vent_valves(b);
-    b->fault_code = code;
-    b->fault_seen_us = b->now_us;
-    set_state(b, BOARD_FAULT);
-}
-
-static void own_faults(struct board *b)
-{
-#ifdef BOARD_TEST_IMAGE
-    const int32_t injected = inject_value(&b->inject, INJECT_FIRMWARE_FAULT, BOARD_FAULT_VALVE_DRIVER);
-    if (injected >= 0) {
-        if (b->state != BOARD_FAULT) {
-            enter_fault(b, (uint8_t)injected);
-            b->fault_injected = 1u;
-        }
-        b->fault_seen_us = b->now_us;
-        return;
-    }
-#endif
-    /* an injected fault ends with its injection; a real one fault_clear_us after its cause */
-    if (b->state == BOARD_FAULT && b->fault_code != BOARD_FAULT_INTERNAL
-        && (b->fault_injected || reached(b->now_us, b->fault_seen_us + b->cfg.fault_clear_us))) {
-        b->fault_injected = 0u;
-        b->fault_code = BOARD_FAULT_NONE;
-        memset(b->pressure_bad_ticks, 0, sizeof b->pressure_bad_ticks);
-        set_state(b, BOARD_IDLE);
-    }
-}
-
-/* -- the inner loop: measure every chamber, regulate it ------------------------------- */
-
-static float pressure_from_adc(const struct board *b, uint16_t counts, int *valid)
-{
-    const float mv = (float)counts * b->cfg.adc_ref_mv / (float)b->cfg.adc_max_counts;
-    *valid = mv >= b->cfg.pressure_valid_min_mv && mv <= b->cfg.pressure_valid_max_mv;
-    return (mv - b->cfg.pressure_offset_mv) / b->cfg.pressure_sensitivity_mv_per_kpa;
-}
-
-static void inner_tick(struct board *b)
-{
-    for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
-        int valid;
-        const float kpa = pressure_from_adc(b, hal_adc_read((uint8_t)(2u * i)), &valid);
-        b->pressure_kpa[i] = valid ? kpa : NAN;
-        b->pressure_bad_ticks[i] = valid ? 0u : (uint16_t)(b->pressure_bad_ticks[i] + 1u);
-        if (b->pressure_bad_ticks[i] >= b->cfg.pressure_fault_ticks) {
-            if (b->state != BOARD_FAULT) {
-                enter_fault(b, BOARD_FAULT_PRESSURE_SENSOR);
-            }
-            b->fault_seen_us = b->now_us;
-        } else if (valid && kpa > b->cfg.pressure_limit_kpa) {
-            if (b->state != BOARD_FAULT) {
-                enter_fault(b, BOARD_FAULT_OVER_PRESSURE);
-            }
-            b->fault_seen_us = b->now_us;
-        }
-    }
-    const int applying = b->state == BOARD_RUNNING;
-    for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
-        struct regulator *r = &b->regulators[i];
-        if (applying) {
-            regulator_step(r, &b->cfg.regulator, b->command_kpa[i], b->pressure_kpa[i]);
-        } else {
-            regulator_vent(r);
-        }
-        hal_valve_pwm(i, HAL_VALVE_INLET, r->inlet_permille);
-        hal_valve_pwm(i, HAL_VALVE_EXHAUST, r->exhaust_permille);
-    }
-}
-
-/* -- sampling -------------------------------------------------------------------------- */
-
-static void sample(struct board *b)
-{
-    float flex_mv[BOARD_MAX_FINGERS];
-    float pressure_kpa[BOARD_MAX_FINGERS];
-    for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
-        flex_mv[i] = (float)hal_adc_read((uint8_t)(2u * i + 1u)) * b->cfg.adc_ref_mv / (float)b->cfg.adc_max_counts;
-        pressure_kpa[i] = b->pressure_kpa[i];
-    }
-#ifdef BOARD_TEST_IMAGE
-    struct inject *in = &b->inject;
-    struct inject_fault *stuck = &in->faults[INJECT_STUCK_SENSOR];
-    struct inject_fault *frozen = &in->faults[INJECT_PRESSURE_STUCK];
-    for (uint8_t k = 0; k < 2u; k++) {
-        struct inject_fault *f = k == 0u ? stuck : frozen;
-        float *values = k == 0u ? flex_mv : pressure_kpa;
-        if (!f->active) {
-            continue;
-        }
-        if (!f->held_valid) {
-            memcpy(f->held, values, sizeof f->held);
-            f->held_valid = 1u;
-        }
-        for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
-            values[i] = inject_hits(f, i) ? f->held[i] : values[i];
-        }
-    }
-    const struct inject_fault *wild = inject_active(in, INJECT_SENSOR_OUT_OF_RANGE);
-    const struct inject_fault *flex_nan = inject_active(in, INJECT_SENSOR_NAN);
-    const struct inject_fault *pressure_nan = inject_active(in, INJECT_PRESSURE_NAN);
-    for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
-        if (inject_hits(wild, i)) {
-            flex_mv[i] = wild->value ? (float)wild->value : OPEN_CIRCUIT_MV;
-        }
-        if (inject_hits(flex_nan, i)) {
-            flex_mv[i] = NAN;
-        }
-        if (inject_hits(pressure_nan, i)) {
-            pressure_kpa[i] = NAN;
-        }
-    }
-#endif
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        wire_can_sensor(b, flex_mv, pressure_kpa);
-    } else {
-        wire_serial_sensor(b, flex_mv, pressure_kpa);
-    }
-#ifdef BOARD_TEST_IMAGE
-    if (!inject_active(in, INJECT_SEQUENCE_STUCK))
-#endif
-    {
-        b->sequence++;
-    }
-    if (++b->samples_since_status >= b->cfg.status_every_samples) {
-        b->samples_since_status = 0u;
-        send_status(b);
-    }
 }
 
 /* -- the main loop --------------------------------------------------------------------- */
@@ -456,44 +321,44 @@ void board_poll(struct board *b)
     b->uptime_rem_us %= 1000u;
     hal_watchdog_kick();
     if (b->state == BOARD_FAULT && b->fault_code == BOARD_FAULT_INTERNAL) {
-        vent_valves(b); /* a configuration it cannot run: vented for good */
+        board_vent_valves(b); /* a configuration it cannot run: vented for good */
         return;
     }
     receive(b);
 #ifdef BOARD_TEST_IMAGE
     if (inject_expire(&b->inject, b->now_us) > 0u && b->state != BOARD_BOOTING) {
-        send_status(b); /* the status says the fault is over */
+        board_send_status(b); /* the status says the fault is over */
     }
 #endif
     if (b->state == BOARD_BOOTING) {
-        if (!reached(b->now_us, b->boot_end_us)) {
+        if (!board_reached(b->now_us, b->boot_end_us)) {
             return;
         }
         announce(b);
     }
-    own_faults(b);
-    if (b->state == BOARD_RUNNING && !reached(b->last_command_us + b->cfg.watchdog_us, b->now_us)) {
-        vent_valves(b);
+    board_own_faults(b);
+    if (b->state == BOARD_RUNNING && !board_reached(b->last_command_us + b->cfg.watchdog_us, b->now_us)) {
+        board_vent_valves(b);
         b->vent_count++;
         b->vent_us = b->now_us;
-        set_state(b, BOARD_WATCHDOG_VENTED);
+        board_set_state(b, BOARD_WATCHDOG_VENTED);
     }
-    if (reached(b->now_us, b->next_inner_us)) {
-        inner_tick(b);
+    if (board_reached(b->now_us, b->next_inner_us)) {
+        board_inner_tick(b);
         b->next_inner_us += b->cfg.inner_period_us;
-        if (reached(b->now_us, b->next_inner_us)) { /* behind: no burst, the next tick from now */
+        if (board_reached(b->now_us, b->next_inner_us)) { /* behind: no burst, the next tick from now */
             b->next_inner_us = b->now_us + b->cfg.inner_period_us;
         }
     }
     /* the sample timer keeps its phase: samples missed while the loop was held up are
      * taken now, in a short burst, as a timer interrupt would have queued them */
     uint8_t taken = 0u;
-    while (reached(b->now_us, b->next_sample_us) && taken < CATCH_UP_SAMPLES) {
-        sample(b);
+    while (board_reached(b->now_us, b->next_sample_us) && taken < CATCH_UP_SAMPLES) {
+        board_sample(b);
         b->next_sample_us += b->cfg.sample_period_us;
         taken++;
     }
-    if (reached(b->now_us, b->next_sample_us)) {
+    if (board_reached(b->now_us, b->next_sample_us)) {
         b->next_sample_us = b->now_us + b->cfg.sample_period_us;
     }
 #ifdef BOARD_TEST_IMAGE

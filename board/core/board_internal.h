@@ -1,5 +1,5 @@
-/* What the wire codecs (wire_serial.c, wire_can.c) and the core (board.c) call of each
- * other; not part of the core's public interface (board.h). */
+/* What the wire codecs (wire_serial.c, wire_can.c) and the core (board.c, measure.c) call of
+ * each other; not part of the core's public interface (board.h). */
 #ifndef BOARD_INTERNAL_H
 #define BOARD_INTERNAL_H
 
@@ -19,6 +19,20 @@ void board_emit(struct board *b, struct board_unit *unit);
 
 /* the protocol version the board announces (a test image's PROTOCOL_CHANGE changes it) */
 uint16_t board_announced_protocol(const struct board *b);
+
+/* board.c's helpers that the measuring side (measure.c) shares: vent every chamber; change
+ * state (Status at once on a change); send Status; whether now_us has reached when_us on the
+ * wrapping microsecond clock */
+void board_vent_valves(struct board *b);
+void board_set_state(struct board *b, uint8_t state);
+void board_send_status(struct board *b);
+int board_reached(uint32_t now_us, uint32_t when_us);
+
+/* measure.c: the board's own faults (vent, FAULT, cleared fault_clear_us after the cause);
+ * the inner loop (measure every chamber, regulate it); one sample (the sensors, reported) */
+void board_own_faults(struct board *b);
+void board_inner_tick(struct board *b);
+void board_sample(struct board *b);
 
 /* the receive side and the encoders of each wire */
 void wire_serial_receive(struct board *b);
