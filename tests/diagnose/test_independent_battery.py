@@ -18,6 +18,7 @@ import yaml
 from scipy import signal
 
 from tests.diagnose.truth import cases as cs
+from tests.diagnose.truth import scoring
 from tests.diagnose.truth.battery import diagnose_argv
 from tests.diagnose.truth.excitation import CLASSES
 from tests.diagnose.truth.linear import LinearModel, refit, response_deg
@@ -307,7 +308,7 @@ def test_diagnose_on_an_independent_recording(
     assert main(diagnose_argv(rec, model, out)) == 0
     capsys.readouterr()
     result = json.loads(out.read_text())
-    scored = cs.score(spec, case.observable, result)
+    scored = scoring.score(spec, case.observable, result)
     assert scored["right"], (
         f"{spec.id}: truth {effect} {case.library_equivalent}, visibility "
         f"{case.visibility:.2f}; diagnose said {result['verdict']} {scored['named']}"

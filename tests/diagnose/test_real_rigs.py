@@ -2,7 +2,8 @@
 
 The fixtures, their sources and the expected physics (written down before `diagnose` was
 run on them) are in tests/diagnose/real/README.md; `tests/diagnose/real/convert.py` made
-them and fitted each expected effect independently of `hand_service`.
+them and fitted each expected effect independently of `hand_service` (its fitter:
+`odefit.py`).
 
 - Silverbox (a Duffing oscillator circuit): `cubic_stiffness`, hardening.
 - EMPS (a prismatic axis with dry friction): `coulomb_friction`.
@@ -23,7 +24,7 @@ import pytest
 from hand_service.cli import main
 from hand_service.config.profile import load_model
 from hand_service.recording import read_recording
-from tests.diagnose.real.convert import DEG, Recording, fit_ode, read_csv, simulate
+from tests.diagnose.real.odefit import DEG, Recording, fit_ode, read_csv, simulate
 
 REAL = Path(__file__).resolve().parent / "real"
 RIGS = ("silverbox", "emps")

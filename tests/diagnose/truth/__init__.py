@@ -12,6 +12,11 @@ Modules:
 - `sensor`: offset, drift, white and correlated noise, ADC steps.
 - `excitation`: the recordings labs make, open and closed loop.
 - `linear`: the exact zero-order-hold linear model and its refit (k, B, N).
-- `cases`: one battery case: truth, concealment, observability, files.
+- `distinct`: whether a recording can tell the effect from what else a lab allows.
+- `calibration`: the effect's strength at a target visibility.
+- `cases`: one battery case: truth, concealment, observability.
+- `files`: a case on disk (recording, nominal model, truth), for diagnose.
+- `scoring`: what diagnose said against the truth.
+- `report`: the battery's tables.
 - `battery`: the runner (`python -m tests.diagnose.truth.battery --out results.json`).
 """

@@ -33,16 +33,16 @@ effect is large; dry friction on a finger that moves one way only is an offset).
 
 from __future__ import annotations
 
-import json
 import math
 import zlib
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from tests.diagnose.truth import excitation as ex
+from tests.diagnose.truth.calibration import calibrate
 from tests.diagnose.truth.distinct import distinct_visibility
+from tests.diagnose.truth.files import write as write  # cases.write: the case on disk
 from tests.diagnose.truth.linear import LinearModel, refit
 from tests.diagnose.truth.plant import DEG, FAMILIES, Family, Trajectory, Truth, simulate
 from tests.diagnose.truth.sensor import Sensor
@@ -411,156 +411,3 @@ def build(spec: CaseSpec) -> Case:
         library_equivalent(spec.effect, truth),
         calib,
     )
-
-
-def calibrate(
-    evaluate,
-    s: float,
-    v: float,
-    traj,
-    meas,
-    lo: float,
-    hi: float,
-    target: float,
-    tol: float = 1.12,
-    iterations: int = 12,
-):
-    """Solves visibility(s) = target in log-log: secant steps until the root is bracketed,
-    then regula falsi with a bisection when one side stalls."""
-    below: tuple[float, float] | None = None  # (log s, log v) with v < target
-    above: tuple[float, float] | None = None
-    best = (abs(math.log(max(v, 1e-12) / target)), s, v, traj, meas)
-    slope = 1.0
-    last = None
-    for _ in range(iterations):
-        if abs(math.log(max(v, 1e-12) / target)) < math.log(tol):
-            break
-        ls, lv = math.log(s), math.log(max(v, 1e-12))
-        if lv < math.log(target):
-            below = (ls, lv)
-        else:
-            above = (ls, lv)
-        if last is not None and abs(ls - last[0]) > 1e-9 and abs(lv - last[1]) > 1e-6:
-            slope = min(max((lv - last[1]) / (ls - last[0]), 0.25), 4.0)
-        last = (ls, lv)
-        if below is not None and above is not None:
-            (la, va), (lb, vb) = below, above
-            x = la + (math.log(target) - va) * (lb - la) / (vb - va) if vb != va else 0.5 * (la + lb)
-            # keep inside the bracket, away from its ends
-            x = min(
-                max(x, la + 0.1 * (lb - la) if lb > la else lb + 0.1 * (la - lb)),
-                la + 0.9 * (lb - la) if lb > la else lb + 0.9 * (la - lb),
-            )
-        else:
-            x = ls + (math.log(target) - lv) / slope
-        new = min(max(math.exp(x), lo), hi)
-        if new == s:
-            break  # pinned at a bound
-        s = new
-        v, traj, meas = evaluate(s)
-        err = abs(math.log(max(v, 1e-12) / target))
-        if err < best[0]:
-            best = (err, s, v, traj, meas)
-    _, s, v, traj, meas = best
-    return s, v, traj, meas
-
-
-# -- files --------------------------------------------------------------------------------------
-
-
-def write_recording(case: Case, path: Path) -> None:
-    """The project's recording CSV (docs/formats.md §1), one finger."""
-    rate = case.plan.rate_hz
-    t = np.arange(case.plan.n) / rate
-    lines = [
-        "# finger: index",
-        f"# sample_rate_hz: {rate:g}",
-        "# source: independent truth (tests/diagnose/truth)",
-        f"# case: {case.spec.id}",
-        f"# excitation: {case.plan.kind}",
-        "t,pressure_kpa,angle_deg",
-    ]
-    body = np.column_stack([t, case.trajectory.command_kpa, case.measured_deg])
-    lines += [f"{a:.6f},{b:.5f},{c:.5f}" for a, b, c in body]
-    path.write_text("\n".join(lines) + "\n")
-
-
-def write_model(case: Case, path: Path) -> None:
-    m = case.nominal
-    text = (
-        f"# the lab's nominal model of case {case.spec.id}: k, B, N off by up to 10 %\n"
-        f"finger: index\ninertia_kgm2: {float(m.inertia_kgm2)!r}\n"
-        f"damping_nms_per_rad: {float(m.damping_nms_per_rad)!r}\n"
-        f"stiffness_nm_per_rad: {float(m.stiffness_nm_per_rad)!r}\n"
-        f"pressure_gain_nm_per_kpa: {float(m.gain_nm_per_kpa)!r}\n"
-    )
-    if case.nominal_effects:
-        text += "effects:\n"
-        for name, params in case.nominal_effects.items():
-            inner = ", ".join(f"{p}: {float(v)!r}" for p, v in params.items())
-            text += f"  {name}: {{{inner}}}\n"
-    path.write_text(text)
-
-
-def write(case: Case, folder: Path) -> tuple[Path, Path]:
-    folder.mkdir(parents=True, exist_ok=True)
-    rec, model = folder / f"{case.spec.id}.csv", folder / f"{case.spec.id}.yaml"
-    write_recording(case, rec)
-    write_model(case, model)
-    (folder / f"{case.spec.id}.truth.json").write_text(
-        json.dumps(
-            {
-                **case.summary(),
-                "truth": {
-                    k: (v if not isinstance(v, float) or math.isfinite(v) else None)
-                    for k, v in asdict(case.truth).items()
-                    if k != "family"
-                },
-                "family_params": asdict(case.truth.family),
-            },
-            indent=1,
-        )
-    )
-    return rec, model
-
-
-# -- scoring --------------------------------------------------------------------------------------
-
-
-def score(spec: CaseSpec, observable: bool, result: dict) -> dict:
-    """What diagnose said against the truth. Outcome and whether it counts as right:
-
-    - library effect, observable: `top1` (effects[0] is it), else `wrong_name`,
-      `unexplained`, `insufficient_excitation` or `missed` (consistent, parameters_only);
-    - library effect, unobservable: right unless it names another effect (`wrong_name`) or
-      says `unexplained`;
-    - clean: right when consistent or parameters_only; `named` and `unexplained` are false
-      positives, `insufficient_excitation` is counted apart;
-    - out of the library: `named` (a library name) is the worst answer; `unexplained` and
-      `insufficient_excitation` (an honest "cannot tell") are right; `missed` (consistent,
-      parameters_only) is not."""
-    spec = spec.resolved()
-    verdict = result.get("verdict")
-    names = [e.get("name") for e in result.get("effects") or []]
-    first = names[0] if names else None
-    if spec.effect in LIBRARY:
-        if first == spec.effect:
-            outcome = "top1"
-        elif first is not None:
-            outcome = "wrong_name"
-        elif verdict in ("consistent", "parameters_only"):
-            outcome = "missed"
-        else:
-            outcome = str(verdict)
-        right = outcome == "top1" if observable else outcome in ("top1", "missed", "insufficient_excitation")
-    elif spec.effect == CLEAN:
-        outcome = (
-            "named" if first else ("ok" if verdict in ("consistent", "parameters_only") else str(verdict))
-        )
-        right = outcome == "ok"
-    else:
-        outcome = (
-            "named" if first else ("missed" if verdict in ("consistent", "parameters_only") else str(verdict))
-        )
-        right = outcome in ("unexplained", "insufficient_excitation")
-    return {"verdict": verdict, "named": names, "outcome": outcome, "right": right}
