@@ -364,9 +364,8 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundE
     context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
                       final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
     held = problem.held_mask
-    measured = problem.measured_deg[held]
     base_angle = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
-    rmse_before = stats.rmse(measured - base_angle[held])
+    rmse_before = stats.rmse(problem.misfit(base_angle)[held])  # the sensor's offset and drift out, as fitted
     text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, rmse_before, c.rmse_heldout_deg,
                     c.prior_gain)
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)

@@ -54,7 +54,7 @@ class Candidate:
     fit: Fit
     delta_bic: float  # against the model of this round, the nominal's prior included
     z_heldout: float
-    rmse_heldout_deg: float
+    rmse_heldout_deg: float  # held out, the sensor's offset and drift taken out (Problem.misfit)
     prior_gain: float = 0.0  # how much closer to the nominal (prior's χ²) the effect lets k, B, N stay
 
     @property
@@ -254,7 +254,6 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
         joint = min((fit(problem, params, start, base=base.finger) for start in starts),
                     key=lambda f: f.cost_deg2)
     held = problem.held_mask
-    measured = problem.measured_deg[held]
     before, after = problem.innovations(base.angle_deg), problem.innovations(joint.angle_deg)
     # the nominal's prior counts as evidence where the data asked for a refit an order of
     # magnitude from it (9 widths of its log-normal prior, a χ² of 85); nearer, it holds k, B
@@ -267,7 +266,7 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     if bic > SIGNIFICANT_BIC and BORDERLINE_Z < z <= SIGNIFICANT_Z:
         z = (z + second_split_z(problem, base, joint)) / np.sqrt(2.0)
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
-                     screened.starts[0], joint, bic, z, stats.rmse(measured - joint.angle_deg[held]),
+                     screened.starts[0], joint, bic, z, stats.rmse(problem.misfit(joint.angle_deg)[held]),
                      prior_gain)
 
 
