@@ -25,7 +25,7 @@ from hand_service.config.pneumatics import PNEUMATICS_SECTION, VALVE_MODEL_KEYS,
 from hand_service.config.recording import RECORDING_SECTION, RecordingSettings
 from hand_service.config.safety import SAFETY_SECTION, check_safety
 from hand_service.config.schema import Key, Section, expect_mapping, fail, validate
-from hand_service.config.textfile import printable, show
+from hand_service.config.textfile import lookup, printable, show
 from hand_service.config.transports import KINDS
 from hand_service.config.tuning import INTEGRAL_RATE_PER_S, margin_gains
 from hand_service.config.yamlio import LineDict, load_yaml
@@ -255,7 +255,7 @@ def _fill_gains(finger: FingerProfile, control: ControlSettings) -> None:
 def load_profile(path: str | Path | None = None) -> Profile:
     """Load and validate a profile; any mistake is a one-line UserError naming the line."""
     source = Path(path) if path is not None else DEFAULT_PROFILE
-    if not source.exists() and source.parent == Path(".") and (PROFILE_DIR / source).exists():
+    if lookup(source) is None and source.parent == Path(".") and lookup(PROFILE_DIR / source) is not None:
         source = PROFILE_DIR / source  # `--profile sim.yaml` finds the shipped profiles
     data = load_yaml(source)
     top = validate(data, TOP_SECTION, source)
@@ -310,9 +310,13 @@ def load_profile(path: str | Path | None = None) -> Profile:
 def _included(source: Path, data: Any, include: str) -> Profile:
     """The included profile, validated in its own file (one level deep: no include there)."""
     path = Path(include) if Path(include).is_absolute() else source.parent / include
-    if not path.exists():
+    try:
+        kind = lookup(path)
+    except UserError as exc:
+        raise fail(source, data, "include", f"include: {exc}") from None
+    if kind is None:
         raise fail(source, data, "include", f"include: {printable(str(path))} not found")
-    if not path.is_file():  # never a FIFO or a device: reading one may never end
+    if kind != "file":  # never a FIFO or a device: reading one may never end
         raise fail(source, data, "include", f"include: {printable(str(path))} is not a regular file")
     raw = load_yaml(path)
     if isinstance(raw, dict) and raw.get("include"):

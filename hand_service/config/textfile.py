@@ -62,3 +62,18 @@ def read_text(path: str | Path) -> str:
     except ValueError as exc:  # a NUL in the path
         raise UserError(f"{show(str(path))}: not a usable path: {exc}") from None
     return decode_text(data, path)
+
+
+def lookup(path: Path) -> str | None:
+    """What is at `path`: "file" (a regular file), "other" (a directory, a FIFO, a device:
+    reading one may never end) or None (nothing). A name the system cannot look up at all
+    (too long, a NUL in it) is a UserError, not an OSError from Path.exists."""
+    try:
+        if not path.exists():
+            return None
+        return "file" if path.is_file() else "other"
+    except OSError as exc:
+        raise UserError(f"{show(str(path))}: cannot look it up: {exc.strerror or exc}") from None
+    except ValueError as exc:
+        raise UserError(f"{show(str(path))}: not a usable path: {exc}") from None
+

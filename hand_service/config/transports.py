@@ -17,7 +17,7 @@ from typing import Any
 import can
 
 from hand_service.config.schema import Key, Section, fail
-from hand_service.config.textfile import printable
+from hand_service.config.textfile import lookup, printable
 from hand_service.errors import UserError
 
 # python-can's own backend registry (its names only: no backend is loaded).
@@ -85,7 +85,11 @@ def check_can(values: dict[str, Any], source: Path, block: Any) -> None:
                    f"({', '.join(str(b) for b in SLCAN_BITRATES_BPS)})")
     dbc = Path(values["dbc"])
     dbc = dbc if dbc.is_absolute() else source.parent / dbc
-    if dbc.exists() and not dbc.is_file():  # never a FIFO or a device: reading one may never end
+    try:
+        kind = lookup(dbc)
+    except UserError as exc:  # a name the system cannot look up (too long, say)
+        raise fail(source, block, "dbc", f"transport.dbc: {exc}") from None
+    if kind == "other":  # never a FIFO or a device: reading one may never end
         raise fail(source, block, "dbc", f"transport.dbc: {printable(str(dbc))} is not a regular file")
     from hand_service.wire.can_codec import load_dbc
 

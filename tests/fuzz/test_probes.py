@@ -124,6 +124,21 @@ def test_an_include_that_is_a_fifo_is_refused_unread(tmp_path: Path) -> None:
     refused(lambda: load_profile(path), "is not a regular file")
 
 
+@pytest.mark.parametrize(("text", "piece"), [
+    ("transport:\n  kind: can\n  interface: virtual\n  channel: probe\n  dbc: :{long}\n", "transport.dbc"),
+    ("include: {long}.yaml\ntransport: {{kind: sim}}\n", ":3: include"),
+])
+def test_a_name_too_long_to_look_up_is_one_line(tmp_path: Path, text: str, piece: str) -> None:
+    """Found by the profile fuzzer (a CI run): a dbc of 400 characters made Path.exists raise
+    OSError (file name too long) instead of refusing the profile; an include and the
+    profile's own name went the same way (config.textfile.lookup)."""
+    path = tmp_path / "bus.yaml"
+    path.write_text("profile: bus\nprotocol_version: 1\n" + text.format(long="9" * 400))
+    message = refused(lambda: load_profile(path), piece, "File name too long")
+    assert len(message) < 300
+    refused(lambda: load_profile("9" * 400), "cannot look it up: File name too long")
+
+
 @pytest.mark.parametrize(("old", "new", "piece"), [
     ("gamma: 0.85", "gamma: !!float abc", ":8: cannot read 'abc' as float"),
     ("inertia_kgm2: 1.617e-4 ", "inertia_kgm2: " + "1" * 400, "inertia_kgm2 = 1111111111"),
