@@ -177,6 +177,25 @@ static double chamber_at(double start_kpa, double input_kpa, double tau_s, doubl
     return input_kpa + (start_kpa - input_kpa) * exp(-t_s / tau_s);
 }
 
+/* The step that cubic stiffness's slope allows at the angle the finger may reach under
+ * the held input: the present one plus the torque out of balance over k, with the chamber
+ * now and at the segment's end (rtcore_sim_state_step_s); at least floor_s. With `moving`
+ * (a step inside a span) the torque out of balance without the damper's share too: an
+ * over-damped finger on its way has its drive balanced by B·θ' far from where it goes. */
+static double state_cap_s(const sim_plant *p, const rtcore_sim_finger_state *s, double torque_now_nm,
+                          double torque_last_nm, double step_cap_s, double floor_s, int32_t moving)
+{
+    const rtcore_sim_finger *f = p->finger;
+    const double g_nm = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
+    const double spring_nm = p->linear.stiffness_nm_per_rad * s->angle_rad;
+    const double linear_nm = spring_nm + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
+    double accel_nm = fmax(fabs(torque_now_nm + g_nm - linear_nm), fabs(torque_last_nm + g_nm - linear_nm));
+    if (moving) {
+        accel_nm = fmax(accel_nm, fmax(fabs(torque_now_nm + g_nm - spring_nm), fabs(torque_last_nm + g_nm - spring_nm)));
+    }
+    return fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm), floor_s));
+}
+
 /* Integrate over duration_s with the valve input held at input_kpa, in steps of at most
  * step_cap_s, and of what rtcore_sim_state_step_s allows for the state at the start (the input is
  * held, so what the segment will reach is known there). The chamber follows its exact
@@ -204,11 +223,15 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
      * the dead zone throughout (the chamber is monotonic within a segment) */
     const int32_t moving = tau_s > 0.0 && f->prbm.pressure_gain_nm_per_kpa > 0.0 && start_kpa != input_kpa
                            && !(deadzone_kpa > 0.0 && start_kpa <= deadzone_kpa && end_kpa <= deadzone_kpa);
-    const double min_step_s = duration_s * MIN_STEP_PER_SEGMENT;
+    /* over a span, the sample period sets the scale of the shortest steps, not the span's
+     * length (hundreds of periods): a step per sample's bounds, whatever the span */
+    const double unit_s = span != 0 ? fmin(duration_s, span->dt_s) : duration_s;
+    const double min_step_s = unit_s * MIN_STEP_PER_SEGMENT;
     const double lag_span_kpa = fmax(f->supply_max_kpa - f->supply_min_kpa, 1.0);
     const double torque_last = pressure_torque_nm(f, end_kpa);
     double torque_start = pressure_torque_nm(f, start_kpa);
     const double step_cap_s = fmin(request_cap_s, s->max_step_s);
+    const double state_floor_s = (span != 0 ? fmin(step_cap_s, span->dt_s) : step_cap_s) / STATE_STEP_SHRINK;
     const double settle_range_rad = rtcore_sim_settle_range_rad_for(p);
     const double lag_step_s = LAG_STEP_FRACTION * tau_s;
     /* (LAG_STEP_FRACTION·τ)³·S: a step h with h³·|p − u| below it is shorter than the lag's
@@ -225,16 +248,16 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
         return;
     }
     if (p->state_dependent) {
-        /* the torque out of balance at the start, with the chamber now and at the end */
-        const double g_nm = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
-        const double linear_nm = p->linear.stiffness_nm_per_rad * s->angle_rad + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
-        const double accel_nm = fmax(fabs(torque_start + g_nm - linear_nm), fabs(torque_last + g_nm - linear_nm));
-        cap_s = fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm),
-                                      step_cap_s / STATE_STEP_SHRINK));
+        cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 0);
     }
     while (!last) {
         const double remaining_s = duration_s - t_s;
         int32_t touching = next_touching >= 0 ? next_touching : touches(f, s->angle_rad);
+        if (p->state_dependent && span != 0 && t_s > 0.0) {
+            /* a span lasts many periods: the reach from the state now, as a step per
+             * sample would take it at each sample */
+            cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
+        }
         double g_start = p->nonlinear ? nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
         double h = settle_range_rad > 0.0 && cap_s < request_cap_s
                        ? rtcore_sim_settled_step_s(p, s, cap_s, request_cap_s, settle_range_rad,
