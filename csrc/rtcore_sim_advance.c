@@ -44,6 +44,13 @@ static double delayed_command(const rtcore_sim_finger_state *s, int32_t samples_
     return s->command_kpa[(s->head - samples_back + RTCORE_SIM_HISTORY) % RTCORE_SIM_HISTORY];
 }
 
+/* the command pushed at this sample into the dead time's history, saturated */
+static void push_command(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, double command_kpa)
+{
+    s->head = (s->head + 1) % RTCORE_SIM_HISTORY;
+    s->command_kpa[s->head] = saturate(f, command_kpa);
+}
+
 /* The pneumatic valve mode (rtcore_pneumatic.h): the chamber's physics and the board's
  * regulator replace the lag and the dead time. The period is cut into pieces of the
  * regulator's period; over each the finger is driven by the chamber's mean pressure there,
@@ -83,8 +90,7 @@ void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *
         advance_pneumatic(f, s, cache, command_kpa, dt_s, step_cap_s);
         return;
     }
-    s->head = (s->head + 1) % RTCORE_SIM_HISTORY;
-    s->command_kpa[s->head] = saturate(f, command_kpa);
+    push_command(f, s, command_kpa);
     if (s->delay_fraction > 0.0) {
         const double first_s = s->delay_fraction * dt_s;
         integrate_held(plant, s, cache, delayed_command(s, s->delay_samples + 1), first_s, step_cap_s, 0);
@@ -112,7 +118,7 @@ int32_t rtcore_sim_held_samples(const rtcore_sim_finger *f, const rtcore_sim_fin
     const int32_t d = s->delay_samples;
     double input_kpa;
     int32_t count = 2;
-    if (available < 2 || f->pneumatic.valve_model == RTCORE_VALVE_PNEUMATIC) {
+    if (available < 2) { /* (a pneumatic valve is never in a span: rtcore_sim_span_eligible) */
         return 0;
     }
     input_kpa = held_command(f, s, command_kpa, -d);
@@ -139,8 +145,7 @@ void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s,
     const double chamber0_kpa = s->chamber_kpa;
     int32_t i;
     for (i = 0; i < count; ++i) {
-        s->head = (s->head + 1) % RTCORE_SIM_HISTORY;
-        s->command_kpa[s->head] = saturate(f, command_kpa[i]);
+        push_command(f, s, command_kpa[i]);
     }
     span->count = count;
     span->next = 1;
@@ -152,8 +157,8 @@ void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s,
     }
     if (chamber_out_kpa != 0) {
         for (i = 1; i <= count; ++i) {
-            chamber_out_kpa[i - 1] = tau_s > 0.0 ? held_kpa + (chamber0_kpa - held_kpa) * exp(-(double)i * span->dt_s / tau_s)
-                                                 : held_kpa;
+            const double t_s = (double)i * span->dt_s;
+            chamber_out_kpa[i - 1] = tau_s > 0.0 ? rtcore_sim_chamber_at(chamber0_kpa, held_kpa, tau_s, t_s) : held_kpa;
         }
     }
     s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);

@@ -7,6 +7,7 @@
 #ifndef RTCORE_SIM_INTERNAL_H
 #define RTCORE_SIM_INTERNAL_H
 
+#include <math.h>
 #include <stdint.h>
 
 #include "rtcore_exact.h"
@@ -35,6 +36,12 @@ static const double MIN_STEP_PER_SEGMENT = 1.0 / 1048576.0;
 static const double MIN_SEGMENT_S = 1e-30;
 /* a kink this close to either end of a step is left there (before_kink) */
 static const double KINK_MIN_FRACTION = 1e-3;
+
+/* the chamber t after the start of a held segment: its exact first-order solution */
+static inline double rtcore_sim_chamber_at(double start_kpa, double input_kpa, double tau_s, double t_s)
+{
+    return input_kpa + (start_kpa - input_kpa) * exp(-t_s / tau_s);
+}
 
 /* One finger's linear plant and the bounds on g's slopes, derived once per sample. */
 typedef struct {

@@ -171,12 +171,6 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
     return fraction;
 }
 
-/* the chamber t after the start of a held segment: its exact first-order solution */
-static double chamber_at(double start_kpa, double input_kpa, double tau_s, double t_s)
-{
-    return input_kpa + (start_kpa - input_kpa) * exp(-t_s / tau_s);
-}
-
 /* The step that cubic stiffness's slope allows at the angle the finger may reach under
  * the held input: the present one plus the torque out of balance over k, with the chamber
  * now and at the segment's end (rtcore_sim_state_step_s); at least floor_s. With `moving`
@@ -217,7 +211,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
     const rtcore_sim_finger *f = p->finger;
     const double tau_s = f->prbm.effects.valve_lag_tau_s;
     const double start_kpa = tau_s > 0.0 ? s->chamber_kpa : input_kpa;
-    const double end_kpa = tau_s > 0.0 ? chamber_at(start_kpa, input_kpa, tau_s, duration_s) : input_kpa;
+    const double end_kpa = tau_s > 0.0 ? rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, duration_s) : input_kpa;
     const double deadzone_kpa = f->prbm.effects.pressure_deadzone_kpa;
     /* the torque is constant without a lag, without a gain, at the input already, or below
      * the dead zone throughout (the chamber is monotonic within a segment) */
@@ -237,7 +231,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
     /* (LAG_STEP_FRACTION·τ)³·S: a step h with h³·|p − u| below it is shorter than the lag's
      * bound, which then need not be taken (a cube root per step saved; the same h) */
     const double lag_cube_s3_kpa = lag_step_s * lag_step_s * lag_step_s * lag_span_kpa * (1.0 - 1e-9);
-    double chamber_now_kpa = moving ? chamber_at(start_kpa, input_kpa, tau_s, 0.0) : input_kpa;
+    double chamber_now_kpa = moving ? rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, 0.0) : input_kpa;
     double cap_s = step_cap_s;
     double t_s = 0.0;
     int32_t last = 0;
@@ -276,7 +270,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             /* from how far the chamber still is from its input, not from when this
              * segment began: a chamber nearly settled (every sample period after a step)
              * needs no short steps, and a new segment does not restart them (the chamber
-             * now is the one the last step ended at, chamber_at(t_s)) */
+             * now is the one the last step ended at, rtcore_sim_chamber_at(t_s)) */
             const double gap_kpa = fabs(chamber_now_kpa - input_kpa);
             if (gap_kpa > 0.0 && !(h * h * h * gap_kpa < lag_cube_s3_kpa)) {
                 h = fmin(h, lag_step_s * cbrt(lag_span_kpa / gap_kpa));
@@ -291,7 +285,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             /* the chamber's torque moves within the step by no more than over h from now (it
              * is monotonic): over a span of held samples the segment's whole change would
              * hold every step to what the chamber does in the first */
-            const double drift_nm = moving ? pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s,
+            const double drift_nm = moving ? pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s,
                                                                               fmin(t_s + h, duration_s)))
                                                  - torque_start
                                            : 0.0;
@@ -319,9 +313,9 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             double torque_nm[3];
             int32_t surface = 0;
             if (moving) {
-                torque_mid = pressure_torque_nm(f, chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h));
+                torque_mid = pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h));
                 if (!last) {
-                    chamber_end_kpa = chamber_at(start_kpa, input_kpa, tau_s, t_s + h);
+                    chamber_end_kpa = rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + h);
                 }
                 torque_end = last ? torque_last : pressure_torque_nm(f, chamber_end_kpa);
             }
