@@ -173,18 +173,18 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
 
 /* The step that cubic stiffness's slope allows at the angle the finger may reach under
  * the held input: the present one plus the torque out of balance over k, with the chamber
- * now and at the segment's end (rtcore_sim_state_step_s); at least floor_s. With `moving`
- * (a step inside a span) the torque out of balance without the damper's share too: an
+ * now and at the segment's end (rtcore_sim_state_step_s); at least floor_s. With `en_route`
+ * (a later step inside a span) the torque out of balance without the damper's share too: an
  * over-damped finger on its way has its drive balanced by B·θ' far from where it goes. */
 static double state_cap_s(const sim_plant *p, const rtcore_sim_finger_state *s, double torque_now_nm,
-                          double torque_last_nm, double step_cap_s, double floor_s, int32_t moving)
+                          double torque_last_nm, double step_cap_s, double floor_s, int32_t en_route)
 {
     const rtcore_sim_finger *f = p->finger;
     const double g_nm = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
     const double spring_nm = p->linear.stiffness_nm_per_rad * s->angle_rad;
     const double linear_nm = spring_nm + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
     double accel_nm = fmax(fabs(torque_now_nm + g_nm - linear_nm), fabs(torque_last_nm + g_nm - linear_nm));
-    if (moving) {
+    if (en_route) {
         accel_nm = fmax(accel_nm, fmax(fabs(torque_now_nm + g_nm - spring_nm), fabs(torque_last_nm + g_nm - spring_nm)));
     }
     return fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm), floor_s));
