@@ -165,20 +165,39 @@ def test_handshake_and_report_rate(rig: QemuRig) -> None:
     assert 0.5 * 110 < rate_hz < 2.0 * 110
 
 
-def test_closed_loop_step_of_the_index_to_45_deg(rig: QemuRig) -> None:
-    """The C control step, driven through the pty at the image's pace, brings the index to 45 deg."""
-    rig.start_mock()
-    transport = rig.transport()
-    transport.open()
-    angles = step_to_angle(transport, rig.profile)
-    index = [f.name for f in rig.profile.fingers].index("index")
-    after_2s = angles[round(2.0 * rig.profile.control.rate_hz):, index]
-    print(f"\nqemu index after 2 s: mean {after_2s.mean():.2f} deg, "
-          f"worst {np.abs(after_2s - 45).max():.2f} deg off")
-    # within 2 deg after 2 s: the mean over 2.0-2.5 s, as the HIL suite judges the host build
-    # (a single sample may carry the flex sensor's 0.3 deg noise and a late sample's error)
-    assert abs(after_2s.mean() - 45.0) < 2.0, (after_2s, rig.lines[-10:])
-    assert transport.health().sequence_gaps < 5
+def test_closed_loop_step_of_the_index_to_45_deg(tmp_path: Path, cortexm_image: Path) -> None:
+    """The C control step, driven through the pty at the image's pace, brings the index to 45 deg.
+
+    The gains are tuned for a loop at the image's 100 Hz. A shared machine can stall the host
+    or QEMU for tens of milliseconds, and a loop that waited or lagged like that is not the
+    loop under test: its run is measured (LoopRun.disturbance), reported, and the step is
+    repeated on a freshly booted image, three runs at most. Any run held at the image's pace
+    is judged; none held is a failure that says why."""
+    disturbed = []
+    for attempt in range(3):
+        (tmp_path / f"run{attempt}").mkdir()
+        with QemuRig("serial", tmp_path / f"run{attempt}") as rig:
+            rig.image = cortexm_image
+            rig.start_mock()
+            transport = rig.transport()
+            transport.open()
+            run = step_to_angle(transport, rig.profile)
+            gaps = transport.health().sequence_gaps
+            lines = rig.lines[-10:]
+        index = [f.name for f in rig.profile.fingers].index("index")
+        after_2s = run.angles_deg[round(2.0 * rig.profile.control.rate_hz):, index]
+        print(f"\nqemu index after 2 s: mean {after_2s.mean():.2f} deg, "
+              f"worst {np.abs(after_2s - 45).max():.2f} deg off; {run.summary()}")
+        reason = run.disturbance()
+        if reason is not None:
+            disturbed.append(reason)
+            continue
+        # within 2 deg after 2 s: the mean over 2.0-2.5 s, as the HIL suite judges the host build
+        # (a single sample may carry the flex sensor's 0.3 deg noise and a late sample's error)
+        assert abs(after_2s.mean() - 45.0) < 2.0, (after_2s, run.summary(), lines)
+        assert gaps < 5
+        return
+    pytest.fail(f"no run kept the image's pace: {'; '.join(disturbed)}")
 
 
 def test_image_vents_when_the_host_dies(rig: QemuRig) -> None:

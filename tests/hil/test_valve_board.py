@@ -202,9 +202,9 @@ class TestValveBoard:
         rig.start_mock()
         transport = rig.transport()
         transport.open()
-        angles = step_to_angle(transport, rig.profile)  # 2.5 s, 250 steps on fresh samples
-        settled = angles[-50:]  # the last 50 steps (0.5 s)
-        np.testing.assert_allclose(settled.mean(axis=0), 45.0, atol=2.0)
+        run = step_to_angle(transport, rig.profile)  # 2.5 s, 250 steps on fresh samples
+        settled = run.angles_deg[-50:]  # the last 50 steps (0.5 s)
+        np.testing.assert_allclose(settled.mean(axis=0), 45.0, atol=2.0, err_msg=run.summary())
         # nothing is lost on a pty: a host stalled long enough to overflow it times out first
         assert transport.health().sequence_gaps < 5
 
