@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 import rtcore
 
@@ -37,6 +36,16 @@ class Gains:
     phase_crossover_hz: float
 
 
+def sos_response(sos: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The second-order sections' response at z (scipy's sosfreqz, without importing
+    scipy.signal: every process that reads a profile would pay its ~1 s import)."""
+    zi = 1.0 / z
+    response = np.ones_like(z)
+    for b0, b1, b2, a0, a1, a2 in sos:
+        response = response * (b0 + zi * (b1 + zi * b2)) / (a0 + zi * (a1 + zi * a2))
+    return response
+
+
 def loop_per_kp(finger: rtcore.FingerConfig, sample_rate_hz: float, freqs_hz: np.ndarray,
                 integral_rate_per_s: float = INTEGRAL_RATE_PER_S) -> np.ndarray:
     """L(jω)/kp: deg of filtered angle per deg of error, at each frequency."""
@@ -49,7 +58,7 @@ def loop_per_kp(finger: rtcore.FingerConfig, sample_rate_hz: float, freqs_hz: np
     valve = np.exp(-s * m.effects.dead_time_s) / (m.effects.valve_lag_tau_s * s + 1.0)
     hold = np.exp(-s * dt_s / 2.0) * np.sinc(freqs_hz * dt_s)
     sos = rtcore.butter_design(finger.filter_order, finger.filter_cutoff_hz, sample_rate_hz)
-    _, butter = signal.sosfreqz(sos, worN=freqs_hz, fs=sample_rate_hz)
+    butter = sos_response(sos, z)
     pi = 1.0 + integral_rate_per_s * dt_s * z / (z - 1.0)
     return prbm * valve * hold * butter * pi
 
