@@ -19,7 +19,9 @@ run: $(STAMP)
 
 # The tests that keep time (daemon, HIL, CLI, bench) run at normal priority; the CPU-bound
 # ones (diagnose, tools, model, rtcore, wire, packaging, fuzz) beside them at nice 19, in the time
-# the first leave idle waiting on real time, so they cannot delay a deadline.
+# the first leave idle waiting on real time, so they cannot delay a deadline. The CPU-bound
+# ones run in two pytest-xdist workers: one process alone left a core idle while the timed
+# tests waited (374 s beside them, 293 s in two workers, on a 2-core machine).
 CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/pinch tests/wire tests/packaging \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
@@ -27,7 +29,7 @@ SELECT := -m "not slow and not install and not fuzz and not faults and not board
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	@nice -n 19 $(PY) -m pytest -q -p no:cacheprovider $(SELECT) $(CPU_TESTS) > .test-cpu.log 2>&1 & \
+	@nice -n 19 $(PY) -m pytest -q -p no:cacheprovider -n 2 $(SELECT) $(CPU_TESTS) > .test-cpu.log 2>&1 & \
 	cpu=$$!; \
 	$(PY) -m pytest -q $(SELECT) $(addprefix --ignore=,$(CPU_TESTS)); timed=$$?; \
 	wait $$cpu; cpu_status=$$?; \

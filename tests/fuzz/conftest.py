@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from hand_service.config.profile import DEFAULT_PROFILE, PROFILE_DIR
 from hand_service.errors import UserError
 
-QUICK_EXAMPLES = 500
+QUICK_EXAMPLES = 200  # make test's share; `make fuzz` runs FULL_EXAMPLES
 FULL_EXAMPLES = 5000
 _SETTINGS = settings(deadline=None, database=None, print_blob=True,
                      suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
