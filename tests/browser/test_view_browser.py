@@ -92,6 +92,8 @@ def test_the_page_plots_live_and_its_estop_vents_the_hand(tmp_path: Path) -> Non
                 context.close()
     finally:
         stop.set()
+        if mover.is_alive():  # its requests in flight end before the daemon does (else a reset)
+            mover.join(10)
         if view is not None:
             view.close()
         daemon.close()

@@ -98,6 +98,8 @@ def test_the_view_costs_the_tick_nothing(tmp_path: Path, realtime: bool, reader:
         state = hand.status()["state"]
     finally:
         stop.set()
+        if mover.is_alive():  # its requests in flight end before the daemon does (else a reset)
+            mover.join(10)
         daemon.close()
     assert state == "RUNNING"
     summary: dict[str, Any] = {"realtime": realtime, "reader": reader, "block_s": BLOCK_S,
