@@ -87,7 +87,7 @@ test-browser: $(STAMP)
 
 # every file reader and the control API fed 5 000 fuzzed inputs each (make test runs 500 each)
 fuzz: $(STAMP)
-	$(PY) -m pytest -q -p no:cacheprovider -m fuzz tests/fuzz
+	$(PY) -m pytest -q -p no:cacheprovider -m fuzz tests/fuzz tests/rtcore/test_equivalence.py
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .

@@ -29,10 +29,6 @@ _SETTINGS = settings(deadline=None, database=None, print_blob=True,
                                             HealthCheck.function_scoped_fixture])
 
 
-def pytest_configure(config: pytest.Config) -> None:
-    config.addinivalue_line("markers", f"fuzz: the {FULL_EXAMPLES}-input fuzz runs; `make fuzz`")
-
-
 def fuzz_tests(strategy: st.SearchStrategy[Any], check: Callable[[Any, Any], None],
                fixture: str = "fuzz_dir") -> tuple[Any, Any]:
     """Two tests of check(<the fixture's value>, data): QUICK_EXAMPLES inputs, and

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -12,7 +13,8 @@ from rtcore import Effects, FingerConfig, Hand, HandConfig, Prbm, ReferenceHand
 from rtcore.arrays import Outputs, field_names
 
 TICKS_PER_EXAMPLE = 200
-EXAMPLES = 60  # 12,000 ticks in all
+EXAMPLES = 25  # make test's share, the same hands every run (5,000 ticks)
+FUZZ_EXAMPLES = 400  # `make fuzz`: new hands every run (80,000 ticks)
 
 
 def positive(lo: float, hi: float) -> st.SearchStrategy[float]:
@@ -118,10 +120,7 @@ def drive(hand: Hand | ReferenceHand, config: HandConfig, seed: int) -> list[dic
     return history
 
 
-@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow],
-          derandomize=True)
-@given(config=hand_strategy, seed=st.integers(0, 2**32 - 1))
-def test_c_matches_reference(config: HandConfig, seed: int) -> None:
+def agree(config: HandConfig, seed: int) -> None:
     c_hist = drive(Hand(config), config, seed)
     py_hist = drive(ReferenceHand(config), config, seed)
     for tick, (c_out, py_out) in enumerate(zip(c_hist, py_hist, strict=True)):
@@ -132,6 +131,21 @@ def test_c_matches_reference(config: HandConfig, seed: int) -> None:
             scale = np.maximum(1.0, np.abs(py_out[name]))
             worst = np.max(np.abs(c_out[name] - py_out[name]) / scale)
             assert worst <= 1e-9, f"{name} differs by {worst:.3g} (relative) at tick {tick}"
+
+
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow],
+          derandomize=True)
+@given(config=hand_strategy, seed=st.integers(0, 2**32 - 1))
+def test_c_matches_reference(config: HandConfig, seed: int) -> None:
+    agree(config, seed)
+
+
+@pytest.mark.fuzz
+@settings(max_examples=FUZZ_EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow],
+          database=None)
+@given(config=hand_strategy, seed=st.integers(0, 2**32 - 1))
+def test_c_matches_reference_on_new_hands(config: HandConfig, seed: int) -> None:
+    agree(config, seed)
 
 
 def test_reference_state_fields_cover_c_state() -> None:
