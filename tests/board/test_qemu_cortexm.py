@@ -175,8 +175,9 @@ def test_closed_loop_step_of_the_index_to_45_deg(tmp_path: Path, cortexm_image: 
     is judged; none held is a failure that says why."""
     disturbed = []
     for attempt in range(3):
-        (tmp_path / f"run{attempt}").mkdir()
-        with QemuRig("serial", tmp_path / f"run{attempt}") as rig:
+        folder = tmp_path / f"run{attempt}"
+        folder.mkdir()
+        with QemuRig("serial", folder) as rig:
             rig.image = cortexm_image
             rig.start_mock()
             transport = rig.transport()
