@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
                   $(wildcard csrc/*.c csrc/*.h board/plant/pneumatics.* board/core/regulator.*)
 
-.PHONY: run test test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
+.PHONY: run test test-thorough test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -25,7 +25,7 @@ run: $(STAMP)
 CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/pinch tests/wire tests/packaging \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
-SELECT := -m "not slow and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu"
+SELECT := -m "not slow and not thorough and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu"
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
@@ -35,6 +35,12 @@ test: $(STAMP)
 	wait $$cpu; cpu_status=$$?; \
 	echo "-- the CPU-bound tests, run beside them at nice 19:"; cat .test-cpu.log; rm -f .test-cpu.log; \
 	exit $$(( timed || cpu_status ))
+
+# diagnose's repetitions beyond make test's slice (marker thorough): each library effect on the
+# project's own generator named and recovered, the real-rig converter's fitter, a slow valve
+# under a PI loop (about 30 s in two workers; make test keeps two effects and the rigs' runs)
+test-thorough: $(STAMP)
+	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m thorough tests/diagnose
 
 # a wheel of the checkout, installed in a fresh venv outside it, runs (about 10 s)
 test-install: $(STAMP)

@@ -1,6 +1,6 @@
-"""diagnose on concealed recordings: one representative per library effect, clean ones,
-and the honest answers (insufficient_excitation, unexplained). The full battery is in
-test_battery.py (slow)."""
+"""diagnose on concealed recordings: one representative per library effect (two in make
+test, every one in make test-thorough), clean ones, and the honest answers
+(insufficient_excitation, unexplained). The full battery is in test_battery.py (slow)."""
 
 from __future__ import annotations
 
@@ -34,7 +34,12 @@ def test_every_library_effect_has_a_representative() -> None:
     assert set(EXCITATION) == set(fx.BY_NAME)
 
 
-@pytest.mark.parametrize("name", list(EXCITATION))
+IN_MAKE_TEST = ("coulomb_friction", "gravity")  # the rest in make test-thorough (the slice's every effect:
+# test_independent_battery.py)
+
+
+@pytest.mark.parametrize("name", [n if n in IN_MAKE_TEST else pytest.param(n, marks=pytest.mark.thorough)
+                                  for n in EXCITATION])
 def test_concealed_effect_is_named_first_and_recovered(name: str) -> None:
     c, d = run({name: None}, EXCITATION[name], seed=11)
     assert 0.5 < c.concealment < 0.7  # concealed: below the noise once k, B, N are refitted

@@ -8,10 +8,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_argv
 
 
+@pytest.mark.thorough
 def test_a_slow_valve_under_a_pi_loop_is_named_as_the_dominant_physics(tmp_path: Path) -> None:
     """An over-damped finger under a PI loop with a 54 ms valve lag: the refit mimics the
     lag with k, B and N some 300 times below the nominal, so the lag hardly lowers the

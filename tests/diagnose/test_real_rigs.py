@@ -126,6 +126,7 @@ def test_estimate_agrees_with_the_independent_fit(result: dict[str, Any],
 # or the independent values above mean nothing.
 
 
+@pytest.mark.thorough
 @pytest.mark.parametrize(("kind", "c"), [("cubic", 4.0e4), ("coulomb", 60.0)])
 def test_independent_fitter_recovers_a_known_effect(kind: str, c: float) -> None:
     rng = np.random.default_rng(3)
