@@ -226,7 +226,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         refit = fit(problem, params, refit.values)
     lags = stats.whiteness_lags(rate_hz)
     if noise_model == "ar":  # every test from here on runs on the innovations
-        problem.noise = noise.estimate(refit.residual(problem), fit_mask | held, rate_hz, start=moving)
+        problem.noise = noise.estimate(refit.residual(problem), problem.with_skipped(fit_mask | held),
+                                       rate_hz, start=moving)
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]

@@ -48,7 +48,7 @@ class Fit:
         return self.rss_deg2 + self.prior_cost_deg2
 
     def residual(self, problem: Problem) -> np.ndarray:
-        return problem.measured_deg - self.angle_deg
+        return problem.residual(self.angle_deg)
 
     @property
     def sigma_deg(self) -> float:

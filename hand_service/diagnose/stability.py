@@ -79,7 +79,7 @@ def check(problem: Problem, final: Fit, names: list[str]) -> list[Stability]:
     targets = [n for n in names if n in POSTURE_EFFECTS and n in labels]
     if not targets:
         return []
-    residual = problem.noise.detrend(problem.measured_deg - angle)[mask]
+    residual = problem.misfit(angle)[mask]
     inflation = min(long_run_ratio(residual, problem.rate_hz), MAX_INFLATION)
     fits = []
     for half in halves:
