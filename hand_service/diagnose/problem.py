@@ -173,6 +173,9 @@ class Problem:
     # samples the recording lacks (skipped rows, timebase.regular_grid): in no fit or score,
     # the residual there interpolated from the measured samples beside them (residual)
     missing: np.ndarray | None = None
+    # the recording starts with the finger held still away from where the first command puts
+    # it (released()): its first sample is its start, the sensor's offset included
+    released: bool = False
     prior: Prior = NO_PRIOR  # set when the recording alone cannot pin k, B, N (engine)
     # shared by the copies that differ in their masks (rotated(), a half of the fitting set)
     simulations: SimulationCache = dataclasses.field(default_factory=SimulationCache, repr=False,
@@ -349,7 +352,8 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     angle0 = float(np.median(angle_deg[: max(1, int(0.05 * rate_hz))]))
     start = min(int(settle_time_s(base) * rate_hz), len(t_s) // 5)
     shortest_s, longest_s = 0.5, 3.0
-    if released(base, float(pressure_kpa[0]), float(angle_deg[0]), angle_deg):
+    release = released(base, float(pressure_kpa[0]), float(angle_deg[0]), angle_deg)
+    if release:
         # a release: the finger was held still away from rest, so its start is known; it
         # moves at once, so the first sample (not a median over 50 ms of swing: a ringing
         # finger let go from 32° is at −20° 50 ms later) tells it and places it.
@@ -363,4 +367,5 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     return Problem(base, np.ascontiguousarray(pressure_kpa, dtype=float),
                    np.ascontiguousarray(angle_deg, dtype=float), np.asarray(t_s, dtype=float), rate_hz,
                    substeps, angle0, float(pressure_kpa[0]), fit, held, blocks, input_hold, from_start,
-                   missing=None if missing is None or not missing.any() else np.asarray(missing, dtype=bool))
+                   missing=None if missing is None or not missing.any() else np.asarray(missing, dtype=bool),
+                   released=release)
