@@ -288,11 +288,14 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                 len(params))
     extra: list[FoundEffect] = []
     kept = list(selection.accepted)
-    if len(found) > 1 and structure_left(final_white, final_cross):
-        # Structure outside the library remains even with every effect: the later ones may
+    unstable_later = stability.later_unstable(problem, final, selection) if len(found) > 1 else []
+    if len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
+        # Structure outside the library remains even with every effect, or a later effect
+        # does not hold across the postures while the first alone does: the later ones may
         # be absorbing it (an even spring taken for gravity, sharp friction's shape taken
-        # for air drag). A graded answer names the dominant effect alone, fitted alone; the
-        # others are reported apart.
+        # for air drag, gravity taking a spring's stiffening beyond the cube). A graded
+        # answer names the dominant effect alone, fitted alone; the others are reported apart.
+        warnings.extend(u.sentence() for u in unstable_later)
         first = selection.accepted[0]
         alone = Selection(rounds=selection.rounds[:1], accepted=[first], final=first.fit)
         extra, found, final = found[1:], [found_effect(problem, first, alone)], first.fit

@@ -18,6 +18,7 @@ import numpy as np
 from hand_service.diagnose import noise
 from hand_service.diagnose.fit import Fit, fit
 from hand_service.diagnose.problem import Problem
+from hand_service.diagnose.search import Selection
 
 POSTURE_EFFECTS = ("cubic_stiffness", "gravity")  # one parameter for every angle
 STABILITY_Z = 4.0  # the halves disagree beyond this many joint standard errors
@@ -96,3 +97,18 @@ def check(problem: Problem, final: Fit, names: list[str]) -> list[Stability]:
         if not result.holds:
             failed.append(result)
     return failed
+
+
+def later_unstable(problem: Problem, final: Fit, selection: Selection) -> list[Stability]:
+    """The later accepted effects that do not hold across the recording's postures, when the
+    first, fitted alone, does (else []: the first fails too, or none fails). A spring that
+    stiffens faster than the cube over a one-way ramp (sinh) was named a cubic spring and
+    gravity, whose halves then disagreed, and everything was withdrawn; the cubic alone
+    holds. An object met above some angle fails with the cubic alone too, and stays
+    `unexplained`."""
+    names = [c.name for c in selection.accepted]
+    failed = check(problem, final, names)
+    if not failed or names[0] in {u.name for u in failed}:
+        return []
+    first = selection.accepted[0]
+    return [] if check(problem, first.fit, [first.name]) else failed

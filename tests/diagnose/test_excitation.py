@@ -18,6 +18,15 @@ def test_a_single_slow_sine_is_named_as_such() -> None:
     assert "single sine at 1 Hz" in e.sentence() and "near 9.5 Hz" in e.sentence()
 
 
+def test_a_slow_triangle_is_not_called_a_sine() -> None:
+    """A ramp up and down (0 -> 95 -> 0 kPa, 10 s a cycle): 98.5 % of its power at one
+    frequency, but no sine (an outside probe's ramp was called "a single sine")."""
+    triangle = 47.5 * (1.0 + signal.sawtooth(2 * np.pi * T / 10.0, 0.5))
+    e = analyse(triangle, RATE_HZ, K, A)
+    assert e.tone_hz is not None and abs(e.tone_hz - 0.1) < 0.02
+    assert "sine" not in e.sentence() and "ramp up and down" in e.sentence()
+
+
 def test_a_chirp_through_the_resonance_is_not_called_a_sine() -> None:
     e = analyse(40 + 30 * signal.chirp(T, 0.1, T[-1], 20.0), RATE_HZ, K, A)
     assert e.tone_hz is None and e.near > 0.05 and e.slow > 0.05

@@ -1,0 +1,27 @@
+"""Recordings an outside probe's own generator made (tests/diagnose/outside/README.md: its
+physics, sensor and expected answer, written before diagnose ran)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from hand_service.cli import main
+
+OUTSIDE = Path(__file__).resolve().parent / "outside"
+
+
+def test_a_spring_stiffening_faster_than_the_cube_on_a_one_way_ramp_is_named_a_cubic_spring(
+        tmp_path: Path) -> None:
+    """c·(sinh(aθ) − aθ) from 0° to 90°: the cubic spring and gravity beside it fit, gravity's
+    halves disagree; the cubic alone holds across the postures and is named, gravity is
+    reported apart."""
+    out = tmp_path / "diagnose.json"
+    assert main(["diagnose", str(OUTSIDE / "sinh_spring_ramp.csv"), "--model",
+                 str(OUTSIDE / "sinh_spring_ramp.yaml"), "--json", str(out), "--quiet"]) == 0
+    result = json.loads(out.read_text())
+    named = [e["name"] for e in result["effects"]]
+    assert named == ["cubic_stiffness"], (result["verdict"], result["warnings"])
+    assert result["verdict"] == "missing_physics"
+    assert "gravity" in [e["name"] for e in result["partial_effects"]]
+    assert any("gravity does not hold across the recording's postures" in w for w in result["warnings"])
