@@ -214,23 +214,22 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         if other.rss_deg2 < refit.rss_deg2:
             refit = other
     moving = None
-    if noise_model == "ar" and problem.from_start is not None:
-        # The first decay times count from here on, with the refitted finger's free motion
-        # from an unknown start as a nuisance: a start not quite at rest is absorbed, and
-        # what the physics does as the command first moves (a dead zone crossed only
-        # then) shows.
-        moving = noise.start_motion(refit.finger, problem.measured_deg.size, rate_hz)
-        fit_mask, held, blocks = problem.from_start
-        problem = replace(problem, fit_mask=fit_mask, held_mask=held, blocks=blocks, from_start=None,
-                          noise=noise.nuisance_only(measured.size, rate_hz, moving))
-        refit = fit(problem, params, refit.values)
-    elif noise_model == "ar" and problem.released:
-        # A release starts where the sensor says, its offset included: the simulation then
-        # lets go from an angle off the finger's by that offset, and what the offset term
-        # leaves of it is the finger's free motion from there, times the offset (a clean
-        # release read 2° high named an air drag). That motion from a unit angle (at rest:
-        # the finger was held still) is a nuisance beside the offset: the start's error.
-        moving = noise.start_motion(refit.finger, problem.measured_deg.size, rate_hz)[:, :1]
+    if noise_model == "ar" and (problem.from_start is not None or problem.released):
+        # The refitted finger's free motion from the start is a nuisance beside the offset.
+        # Where the start is not known to be at rest (from_start), the first decay times
+        # count from here on, with its motion from an unknown angle and velocity: a start
+        # not quite at rest is absorbed, and what the physics does as the command first
+        # moves (a dead zone crossed only then) shows. A release starts where the sensor
+        # says, its offset included: the simulation lets go from an angle off the finger's
+        # by that offset, whose free motion the offset term leaves in the residual (a clean
+        # release read 2° high named an air drag); its motion from a unit angle at rest
+        # (the finger was held still) is the start's error.
+        moving = noise.start_motion(refit.finger, measured.size, rate_hz)
+        if problem.from_start is not None:
+            fit_mask, held, blocks = problem.from_start
+            problem = replace(problem, fit_mask=fit_mask, held_mask=held, blocks=blocks, from_start=None)
+        else:
+            moving = moving[:, :1]
         problem = replace(problem, noise=noise.nuisance_only(measured.size, rate_hz, moving))
         refit = fit(problem, params, refit.values)
     lags = stats.whiteness_lags(rate_hz)

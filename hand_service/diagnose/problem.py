@@ -171,7 +171,8 @@ class Problem:
     from_start: tuple[np.ndarray, np.ndarray, list[tuple[int, int]]] | None = None
     noise: NoiseModel = WHITE  # set once the plain model's residual is known (engine)
     # samples the recording lacks (skipped rows, timebase.regular_grid): in no fit or score,
-    # the residual there interpolated from the measured samples beside them (residual)
+    # the residual there interpolated from the measured samples beside them (residual);
+    # None when none is missing
     missing: np.ndarray | None = None
     # the recording starts with the finger held still away from where the first command puts
     # it (released()): its first sample is its start, the sensor's offset included
@@ -251,7 +252,7 @@ class Problem:
         and the noise filter reaching back to it, would carry (a clean recording with 5 % of
         its rows skipped was called `unexplained`, the Ljung-Box p = 1e-18)."""
         residual = self.measured_deg - angle_deg
-        if self.missing is not None and self.missing.any():
+        if self.missing is not None:
             index = np.arange(residual.size)
             have = ~self.missing
             residual[self.missing] = np.interp(index[self.missing], index[have], residual[have])
@@ -261,7 +262,7 @@ class Problem:
         """`mask` and the skipped samples inside its runs (the last measured sample before
         them in `mask`): the noise's correlation is estimated on evenly spaced samples, so
         that each lag stays a lag."""
-        if self.missing is None or not self.missing.any():
+        if self.missing is None:
             return mask
         measured = np.where(self.missing, -1, np.arange(mask.size))
         last = np.maximum.accumulate(measured)  # the last measured sample at or before each

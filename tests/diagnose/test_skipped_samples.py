@@ -7,52 +7,47 @@ by degrees, and the fitted offset and the noise filter carried that."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
+from hand_service.config.model import FingerModel
+from hand_service.diagnose.problem import build_problem
 from tests.diagnose.truth import cases as cs
-from tests.diagnose.truth.battery import diagnose_argv
+from tests.diagnose.truth.battery import diagnose_in_process
+from tests.diagnose.truth.files import read_rows, write_rows
 
 
 def skip_rows(recording: Path, fraction: float, seed: int) -> Path:
     """The recording with `fraction` of its rows left out at random, only where the command
     did not change (a skipped tick holds the last command: that is what the file says)."""
-    lines = recording.read_text().splitlines()
-    header = next(i for i, line in enumerate(lines) if line.startswith("t,"))
-    rows = lines[header + 1:]
-    command = np.array([float(row.split(",")[1]) for row in rows])
+    head, rows = read_rows(recording)
+    command = np.array([float(row[1]) for row in rows])
     held = np.flatnonzero(np.r_[False, command[1:] == command[:-1]])[:-1]  # never the last row
     rng = np.random.default_rng(seed)
     drop = set(rng.choice(held, size=int(fraction * len(rows)), replace=False).tolist())
-    out = recording.with_name(f"{recording.stem}-skipped.csv")
-    out.write_text("\n".join(lines[: header + 1] + [r for i, r in enumerate(rows) if i not in drop]) + "\n")
-    return out
+    kept = [row for i, row in enumerate(rows) if i not in drop]
+    return write_rows(recording.with_name(f"{recording.stem}-skipped.csv"), head, kept)
 
 
 def test_a_clean_recording_with_5_percent_of_its_rows_skipped_stays_clean(tmp_path: Path) -> None:
-    from hand_service.cli import main
-
     spec = cs.CaseSpec(cs.CLEAN, "steps", 0, "none", "ringing", 100.0)
     rec, model = cs.write(cs.build(spec), tmp_path)
-    skipped = skip_rows(rec, 0.05, seed=1)
-    out = tmp_path / "diagnose.json"
-    assert main(diagnose_argv(skipped, model, out)) == 0
-    result = json.loads(out.read_text())
+    result = diagnose_in_process(skip_rows(rec, 0.05, seed=1), model, tmp_path)
     assert result["verdict"] in ("consistent", "parameters_only"), result["warnings"]
     assert result["effects"] == []
     assert result["whiteness"]["refit"]["p_value"] > 1e-3
 
 
+def paper_finger() -> FingerModel:
+    return FingerModel(inertia_kgm2=1.6e-4, stiffness_nm_per_rad=0.57, damping_nms_per_rad=3e-3,
+                       pressure_gain_nm_per_kpa=0.012)
+
+
 def test_the_residual_is_interpolated_at_a_skipped_sample_not_the_angle() -> None:
     """A finger whose angle curves between two samples: the residual at the skipped one is
     the mean of its neighbours' residuals, whatever the interpolated angle there says."""
-    from hand_service.config.model import FingerModel
-    from hand_service.diagnose.problem import build_problem
-
-    model = FingerModel(inertia_kgm2=1.6e-4, stiffness_nm_per_rad=0.57, damping_nms_per_rad=3e-3,
-                        pressure_gain_nm_per_kpa=0.012)
+    model = paper_finger()
     n = 300
     t = np.arange(n) / 100.0
     angle = 30.0 * np.sin(2 * np.pi * 3.0 * t)  # 3 Hz: far from linear over 20 ms
@@ -71,11 +66,7 @@ def test_the_residual_is_interpolated_at_a_skipped_sample_not_the_angle() -> Non
 def test_skipped_samples_inside_a_run_join_the_noise_estimate() -> None:
     """The skipped samples whose last measured sample is in the mask join it (the noise's
     lags evenly spaced); those inside a held-out block do not."""
-    from hand_service.config.model import FingerModel
-    from hand_service.diagnose.problem import build_problem
-
-    model = FingerModel(inertia_kgm2=1.6e-4, stiffness_nm_per_rad=0.57, damping_nms_per_rad=3e-3,
-                        pressure_gain_nm_per_kpa=0.012)
+    model = paper_finger()
     n = 12
     missing = np.zeros(n, dtype=bool)
     missing[[2, 3, 7]] = True

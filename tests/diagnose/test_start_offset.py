@@ -8,34 +8,27 @@ offset (hand_service/diagnose/engine.py)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
-from hand_service.cli import main
 from tests.diagnose.truth import cases as cs
-from tests.diagnose.truth.battery import diagnose_argv
+from tests.diagnose.truth.battery import diagnose_in_process
+from tests.diagnose.truth.files import read_rows, write_rows
 
 
 def rewrite(recording: Path, name: str, shift_deg: float, first_row: int = 0) -> Path:
     """The recording from `first_row` on (its time from 0 again), every angle `shift_deg`
     higher: another sensor offset."""
-    lines = recording.read_text().splitlines()
-    header = next(i for i, line in enumerate(lines) if line.startswith("t,"))
-    rows = [line.split(",") for line in lines[header + 1 + first_row:]]
-    t0 = float(rows[0][0])
-    out = [f"{float(t) - t0:.6f},{p},{float(a) + shift_deg:.5f}" for t, p, a in rows]
-    path = recording.with_name(name)
-    path.write_text("\n".join([*lines[: header + 1], *out]) + "\n")
-    return path
+    head, rows = read_rows(recording)
+    t0 = float(rows[first_row][0])
+    out = [[f"{float(t) - t0:.6f}", p, f"{float(a) + shift_deg:.5f}"] for t, p, a in rows[first_row:]]
+    return write_rows(recording.with_name(name), head, out)
 
 
 def first_step_after_a_hold(recording: Path, hold_s: float, rate_hz: float) -> int:
     """The first row where the command changes after being held `hold_s` or longer."""
-    lines = recording.read_text().splitlines()
-    header = next(i for i, line in enumerate(lines) if line.startswith("t,"))
-    command = [float(line.split(",")[1]) for line in lines[header + 1:]]
+    command = [float(row[1]) for row in read_rows(recording)[1]]
     run = 1  # rows the command has held its value, up to the row before i
     for i in range(1, len(command)):
         if command[i] != command[i - 1]:
@@ -48,9 +41,9 @@ def first_step_after_a_hold(recording: Path, hold_s: float, rate_hz: float) -> i
 
 
 def diagnosed(recording: Path, model: Path, tmp_path: Path) -> dict:
-    out = tmp_path / f"{recording.stem}.json"
-    assert main(diagnose_argv(recording, model, out)) == 0
-    return json.loads(out.read_text())
+    folder = tmp_path / recording.stem
+    folder.mkdir()
+    return diagnose_in_process(recording, model, folder)
 
 
 @pytest.mark.parametrize("shift_deg", [2.0, pytest.param(-2.0, marks=pytest.mark.thorough)])

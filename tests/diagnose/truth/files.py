@@ -32,6 +32,20 @@ def write_recording(case: Case, path: Path) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+def read_rows(path: Path) -> tuple[list[str], list[list[str]]]:
+    """A recording's lines up to its column header (comments and header), and its data rows
+    split at the commas: for a test that rewrites a recording (rows skipped, cut, shifted)."""
+    lines = path.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if line.startswith("t,"))
+    return lines[: header + 1], [line.split(",") for line in lines[header + 1:]]
+
+
+def write_rows(path: Path, head: list[str], rows: list[list[str]]) -> Path:
+    """The lines of read_rows written back, each row joined at commas."""
+    path.write_text("\n".join([*head, *(",".join(row) for row in rows)]) + "\n")
+    return path
+
+
 def write_model(case: Case, path: Path) -> None:
     m = case.nominal
     text = (
