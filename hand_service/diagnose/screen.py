@@ -1,0 +1,123 @@
+"""The screen: what one simulation per point says about an effect before any joint fit.
+
+For each library effect the model leaves out: its signature (the angle's sensitivity to
+the effect's parameter, with what k, B and N can absorb projected out), whose correlation
+with the residual is the score (Lagrange multiplier) test, and a scan over a logarithmic
+grid of the effect's values on both sides of neutral, k, B and N readjusted linearly at
+each point. Together they rank the effects and give each joint fit its starts (search.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hand_service.config import effects as fx
+from hand_service.diagnose import stats
+from hand_service.diagnose.fit import Fit, sensitivity
+from hand_service.diagnose.problem import EffectScales, Param, Problem
+
+
+def project_out(jacobian: np.ndarray, signal: np.ndarray) -> np.ndarray:
+    coeffs, *_ = np.linalg.lstsq(jacobian, signal, rcond=None)
+    return signal - jacobian @ coeffs
+
+
+def start_value(param: Param, neutral: float, step: float) -> float:
+    """The Gauss-Newton guess, kept inside the bounds and off a bound it would stick to."""
+    value = neutral + step
+    if value <= param.lower:
+        value = param.lower + 0.1 * param.scale
+    return float(min(value, param.upper - 1e-9 * (param.upper - param.lower)))
+
+
+SCAN_SPAN = np.geomspace(0.03, 30.0, 13)  # deviations from neutral, in units of the effect's scale
+SCAN_STRIDES = (4, 2, 1)  # the grid's points at a factor of 10 apart first, then halved twice about the best
+# Effects whose cost along a side of the grid is not one valley: a dead zone wider than every
+# command stops the finger, a plateau beyond the commands that the coarse points can straddle
+# (coarse to fine, the dead zone's scan ended up to 1.38 times the grid's best cost in 31 of
+# 385 scans on 30 battery recordings): every point of the grid.
+WHOLE_GRID = frozenset({"pressure_deadzone"})
+
+
+@dataclass
+class Screen:
+    """What one simulation per grid point says about an effect, before any joint fit."""
+
+    name: str
+    param: Param
+    signature_corr: float
+    separability: float
+    starts: list[float]
+    predicted_bic: float  # ΔBIC if k, B, N readjusted linearly: a cheap stand-in for the fit
+
+
+def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[float, float]:
+    """The effect value whose residual, after the best linear readjustment of the model's
+    own parameters, is smallest over a logarithmic grid on both sides of neutral, and that
+    residual's sum of squares, to start the joint fit in the right basin (the joint fit of
+    dry friction, for one, has a second minimum where B absorbs part of it).
+
+    One simulation per point, coarse to fine: every fourth point of the grid on each side
+    (a factor of 10 apart), then the best point's neighbours at half the stride, twice:
+    12 of the grid's 26 points. Along one side the cost falls to one minimum and rises
+    again, so the search ends where the whole grid would (but for WHOLE_GRID's effects,
+    scanned whole); after the first effect is accepted every simulation carries it, and
+    dry friction's cost ten times as much."""
+    mask = problem.fit_mask
+    basis, _ = np.linalg.qr(base.jacobian)
+    costs: dict[tuple[int, int], float] = {}
+
+    def cost(side: int, index: int) -> float:
+        if not 0 <= index < len(SCAN_SPAN):
+            return np.inf
+        if (side, index) not in costs:
+            value = neutral + side * SCAN_SPAN[index] * param.scale
+            costs[side, index] = np.inf
+            if param.lower < value < param.upper:
+                angle = problem.simulate(problem.finger([param], [value], base.finger))
+                with np.errstate(invalid="ignore"):  # a point driving the finger unstable: NaN, never best
+                    r = problem.misfit(angle)[mask]
+                    r -= basis @ (basis.T @ r)
+                    c = float(r @ r)
+                costs[side, index] = c if np.isfinite(c) else np.inf
+        return costs[side, index]
+
+    strides = (1,) if param.label in WHOLE_GRID else SCAN_STRIDES
+    best = min(((side, i) for side in (1, -1) for i in range(0, len(SCAN_SPAN), strides[0])),
+               key=lambda key: cost(*key))
+    for stride in strides[1:]:
+        side, i = best
+        best = min((best, (side, i - stride), (side, i + stride)), key=lambda key: cost(*key))
+    if not np.isfinite(costs.get(best, np.inf)):
+        return neutral, np.inf
+    side, i = best
+    return float(neutral + side * SCAN_SPAN[i] * param.scale), costs[best]
+
+
+def screen(problem: Problem, base: Fit, name: str) -> Screen:
+    """The effect's signature against the residual (score test) and the grid scan."""
+    spec = fx.BY_NAME[name]
+    prbm = base.finger.prbm
+    param = Param.effect(name, EffectScales.of(
+        float(prbm.stiffness_nm_per_rad), float(prbm.pressure_gain_nm_per_kpa), problem.pressure_kpa,
+        base.angle_deg, problem.rate_hz))
+    mask = problem.fit_mask
+    residual = problem.misfit(base.angle_deg)[mask]
+    # what the sensor's offset and drift would absorb of the signature does not count
+    signature = problem.noise.detrend(sensitivity(problem, param, base.finger, base.angle_deg))[mask]
+    projected = project_out(base.jacobian, signature)
+    norm = float(np.sqrt(projected @ projected))
+    raw = float(np.sqrt(signature @ signature))
+    r = residual - residual.mean()
+    corr = float(projected @ r) / (norm * float(np.sqrt(r @ r))) if norm > 0 and r.any() else 0.0
+    step = float(projected @ residual) / norm**2 if norm > 0 else 0.0
+    starts = [start_value(param, spec.neutral, step)]
+    scanned, scan_rss_deg2 = scan(problem, base, param, spec.neutral)
+    if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - spec.neutral) + 1e-12:
+        starts.append(scanned)
+    linear_rss_deg2 = base.rss_deg2 * (1.0 - corr**2)  # the Gauss-Newton step's prediction
+    best_rss_deg2 = max(min(scan_rss_deg2, linear_rss_deg2), 1e-300)
+    predicted = stats.delta_bic(base.rss_deg2, best_rss_deg2, problem.n_fit)
+    return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted)
