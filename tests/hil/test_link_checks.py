@@ -74,6 +74,22 @@ def test_one_late_status_is_no_drift() -> None:
     assert max(abs(e) for e in estimates if e is not None) < 1.0
 
 
+def test_a_whole_late_second_is_an_outlier_not_a_drift() -> None:
+    """Every status of one second 40 ms late (CI saw 27 ms, over 5 s read as 5 375 ppm,
+    a false clock_drift): it lies above the line under the windows' smallest differences
+    (board_clock.lower_slope), which stays under 1 000 ppm with the late second the newest
+    window or inside the span, while a real drift of 6 000 ppm under the same jitter still
+    reads as one."""
+    rng = random.Random(4)
+    late = ClockDrift()
+    estimates = [late.status(0.1 * i, 0.1 * i + rng.uniform(0.0, 0.003) + (0.04 if 40 <= i < 50 else 0.0))
+                 for i in range(100)]
+    assert max(abs(e) for e in estimates if e is not None) < 1000.0
+    drift = ClockDrift()
+    estimates = [drift.status(0.1 * i * (1 + 6000e-6), 0.1 * i + rng.uniform(0.0, 0.003)) for i in range(100)]
+    assert estimates[-1] == pytest.approx(6000.0, abs=1500.0)
+
+
 # -- the checks ---------------------------------------------------------------------------
 
 def test_a_late_sample_and_a_silent_board_are_sample_late() -> None:
