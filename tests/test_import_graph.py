@@ -105,3 +105,16 @@ def test_hand_service_goes_through_rtcore_facade() -> None:
                  if name.startswith("hand_service") and "rtcore._rtcore" in targets)
     assert "rtcore._rtcore" in graph["rtcore.tick"], "the graph must see the binding's users"
     assert raw == []
+
+
+def test_the_command_line_loads_no_bus_library_before_a_command_runs() -> None:
+    """Every `hand-service` call builds the parser of every command; python-can and cantools
+    (0.4 s of a 0.8 s start, each CLI call of the test suite and each battery case paying
+    it) load only when a command that talks to a bus runs."""
+    import subprocess
+    import sys
+
+    probe = ("import sys; from hand_service.cli import build_parser; build_parser(); "
+             "print(sorted(m for m in ('can', 'cantools', 'serial') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT)
+    assert out.stdout.strip() == "[]", out.stdout

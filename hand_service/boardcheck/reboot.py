@@ -18,7 +18,6 @@ from hand_service.wire.messages import FaultKind, FaultRequest, FirmwareState, S
 
 DEBUG_BOOT_MS = 200  # how long the debug reboot asks the board to stay silent
 MANUAL_WAIT_S = 30.0
-REBOOT_MODES = ("debug", "manual", "skip")
 FRESH_STATUS_S = 0.25  # two and a half 10 Hz heartbeats
 
 

@@ -42,7 +42,7 @@ stderr: a bar on a terminal, a plain line at most every 2 s in a log, nothing wi
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from hand_service.boardcheck.reboot import REBOOT_MODES
+    from hand_service.boardcheck.modes import REBOOT_MODES
 
     parser.add_argument("port", nargs="?", default=None, help="the board's serial port (serial-v1)")
     parser.add_argument("--can", default=None, metavar="INTERFACE:CHANNEL",
