@@ -94,9 +94,10 @@ double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double veloci
     const double floor_nms_per_rad
         = fmax(1e-3 * sqrt(local->linear.stiffness_nm_per_rad * local->linear.inertia_kgm2),
                friction ? 1e-6 * e->coulomb_torque_nm / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG) : 0.0);
-    const double exact_nms_per_rad = fmax(local->linear.damping_nms_per_rad, floor_nms_per_rad);
-    const double allowed = FRICTION_SLOPE_SHARE * exact_nms_per_rad / (friction && drag ? 2.0 : 1.0);
-    const double allowed_drag = DRAG_SLOPE_SHARE * exact_nms_per_rad / (friction && drag ? 2.0 : 1.0);
+    const double exact_nms_per_rad = fmax(local->linear.damping_nms_per_rad, floor_nms_per_rad)
+                                     / (friction && drag ? 2.0 : 1.0);
+    const double allowed = FRICTION_SLOPE_SHARE * exact_nms_per_rad;
+    const double allowed_drag = DRAG_SLOPE_SHARE * exact_nms_per_rad;
     double reach = INFINITY;
     if (friction) {
         reach = friction_reach_rad_per_s(e, velocity_rad_per_s, friction0, allowed);

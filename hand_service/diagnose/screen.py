@@ -90,10 +90,10 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
     for stride in strides[1:]:
         side, i = best
         best = min((best, (side, i - stride), (side, i + stride)), key=lambda key: cost(*key))
-    if not np.isfinite(costs.get(best, np.inf)):
+    if not np.isfinite(cost(*best)):
         return neutral, np.inf
     side, i = best
-    return float(neutral + side * SCAN_SPAN[i] * param.scale), costs[best]
+    return float(neutral + side * SCAN_SPAN[i] * param.scale), cost(*best)
 
 
 def screen(problem: Problem, base: Fit, name: str) -> Screen:

@@ -150,17 +150,17 @@ def joint_range(problem: Problem, base: Fit) -> list[Param]:
     return out
 
 
-def evidence(problem: Problem, base: Fit, joint: Fit) -> tuple[float, float]:
-    """The joint fit's ΔBIC over `base` on the innovations, and the share of it that is the
-    nominal's prior (counted only where the data asked for a refit an order of magnitude
-    from it: 9 widths of its log-normal prior, a χ² of 85; nearer, the prior holds k, B and
-    N but decides nothing: hysteresis on a ramp pulled B 4× off, and a valve lag pulled it
-    back)."""
+def evidence(problem: Problem, base: Fit, before: np.ndarray, joint: Fit) -> tuple[float, float, np.ndarray]:
+    """The joint fit's ΔBIC over `base` (whose innovations are `before`) on the innovations,
+    the share of it that is the nominal's prior (counted only where the data asked for a
+    refit an order of magnitude from it: 9 widths of its log-normal prior, a χ² of 85;
+    nearer, the prior holds k, B and N but decides nothing: hysteresis on a ramp pulled B 4×
+    off, and a valve lag pulled it back), and the joint fit's innovations."""
     far = bool(far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR))
     prior_gain = prior_chi2(problem, base) - prior_chi2(problem, joint) if far else 0.0
-    before, after = problem.innovations(base.angle_deg), problem.innovations(joint.angle_deg)
+    after = problem.innovations(joint.angle_deg)
     bic = stats.delta_bic(problem.fit_rss(before), problem.fit_rss(after), problem.n_fit) + prior_gain
-    return bic, prior_gain
+    return bic, prior_gain, after
 
 
 def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough: bool = True,
@@ -187,9 +187,10 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
 
     if not thorough:
         starts = promising
+    before = problem.innovations(base.angle_deg)
     if lazy and thorough and len(starts) > 1:
         joint = fit_from(promising, problem)
-        if evidence(problem, base, joint)[0] <= 0.0:
+        if evidence(problem, base, before, joint)[0] <= 0.0:
             starts = promising
         else:
             joint = min(joint, fit_from([s for s in starts if s is not promising[0]], problem),
@@ -209,8 +210,7 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
         joint = min((fit(problem, params, start, base=base.finger) for start in starts),
                     key=lambda f: f.cost_deg2)
     held = problem.held_mask
-    bic, prior_gain = evidence(problem, base, joint)
-    before, after = problem.innovations(base.angle_deg), problem.innovations(joint.angle_deg)
+    bic, prior_gain, after = evidence(problem, base, before, joint)
     z = stats.heldout_z_innovations(before[held], after[held], sigma)
     if bic > SIGNIFICANT_BIC and BORDERLINE_Z < z <= SIGNIFICANT_Z:
         z = (z + second_split_z(problem, base, joint)) / np.sqrt(2.0)

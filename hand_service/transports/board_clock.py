@@ -114,8 +114,5 @@ def lower_slope(points: list[tuple[float, float]]) -> float:
             hull.pop()
         hull.append((x, y))
     mean_x = sum(x for x, _ in points) / len(points)
-    for (x0, y0), (x1, y1) in itertools.pairwise(hull):
-        if x1 >= mean_x:
-            return (y1 - y0) / (x1 - x0)
-    (x0, y0), (x1, y1) = hull[-2], hull[-1]
-    return (y1 - y0) / (x1 - x0)
+    # the hull ends at the last point, at or past the mean: some edge reaches it
+    return next((y1 - y0) / (x1 - x0) for (x0, y0), (x1, y1) in itertools.pairwise(hull) if x1 >= mean_x)
