@@ -30,6 +30,7 @@ from hand_service.diagnose.fit import (
     relative_std,
     unpinned,
 )
+from hand_service.diagnose.loop import Loop, loop_check
 from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
 from hand_service.diagnose.search import (
@@ -73,6 +74,7 @@ class Diagnosis:
     explained_share: float = 0.0  # of the refitted model's mismatch, by the effects found
     structure_left: str = ""  # what says the final model still misses something ('' if nothing)
     onset: Onset | None = None  # a torque that switches on at an angle (onset.py), when found
+    loop: Loop | None = None  # a lag that does not grow with the rate (loop.py), when found
 
     @property
     def grade(self) -> str | None:
@@ -127,6 +129,7 @@ class Diagnosis:
             "explained_share": self.explained_share,
             "structure_left": self.structure_left,
             "onset": None if self.onset is None else self.onset.to_json(),
+            "loop": None if self.loop is None else self.loop.to_json(),
             "notes": self.notes,
             "seconds": self.seconds,
         }
@@ -323,9 +326,14 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append("so no effect is named: the mismatch lies outside the library "
                             "(see partial_effects)")
             verdict, notes = "unexplained", []
+    # a cubic spring or gravity standing in for a contact or an end stop (onset); a valve lag
+    # or a dead time standing in for a loop that does not grow with the rate (hysteresis, backlash)
     onset = onset_check(problem, final, [e.name for e in found]) if verdict in NAMING and found else None
-    if onset is not None:  # a cubic spring or gravity standing in for a contact or an end stop
-        warnings.append(onset.sentence([e.name for e in found if e.name in SMOOTH_STATIC]))
+    loop = loop_check(problem, final, [e.name for e in found]) if verdict in NAMING and found else None
+    outside = [said for said in (onset and onset.sentence([e.name for e in found if e.name in SMOOTH_STATIC]),
+                                 loop and loop.sentence()) if said]
+    if outside:
+        warnings.extend(outside)
         if verdict == "missing_physics":
             warnings.append("so no effect is named (see partial_effects)")
             verdict, notes = "unexplained", []
@@ -348,7 +356,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained,
                      structure_left(final_white, final_cross) if found or partial else
-                     structure_left(refit_white, refit_cross), onset)
+                     structure_left(refit_white, refit_cross), onset, loop)
 
 
 EVEN_ODD = {"gravity", "cubic_stiffness"}  # a torque even in θ (1 − cos θ), one odd (θ³)

@@ -115,7 +115,7 @@ class Projection:
         return float(e @ e)
 
 
-def _through(x: np.ndarray, a: np.ndarray) -> np.ndarray:
+def through(x: np.ndarray, a: np.ndarray) -> np.ndarray:
     """x through the AR filter a (the innovations' filter), along its first axis."""
     return signal.lfilter(np.concatenate(([1.0], -a)), [1.0], x, axis=0) if a.size else x
 
@@ -144,9 +144,9 @@ def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
     coef, *_ = np.linalg.lstsq(design[mask], target[mask], rcond=None)
     order = problem.noise.order
     a = noise.yule_walker(target[mask] - design[mask] @ coef, order)[0] if order else np.zeros(0)
-    fitted = Projection(_through(np.column_stack(shared), a)[mask] if shared else None,
-                        _through(target, a)[mask])
-    smooth_w = _through(smooth_cols, a)[mask]
+    fitted = Projection(through(np.column_stack(shared), a)[mask] if shared else None,
+                        through(target, a)[mask])
+    smooth_w = through(smooth_cols, a)[mask]
     rss_smooth = fitted.rss(smooth_w)
     # the onset in place of one smooth torque, the others kept (a gravity load and a contact
     # can both be there)
@@ -160,7 +160,7 @@ def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
             depth = np.maximum(theta - np.radians(angle_c), 0.0) if closing else \
                 np.maximum(np.radians(angle_c) - theta, 0.0)
             for power in POWERS:
-                col = _through(detrend(linear.response_deg(depth**power)), a)[mask][:, None]
+                col = through(detrend(linear.response_deg(depth**power)), a)[mask][:, None]
                 rss = min(fitted.rss(np.column_stack((others, col))) for others in kept)
                 if rss < best_rss:
                     share = float(np.mean(valid > angle_c) if closing else np.mean(valid < angle_c))
