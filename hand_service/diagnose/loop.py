@@ -5,15 +5,17 @@ command's rate: twice as fast a ramp, twice the lag. A rate-independent loop (hy
 in the material, backlash, a friction that builds up over the travel) holds it behind by
 an amount that depends on the path alone: how far the command has moved since it last
 turned. On a recording whose command moves at one rate the two are the same; where the
-rate varies they are not. Before a valve lag or a dead time is named, its torque is
+rate varies they are not. Before a valve lag or a dead time is named, its signature is
 tested against a loop along the command's path,
 
     z' = (sign(p') − z) · |p'| / d  (Dahl's form: z turns over within about d kPa of travel),
     d at 0.5 % to 50 % of the command's range,
 
-in the same linearised form as onset.py: each one's angle response through the refitted
-finger's own linear dynamics, regressed with k, B, N and the other found effects on the
-prewhitened residual. When the loop explains the residual better by more than its extra
+the loop linearised as onset.py's torques are (its angle response through the refitted
+finger's own linear dynamics), the timed effect as fitted (the model with it less the model
+without it, scaled by a free factor), each regressed with k, B, N and the other found
+effects on the prewhitened residual. The lag's exact signature against a linearised loop
+leans toward the lag. When the loop explains the residual better by more than its extra
 parameter (d) and SIGNIFICANT_BIC, the lag was standing in for a loop: the answer is
 "outside the library", with d.
 """
@@ -27,7 +29,7 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.diagnose import noise, stats
 from hand_service.diagnose.fit import Fit, sensitivity
-from hand_service.diagnose.onset import Projection, linear_finger, through
+from hand_service.diagnose.onset import LinearFinger, Projection, linear_finger, through
 from hand_service.diagnose.problem import Problem
 
 SIGNIFICANT_BIC = 10.0
@@ -48,7 +50,7 @@ class Loop:
     def sentence(self) -> str:
         return (f"the finger lags the command by an amount that does not grow with the command's rate: "
                 f"a loop that turns over within about {self.travel_kpa:.3g} kPa of the command's travel "
-                f"explains the residual better than {self.replaces} (ΔBIC {self.delta_bic:.0f}, both "
+                f"explains the residual better than {self.replaces} (ΔBIC {self.delta_bic:.0f}, the loop "
                 "linearised), whose lag would be proportional to the rate; a rate-independent loop "
                 "(hysteresis, backlash) is outside the library")
 
@@ -57,7 +59,9 @@ def path_state(command_kpa: np.ndarray, travel_kpa: float) -> np.ndarray:
     """Dahl's state along the command's path: z moves toward the direction of travel, e-fold
     every `travel_kpa` moved, and stays where it is while the command holds. Within a run of
     one direction z = s + (z0 − s)·exp(−(travel since the run began) / d), so the loop over
-    the runs is only as long as the number of turns."""
+    the runs is only as long as the number of turns. z starts at 0 (a finger that starts
+    pressurised and held most likely starts at +1: a start that costs the loop, never the
+    lag)."""
     step = np.diff(command_kpa, prepend=command_kpa[0])
     direction = np.sign(step)
     moving = np.flatnonzero(direction)
@@ -82,14 +86,25 @@ def path_state(command_kpa: np.ndarray, travel_kpa: float) -> np.ndarray:
 
 
 def loop_check(problem: Problem, final: Fit, found: list[str]) -> Loop | None:
-    """The loop family against the first timed effect in `found` (TIMED); the best loop when
-    it wins by more than SIGNIFICANT_BIC, else None."""
-    timed = [n for n in found if n in TIMED]
+    """The loop family in place of each timed effect in `found` (TIMED), the others kept;
+    the best loop when it wins by more than SIGNIFICANT_BIC, else None."""
     command = problem.pressure_kpa
     span = float(np.ptp(command))
-    if not timed or span <= 0.0:
+    if span <= 0.0:
         return None
-    name = timed[0]
+    linear = linear_finger(problem, final)
+    paths = [path_state(command, share * span) for share in SPANS]
+    best: Loop | None = None
+    for name in (n for n in found if n in TIMED):
+        loop = _against(problem, final, name, linear, paths, span)
+        if loop is not None and (best is None or loop.delta_bic > best.delta_bic):
+            best = loop
+    return best if best is not None and best.delta_bic > SIGNIFICANT_BIC else None
+
+
+def _against(problem: Problem, final: Fit, name: str, linear: LinearFinger, paths: list[np.ndarray],
+             span: float) -> Loop | None:
+    """The best loop in place of the timed effect `name`, with its ΔBIC over it."""
     mask = problem.fit_mask
     detrend = problem.noise.detrend
     shared = [detrend(sensitivity(problem, p, final.finger, final.angle_deg)) for p in final.params
@@ -107,14 +122,12 @@ def loop_check(problem: Problem, final: Fit, found: list[str]) -> Loop | None:
     fitted = Projection(through(np.column_stack(shared), a)[mask] if shared else None,
                         through(target, a)[mask])
     rss_lag = fitted.rss(through(lag, a)[mask][:, None])
-    linear = linear_finger(problem, final)
     best_rss, best_travel = np.inf, 0.0
-    for share in SPANS:
-        column = detrend(linear.response_deg(path_state(command, share * span)))
+    for share, path in zip(SPANS, paths, strict=True):
+        column = detrend(linear.response_deg(path))
         rss = fitted.rss(through(column, a)[mask][:, None])
         if rss < best_rss:
             best_rss, best_travel = rss, share * span
     if not np.isfinite(best_rss) or best_rss <= 0.0:
         return None
-    gain = stats.delta_bic(rss_lag, best_rss, int(mask.sum()), EXTRA_PARAMS)
-    return Loop(best_travel, gain, name) if gain > SIGNIFICANT_BIC else None
+    return Loop(best_travel, stats.delta_bic(rss_lag, best_rss, int(mask.sum()), EXTRA_PARAMS), name)

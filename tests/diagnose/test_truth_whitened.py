@@ -16,10 +16,11 @@ MODEL = LinearModel(1e-5, 0.05, 0.5, 0.01)
 
 
 def test_the_filter_whitens_the_sensors_noise_to_its_stated_rms() -> None:
-    """White, AR(1) and ADC-like parts together: the innovations are white (lags 1-5 under
-    0.01) and of the RMS the factorisation states (within 2 %); the AR pole alone would leave
-    them correlated."""
-    sensor = Sensor(white_deg=0.1, correlated_deg=0.25, correlation_s=0.1, adc_step_deg=0.05)
+    """White, AR(1) and ADC-like parts together (a coarse ADC, its rounding a third of the
+    white part's variance): the innovations are white (lags 1-5 under 0.01) and of the RMS
+    the factorisation states (within 2 %); left without the rounding, the factorisation is
+    3 % off; the AR pole alone would leave them correlated."""
+    sensor = Sensor(white_deg=0.1, correlated_deg=0.25, correlation_s=0.1, adc_step_deg=0.25)
     rng = np.random.default_rng(4)
     n = 400_000
     noise = (sensor.correlated(rng, n, RATE_HZ) + rng.normal(0.0, sensor.white_deg, n)
@@ -30,6 +31,9 @@ def test_the_filter_whitens_the_sensors_noise_to_its_stated_rms() -> None:
     lags = [float(e[k:] @ e[:-k] / (e @ e)) for k in range(1, 6)]
     assert max(abs(r) for r in lags) < 0.01, lags
     assert np.std(e) == pytest.approx(whitener.std_deg, rel=0.02)
+    no_adc = sensor_whitener(Sensor(white_deg=0.1, correlated_deg=0.25, correlation_s=0.1, adc_step_deg=0.0),
+                             RATE_HZ)
+    assert abs(np.std(no_adc.apply(noise)[100:]) / no_adc.std_deg - 1.0) > 0.03
     pole_only = Whitener(whitener.pole, 0.0, 1.0).apply(noise)[100:]
     assert abs(float(pole_only[1:] @ pole_only[:-1] / (pole_only @ pole_only))) > 0.1
 

@@ -30,6 +30,7 @@ import numpy as np
 from scipy import optimize, signal
 
 from tests.diagnose.truth import cases as cs
+from tests.diagnose.truth import excitation as ex
 from tests.diagnose.truth.distinct import (
     COMPETITORS,
     NOMINAL_RELATIVE_WIDTH,
@@ -125,14 +126,30 @@ def leftover(effect: str, theta_deg: np.ndarray, command_kpa: np.ndarray, rate_h
 
 
 def spec_of(case_id: str) -> cs.CaseSpec:
-    """The spec a battery id names (effect-excitation-sSEED-magnitude-family-RATEhz)."""
-    parts = case_id.rsplit("-", 5)
+    """The spec a battery id names: effect-excitation-sSEED-magnitude-family-RATEhz, with a
+    -DURATIONs tail where the case is not 30 s long. ValueError, in words, if it names none."""
+    parts = case_id.split("-")
+    duration_s = 30.0
+    if len(parts) == 7 and parts[-1].endswith("s"):
+        try:
+            duration_s = float(parts.pop()[:-1])
+        except ValueError:
+            raise ValueError(f"not a battery case id: {case_id}") from None
     if len(parts) != 6:
         raise ValueError(f"not a battery case id: {case_id}")
     effect, excitation, seed, magnitude, family, rate = parts
-    if not (seed.startswith("s") and rate.endswith("hz")):
-        raise ValueError(f"not a battery case id: {case_id}")
-    return cs.CaseSpec(effect, excitation, int(seed[1:]), magnitude, family, float(rate[:-2]))
+    checks = ((effect in cs.ALL_EFFECTS, f"unknown effect {effect!r}"),
+              (excitation in ex.CLASSES, f"unknown excitation {excitation!r}"),
+              (seed[:1] == "s" and seed[1:].isdigit(), f"seed {seed!r} is not s<number>"),
+              (magnitude in ("concealed", "evident", "none"), f"unknown magnitude {magnitude!r}"),
+              (family in cs.FAMILY_NAMES, f"unknown family {family!r}"),
+              (rate.endswith("hz") and rate[:-2].isdigit() and float(rate[:-2]) in cs.RATES,
+               f"rate {rate!r} is none of {', '.join(f'{r:g}hz' for r in cs.RATES)}"))
+    for ok, why in checks:
+        if not ok:
+            raise ValueError(f"{case_id}: {why}")
+    return cs.CaseSpec(effect, excitation, int(seed[1:]), magnitude, family, float(rate[:-2]),
+                       duration_s=duration_s)
 
 
 def analyse(case_id: str) -> dict:
@@ -155,18 +172,23 @@ def analyse(case_id: str) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="python -m tests.diagnose.truth.whitened",
-        description="What a battery case's effect leaves after k, B, N (fitted, ±25 %% prior), the "
+        description="What a battery case's effect leaves after k, B, N (fitted, ±25 % prior), the "
                     "sensor's offset and drift and a competitor: under white noise and under the "
                     "truth sensor's own correlated noise (its innovations).")
     ap.add_argument("case_id", nargs="+", help="a battery case id, e.g. "
                     "quadratic_damping-free_release-s1-concealed-overdamped-200hz")
     args = ap.parse_args(argv)
+    bad = []
     for case_id in args.case_id:
         try:
-            row = analyse(case_id)
-        except (ValueError, KeyError) as exc:
-            print(f"whitened: {case_id}: {exc}", file=sys.stderr)
-            return 2
+            spec_of(case_id)
+        except ValueError as exc:
+            bad.append(str(exc))
+    if bad:
+        print("\n".join(f"whitened: {why}" for why in bad), file=sys.stderr)
+        return 2
+    for case_id in args.case_id:
+        row = analyse(case_id)
         w, g = row["white"], row["whitened"]
         print(f"{case_id}: visibility {row['visibility']:.2f}; left under white noise {w.rms:.2f} "
               f"(energy {w.energy:.0f}); under the sensor's noise {g.rms:.2f} (energy {g.energy:.0f}); "
