@@ -27,8 +27,19 @@ def test_a_lag_the_prior_alone_asks_for_is_not_named(tmp_path: Path) -> None:
     assert result["verdict"] in ("insufficient_excitation", "unexplained")
 
 
-def test_without_the_check_the_hysteresis_is_named_a_valve_lag(tmp_path: Path,
+def test_without_the_check_the_rate_test_still_refuses_the_lag(tmp_path: Path,
                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """A second line: the valve lag's delay does not grow with the ramps' rates, and a loop
+    along the command's path explains the residual better (loop.py)."""
     monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))
+    result = _diagnose(tmp_path)
+    assert not result["effects"], result["effects"]
+    assert result["loop"] is not None and result["loop"]["replaces"] == "valve_lag"
+
+
+def test_without_either_check_the_hysteresis_is_named_a_valve_lag(tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))
+    monkeypatch.setattr(engine, "loop_check", lambda *args: None)
     result = _diagnose(tmp_path)
     assert [e["name"] for e in result["effects"]] == ["valve_lag"], result["verdict"]
