@@ -328,9 +328,10 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             verdict, notes = "unexplained", []
     # a cubic spring or gravity standing in for a contact or an end stop (onset); a valve lag
     # or a dead time standing in for a loop that does not grow with the rate (hysteresis, backlash)
-    onset = onset_check(problem, final, [e.name for e in found]) if verdict in NAMING and found else None
-    loop = loop_check(problem, final, [e.name for e in found]) if verdict in NAMING and found else None
-    outside = [said for said in (onset and onset.sentence([e.name for e in found if e.name in SMOOTH_STATIC]),
+    names = [e.name for e in found]
+    onset = onset_check(problem, final, names) if verdict in NAMING and found else None
+    loop = loop_check(problem, final, names) if verdict in NAMING and found else None
+    outside = [said for said in (onset and onset.sentence([n for n in names if n in SMOOTH_STATIC]),
                                  loop and loop.sentence()) if said]
     if outside:
         warnings.extend(outside)

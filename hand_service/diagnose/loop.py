@@ -27,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import noise, stats
+from hand_service.diagnose import stats
 from hand_service.diagnose.fit import Fit, sensitivity
-from hand_service.diagnose.onset import LinearFinger, Projection, linear_finger, through
+from hand_service.diagnose.onset import incumbent_projection, linear_finger, through
 from hand_service.diagnose.problem import Problem
 
 SIGNIFICANT_BIC = 10.0
@@ -88,43 +88,40 @@ def path_state(command_kpa: np.ndarray, travel_kpa: float) -> np.ndarray:
 def loop_check(problem: Problem, final: Fit, found: list[str]) -> Loop | None:
     """The loop family in place of each timed effect in `found` (TIMED), the others kept;
     the best loop when it wins by more than SIGNIFICANT_BIC, else None."""
+    timed = [n for n in found if n in TIMED]
     command = problem.pressure_kpa
     span = float(np.ptp(command))
-    if span <= 0.0:
+    if not timed or span <= 0.0:
         return None
+    detrend = problem.noise.detrend
     linear = linear_finger(problem, final)
-    paths = [path_state(command, share * span) for share in SPANS]
+    loops = [detrend(linear.response_deg(path_state(command, share * span))) for share in SPANS]
+    # every fitted parameter's sensitivity, a timed effect's only where it stays beside another
+    columns = {p.label: detrend(sensitivity(problem, p, final.finger, final.angle_deg)) for p in final.params
+               if p.label not in timed or len(timed) > 1}
     best: Loop | None = None
-    for name in (n for n in found if n in TIMED):
-        loop = _against(problem, final, name, linear, paths, span)
+    for name in timed:
+        loop = _against(problem, final, name, columns, loops, span)
         if loop is not None and (best is None or loop.delta_bic > best.delta_bic):
             best = loop
     return best if best is not None and best.delta_bic > SIGNIFICANT_BIC else None
 
 
-def _against(problem: Problem, final: Fit, name: str, linear: LinearFinger, paths: list[np.ndarray],
+def _against(problem: Problem, final: Fit, name: str, columns: dict[str, np.ndarray], loops: list[np.ndarray],
              span: float) -> Loop | None:
-    """The best loop in place of the timed effect `name`, with its ΔBIC over it."""
+    """The best loop (`loops`: each SPANS' response, detrended) in place of the timed effect
+    `name`, with its ΔBIC over it; `columns`: every fitted parameter's sensitivity."""
     mask = problem.fit_mask
-    detrend = problem.noise.detrend
-    shared = [detrend(sensitivity(problem, p, final.finger, final.angle_deg)) for p in final.params
-              if p.label != name]
+    shared = [column for label, column in columns.items() if label != name]
     (param,) = [p for p in final.params if p.label == name]
     without = problem.finger([param], [fx.BY_NAME[name].neutral], final.finger)
     alone = problem.simulate(without)
     target = problem.misfit(alone)
-    lag = detrend(final.angle_deg - alone)  # the timed effect's whole signature, at its fitted size
-    # the noise's AR filter, from the timed effect's residual (the incumbent's: conservative)
-    design = np.column_stack([*shared, lag])
-    coef, *_ = np.linalg.lstsq(design[mask], target[mask], rcond=None)
-    order = problem.noise.order
-    a = noise.yule_walker(target[mask] - design[mask] @ coef, order)[0] if order else np.zeros(0)
-    fitted = Projection(through(np.column_stack(shared), a)[mask] if shared else None,
-                        through(target, a)[mask])
+    lag = problem.noise.detrend(final.angle_deg - alone)  # the timed effect's whole signature, as fitted
+    fitted, a = incumbent_projection(problem, shared, lag, target)  # the AR filter: the lag's residual
     rss_lag = fitted.rss(through(lag, a)[mask][:, None])
     best_rss, best_travel = np.inf, 0.0
-    for share, path in zip(SPANS, paths, strict=True):
-        column = detrend(linear.response_deg(path))
+    for share, column in zip(SPANS, loops, strict=True):
         rss = fitted.rss(through(column, a)[mask][:, None])
         if rss < best_rss:
             best_rss, best_travel = rss, share * span

@@ -120,6 +120,21 @@ def through(x: np.ndarray, a: np.ndarray) -> np.ndarray:
     return signal.lfilter(np.concatenate(([1.0], -a)), [1.0], x, axis=0) if a.size else x
 
 
+def incumbent_projection(problem: Problem, shared: list[np.ndarray], incumbent: np.ndarray,
+                         target: np.ndarray) -> tuple[Projection, np.ndarray]:
+    """The AR filter of the incumbent model's residual (the shared columns and the incumbent's
+    own, fitted linearly to `target`: conservative), and the projection of the filtered
+    target on the filtered shared columns, over the fitting samples."""
+    mask = problem.fit_mask
+    design = np.column_stack([*shared, incumbent])
+    coef, *_ = np.linalg.lstsq(design[mask], target[mask], rcond=None)
+    order = problem.noise.order
+    a = noise.yule_walker(target[mask] - design[mask] @ coef, order)[0] if order else np.zeros(0)
+    fitted = Projection(through(np.column_stack(shared), a)[mask] if shared else None,
+                        through(target, a)[mask])
+    return fitted, a
+
+
 def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
     """The onset family against the smooth static torques in `found` (SMOOTH_STATIC); the
     best onset when it wins by more than SIGNIFICANT_BIC, else None."""
@@ -140,12 +155,7 @@ def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
     linear = linear_finger(problem, final)
     smooth_cols = np.column_stack([detrend(linear.response_deg(library_torque(n, theta))) for n in smooth])
     # the noise's AR filter, from the smooth model's residual (the incumbent's: conservative)
-    design = np.column_stack([*shared, smooth_cols]) if shared else smooth_cols
-    coef, *_ = np.linalg.lstsq(design[mask], target[mask], rcond=None)
-    order = problem.noise.order
-    a = noise.yule_walker(target[mask] - design[mask] @ coef, order)[0] if order else np.zeros(0)
-    fitted = Projection(through(np.column_stack(shared), a)[mask] if shared else None,
-                        through(target, a)[mask])
+    fitted, a = incumbent_projection(problem, shared, smooth_cols, target)
     smooth_w = through(smooth_cols, a)[mask]
     rss_smooth = fitted.rss(smooth_w)
     # the onset in place of one smooth torque, the others kept (a gravity load and a contact
