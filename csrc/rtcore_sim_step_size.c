@@ -45,15 +45,20 @@ static double slope_step_s(const sim_plant *p, double damping_slope, double stif
  * B + c0), and only what the slope changes within the step, c(ω) − c0, is left explicit
  * (a Rosenbrock-type linearisation). The step keeps that change within
  * FRICTION_SLOPE_SHARE of the exact damping B + c0 over the velocities it can reach: a
- * quarter. Where all of c0 is within the share (c0 < B/3 here) nothing bounds the reach
- * away from rest: half of B + c0 saved 29 % of the steps but let a weak friction (c0 < B)
- * on an over-damped finger let go from rest carry a span's first step far past the knee
- * with the slope of rest, 1.3 deg off at the first sample (tests/rtcore/test_sim_spans.py);
- * the whole of it, 0.21 of the range. Air drag's slope, 2·c2·|θ'|, keeps to a quarter too:
+ * quarter. Half of B + c0 saved 29 % of the steps but let a weak friction (c0 < B) on an
+ * over-damped finger let go from rest carry a span's first step far past the knee with the
+ * slope of rest, 1.3 deg off at the first sample (tests/rtcore/test_sim_spans.py); the
+ * whole of it, 0.21 of the range. Where all of c0 is within the share (c0 < B/3) the slope
+ * bounds no reach at all: a step then may cross the knee, |ω| < KNEE_SPAN·ω_s, by no more
+ * than KNEE_REACH·ω_s (without it, 1.1-1.3 % of the range off a fine step over a span).
+ * Air drag's slope, 2·c2·|θ'|, keeps to a quarter too:
  * at half, an over-damped finger's drag misses the fine reference by more than its
  * tolerance. */
 static const double FRICTION_SLOPE_SHARE = 0.25;
 static const double DRAG_SLOPE_SHARE = 0.25;
+/* The knee: |ω| < KNEE_SPAN·ω_s (sech² above 0.07 of its peak), crossed KNEE_REACH·ω_s a step */
+static const double KNEE_SPAN = 2.0;
+static const double KNEE_REACH = 1.0;
 
 double rtcore_sim_friction_slope_nms_per_rad(const rtcore_effects *e, double velocity_rad_per_s)
 {
@@ -103,7 +108,14 @@ double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double veloci
     const double allowed_drag = DRAG_SLOPE_SHARE * exact_nms_per_rad;
     double reach = INFINITY;
     if (friction) {
+        const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
         reach = friction_reach_rad_per_s(e, velocity_rad_per_s, friction0, allowed);
+        /* and across the knee by no more than a fraction of its width: where the friction
+         * is weak (c0 within the share) the slope never bounds the reach, and a step that
+         * carried the velocity past the knee at once would take the torque's turn as a
+         * jump within it */
+        reach = fmin(reach, fmax(KNEE_REACH * smoothing_rad_per_s,
+                                 fabs(velocity_rad_per_s) - KNEE_SPAN * smoothing_rad_per_s));
     }
     if (drag) {
         reach = fmin(reach, allowed_drag / (2.0 * e->quadratic_damping_nms2_per_rad2));
