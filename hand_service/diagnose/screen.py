@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import stats
+from hand_service.diagnose import noise, stats
 from hand_service.diagnose.fit import Fit, sensitivity
 from hand_service.diagnose.problem import EffectScales, Param, Problem
 
@@ -51,9 +51,10 @@ class Screen:
     separability: float
     starts: list[float]
     predicted_bic: float  # ΔBIC if k, B, N readjusted linearly: a cheap stand-in for the fit
+    predicted_white_bic: float = np.inf  # the same on the innovations (the noise's AR filter)
 
 
-def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[float, float]:
+def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[float, float, np.ndarray | None]:
     """The effect value whose residual, after the best linear readjustment of the model's
     own parameters, is smallest over a logarithmic grid on both sides of neutral, and that
     residual's sum of squares, to start the joint fit in the right basin (the joint fit of
@@ -68,6 +69,7 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
     mask = problem.fit_mask
     basis, _ = np.linalg.qr(base.jacobian)
     costs: dict[tuple[int, int], float] = {}
+    residuals: dict[tuple[int, int], np.ndarray] = {}
 
     def cost(side: int, index: int) -> float:
         if not 0 <= index < len(SCAN_SPAN):
@@ -82,6 +84,7 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
                     r -= basis @ (basis.T @ r)
                     c = float(r @ r)
                 costs[side, index] = c if np.isfinite(c) else np.inf
+                residuals[side, index] = r
         return costs[side, index]
 
     strides = (1,) if param.label in WHOLE_GRID else SCAN_STRIDES
@@ -91,9 +94,16 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
         side, i = best
         best = min((best, (side, i - stride), (side, i + stride)), key=lambda key: cost(*key))
     if not np.isfinite(cost(*best)):
-        return neutral, np.inf
+        return neutral, np.inf, None
     side, i = best
-    return float(neutral + side * SCAN_SPAN[i] * param.scale), cost(*best)
+    return float(neutral + side * SCAN_SPAN[i] * param.scale), cost(*best), residuals[best]
+
+
+def white_rss(problem: Problem, residual: np.ndarray) -> float:
+    """The sum of squares of a fitting-sample residual through its own AR filter of the
+    noise model's order (as Problem.innovations re-estimates it for every model)."""
+    e = noise.prewhiten(residual, problem.noise.order)
+    return float(e @ e)
 
 
 def screen(problem: Problem, base: Fit, name: str) -> Screen:
@@ -114,10 +124,18 @@ def screen(problem: Problem, base: Fit, name: str) -> Screen:
     corr = float(projected @ r) / (norm * float(np.sqrt(r @ r))) if norm > 0 and r.any() else 0.0
     step = float(projected @ residual) / norm**2 if norm > 0 else 0.0
     starts = [start_value(param, spec.neutral, step)]
-    scanned, scan_rss_deg2 = scan(problem, base, param, spec.neutral)
+    scanned, scan_rss_deg2, scanned_residual = scan(problem, base, param, spec.neutral)
     if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - spec.neutral) + 1e-12:
         starts.append(scanned)
     linear_rss_deg2 = base.rss_deg2 * (1.0 - corr**2)  # the Gauss-Newton step's prediction
     best_rss_deg2 = max(min(scan_rss_deg2, linear_rss_deg2), 1e-300)
     predicted = stats.delta_bic(base.rss_deg2, best_rss_deg2, problem.n_fit)
-    return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted)
+    # the same on the innovations, whose ΔBIC decides: correlated noise inflates the raw one
+    # (it predicted 1 882 for a dead zone whose fit lost 15)
+    base_r = project_out(base.jacobian, residual)
+    after = [white_rss(problem, base_r - step * projected)] if norm > 0 else []
+    if scanned_residual is not None:
+        after.append(white_rss(problem, scanned_residual))
+    white = stats.delta_bic(white_rss(problem, base_r), max(min(after), 1e-300), problem.n_fit) if after \
+        else -np.inf
+    return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted, white)

@@ -38,6 +38,7 @@ NAME_MARGIN_BIC = 10.0
 MAX_EFFECTS = 3
 THOROUGH_TOP = 3  # the screen's best three are fitted from every start, the rest from one
 LATER_TOP = 3  # after the first round, only the screen's best three are fitted
+LATER_WHITE_BIC = 0.0  # and of those only what the screen predicts above this on the innovations
 DETERMINED_Z = 3.0  # an effect's estimate must stand this many standard errors from neutral
 PRIOR_EVIDENCE_FACTOR = 10.0  # a refit this many times off the nominal makes its prior evidence
 WORKERS = min(4, os.cpu_count() or 1)  # effects screened and fitted at once
@@ -268,6 +269,11 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
         screens = list(pool.map(lambda name: screen(problem, base, name), names))
         screens.sort(key=lambda s: -s.predicted_bic)
         chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
+        if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
+            # later rounds: an effect whose best point of the scan, k, B, N and the accepted
+            # effects readjusted linearly, gains no ΔBIC on the innovations is not fitted (every
+            # simulation there carries the accepted effects: dry friction's cost ten times)
+            chosen = [s for s in chosen if s.predicted_white_bic > LATER_WHITE_BIC]
         if progress:
             progress(f"fitting {', '.join(s.name for s in chosen)} with the model")
         candidates = list(pool.map(lambda item: score(problem, base, item[1], sigma, item[0] < THOROUGH_TOP,

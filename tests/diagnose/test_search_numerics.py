@@ -57,3 +57,27 @@ def test_the_effects_fitted_side_by_side_give_the_same_round() -> None:
             search.WORKERS = saved
     one, two = ([(c.name, c.estimate, c.delta_bic) for c in rounds[w].candidates] for w in (1, 2))
     assert one == two
+
+
+def test_a_later_round_fits_only_what_the_screen_predicts_a_gain_for(monkeypatch) -> None:
+    """After the first round, of the screen's best three only the effects whose best
+    linearised point gains ΔBIC on the innovations are fitted (search.LATER_WHITE_BIC): on
+    a plain finger's recording none of the four gains, so none is fitted; with the bar
+    lowered below every prediction all three are."""
+    problem, refit = _problem()
+    names = ["coulomb_friction", "cubic_stiffness", "valve_lag", "gravity"]
+    screens = sorted((search.screen(problem, refit, n) for n in names), key=lambda s: -s.predicted_bic)
+    assert all(s.predicted_white_bic <= search.LATER_WHITE_BIC for s in screens)
+    fitted: list[str] = []
+    score = search.score
+
+    def spy(problem, base, screened, *args, **kwargs):
+        fitted.append(screened.name)
+        return score(problem, base, screened, *args, **kwargs)
+
+    monkeypatch.setattr(search, "score", spy)
+    assert search.run_round(problem, refit, names, None, fit_all=False).candidates == []
+    assert fitted == []
+    monkeypatch.setattr(search, "LATER_WHITE_BIC", min(s.predicted_white_bic for s in screens) - 1.0)
+    search.run_round(problem, refit, names, None, fit_all=False)
+    assert sorted(fitted) == sorted(s.name for s in screens[: search.LATER_TOP])
