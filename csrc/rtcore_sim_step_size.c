@@ -48,9 +48,10 @@ static double slope_step_s(const sim_plant *p, double damping_slope, double stif
  * quarter. Half of B + c0 saved 29 % of the steps but let a weak friction (c0 < B) on an
  * over-damped finger let go from rest carry a span's first step far past the knee with the
  * slope of rest, 1.3 deg off at the first sample (tests/rtcore/test_sim_spans.py); the
- * whole of it, 0.21 of the range. Where all of c0 is within the share (c0 < B/3) the slope
- * bounds no reach at all: a step then may cross the knee, |ω| < KNEE_SPAN·ω_s, by no more
- * than KNEE_REACH·ω_s (without it, 1.1-1.3 % of the range off a fine step over a span).
+ * whole of it, 0.21 of the range. Every step also moves the velocity by no more than
+ * KNEE_REACH·ω_s inside the knee, |ω| < KNEE_SPAN·ω_s (from outside, to its edge or that
+ * far in): where all of c0 is within the share (c0 < B/3) the slope bounds no reach at all,
+ * and without this bound a span missed a fine step by 1.1-1.3 % of the range.
  * Air drag's slope, 2·c2·|θ'|, keeps to a quarter too:
  * at half, an over-damped finger's drag misses the fine reference by more than its
  * tolerance. */
@@ -91,7 +92,7 @@ static double friction_reach_rad_per_s(const rtcore_effects *e, double velocity_
 /* How far the velocity may move before the damping-like slopes taken into the exact part
  * at the step's start, the friction's c_f and the drag's 2·c2·|θ'|, change by more than
  * FRICTION_SLOPE_SHARE and DRAG_SLOPE_SHARE of the exact damping B + c0 (half of each when
- * both act). A floor
+ * both act), and, with friction, no further than KNEE_REACH·ω_s within its knee. A floor
  * of 1e-3 of critical damping (and 1e-6 of the friction's peak slope) keeps a plant
  * without damping, at rest, from steps of nothing. */
 double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0)

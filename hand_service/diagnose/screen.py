@@ -67,9 +67,9 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
     scanned whole); after the first effect is accepted every simulation carries it, and
     dry friction's cost ten times as much."""
     mask = problem.fit_mask
-    basis, _ = np.linalg.qr(base.jacobian)
+    basis = readjustment_basis(base)
     costs: dict[tuple[int, int], float] = {}
-    residuals: dict[tuple[int, int], np.ndarray] = {}
+    residuals: dict[tuple[int, int], np.ndarray] = {}  # the fitting samples' misfits, readjusted
 
     def cost(side: int, index: int) -> float:
         if not 0 <= index < len(SCAN_SPAN):
@@ -99,10 +99,22 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
     return float(neutral + side * SCAN_SPAN[i] * param.scale), cost(*best), residuals[best]
 
 
+def readjustment_basis(base: Fit) -> np.ndarray:
+    """An orthonormal basis of what the model's own parameters change on the fitting
+    samples (the columns of base's Jacobian): the linear readjustment projects it out."""
+    return np.linalg.qr(base.jacobian)[0]
+
+
 def white_rss(problem: Problem, residual: np.ndarray) -> float:
-    """The sum of squares of a fitting-sample residual through its own AR filter of the
-    noise model's order (as Problem.innovations re-estimates it for every model)."""
-    e = noise.prewhiten(residual, problem.noise.order)
+    """The sum of squares of a fitting-sample residual (readjusted) through its own AR filter
+    of the noise model's order, as Problem.innovations takes a model's: estimated on the
+    fitting samples and run over the recording's own time, the held-out samples left at 0
+    (their misfit is not readjusted, and joining the fitting samples end to end would
+    make a lag across a held-out block a lag of one sample)."""
+    full = np.zeros(problem.fit_mask.size)
+    full[problem.fit_mask] = residual
+    e = noise.prewhiten(full, problem.noise.order, full[problem.with_skipped(problem.fit_mask)])
+    e = e[problem.fit_mask]
     return float(e @ e)
 
 
@@ -132,10 +144,11 @@ def screen(problem: Problem, base: Fit, name: str) -> Screen:
     predicted = stats.delta_bic(base.rss_deg2, best_rss_deg2, problem.n_fit)
     # the same on the innovations, whose ΔBIC decides: correlated noise inflates the raw one
     # (it predicted 1 882 for a dead zone whose fit lost 15)
-    base_r = project_out(base.jacobian, residual)
+    basis = readjustment_basis(base)
+    base_r = residual - basis @ (basis.T @ residual)
     after = [white_rss(problem, base_r - step * projected)] if norm > 0 else []
     if scanned_residual is not None:
         after.append(white_rss(problem, scanned_residual))
-    white = stats.delta_bic(white_rss(problem, base_r), max(min(after), 1e-300), problem.n_fit) if after \
-        else -np.inf
+    white = stats.delta_bic(max(white_rss(problem, base_r), 1e-300), max(min(after), 1e-300),
+                            problem.n_fit) if after else -np.inf
     return Screen(name, param, corr, norm / raw if raw > 0 else 0.0, starts, predicted, white)

@@ -274,7 +274,7 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
             # effects readjusted linearly, gains no ΔBIC on the innovations is not fitted (every
             # simulation there carries the accepted effects: dry friction's cost ten times)
             chosen = [s for s in chosen if s.predicted_white_bic > LATER_WHITE_BIC]
-        if progress:
+        if progress and chosen:
             progress(f"fitting {', '.join(s.name for s in chosen)} with the model")
         candidates = list(pool.map(lambda item: score(problem, base, item[1], sigma, item[0] < THOROUGH_TOP,
                                                          lazy=not fit_all),

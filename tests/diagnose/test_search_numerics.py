@@ -4,14 +4,16 @@ at all, and the same answer whether the effects are fitted one at a time or side
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
+import numpy as np
 import pytest
 
-from hand_service.diagnose import search
+from hand_service.diagnose import noise, search
 from hand_service.diagnose.fit import fit
 from hand_service.diagnose.problem import PLAIN, Param
-from tests.diagnose.linear_truth import stepped_recording
+from tests.diagnose.linear_truth import lab_sensor_noise, quantise, stepped_recording
 
 RATE_HZ = 100.0
 
@@ -59,12 +61,27 @@ def test_the_effects_fitted_side_by_side_give_the_same_round() -> None:
     assert one == two
 
 
+def _lab_problem(seed: int = 4):
+    """_problem's recording with a lab sensor's noise added (correlated over 0.1 s, a
+    drifting offset, ADC steps) and the noise model estimated as diagnose does."""
+    problem = stepped_recording(seed, 20.0, RATE_HZ, 0.5)
+    extra, adc_deg = lab_sensor_noise(np.random.default_rng(seed + 100), problem.measured_deg.size, RATE_HZ)
+    problem = dataclasses.replace(problem, measured_deg=quantise(problem.measured_deg + extra, adc_deg))
+    params = [Param.plain(name, getattr(problem.base.prbm, name)) for name in PLAIN]
+    first = fit(problem, params, problem.values(params))
+    problem.noise = noise.estimate(first.residual(problem),
+                                   problem.with_skipped(problem.fit_mask | problem.held_mask), RATE_HZ)
+    return problem, fit(problem, params, first.values)
+
+
 def test_a_later_round_fits_only_what_the_screen_predicts_a_gain_for(monkeypatch) -> None:
     """After the first round, of the screen's best three only the effects whose best
     linearised point gains ΔBIC on the innovations are fitted (search.LATER_WHITE_BIC): on
-    a plain finger's recording none of the four gains, so none is fitted; with the bar
-    lowered below every prediction all three are."""
-    problem, refit = _problem()
+    a plain finger's recording with a lab sensor's correlated noise (an AR noise model, so
+    the prediction is taken through its filter) none of the four gains there, and none is
+    fitted; with the bar lowered below every prediction the best three are."""
+    problem, refit = _lab_problem()
+    assert problem.noise.order > 0  # the innovations are not the raw residual
     names = ["coulomb_friction", "cubic_stiffness", "valve_lag", "gravity"]
     screens = sorted((search.screen(problem, refit, n) for n in names), key=lambda s: -s.predicted_bic)
     assert all(s.predicted_white_bic <= search.LATER_WHITE_BIC for s in screens)

@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import can
@@ -32,6 +33,15 @@ from hand_service.wire.messages import FaultKind, SensorReport
 from tests.hil.closed_loop import step_to_angle
 
 WAIT_S = 5.0  # generous: two cores shared with other engineers' test runs
+
+
+def _fresh(rig: Rig, workdir: Path) -> Rig:
+    """Another rig like `rig` (its class, link and firmware) on channels of its own."""
+    workdir.mkdir()
+    again = type(rig)(rig.name, workdir, rig.profile)
+    if hasattr(rig, "binary"):
+        again.binary = rig.binary  # the board's host build (tests/board)
+    return again
 
 
 def wait_for(predicate: Callable[[], Any], timeout_s: float = WAIT_S) -> Any:
@@ -197,16 +207,33 @@ class TestValveBoard:
         with pytest.raises(HandshakeError, match=r"cannot open|no answer from the firmware"):
             transport.open()
 
-    def test_closed_loop_step_to_a_target_angle(self, rig: Rig) -> None:
-        """The C control step, driven through the bus at the firmware's pace, reaches 45 deg."""
-        rig.start_mock()
-        transport = rig.transport()
-        transport.open()
-        run = step_to_angle(transport, rig.profile)  # 2.5 s, 250 steps on fresh samples
-        settled = run.angles_deg[-50:]  # the last 50 steps (0.5 s)
-        np.testing.assert_allclose(settled.mean(axis=0), 45.0, atol=2.0, err_msg=run.summary())
-        # nothing is lost on a pty: a host stalled long enough to overflow it times out first
-        assert transport.health().sequence_gaps < 5
+    def test_closed_loop_step_to_a_target_angle(self, rig: Rig, tmp_path: Path) -> None:
+        """The C control step, driven through the bus at the firmware's pace, reaches 45 deg.
+        Only a run at that pace is judged (LoopRun.disturbance: CI twice saw a host stalled
+        0.6 s by the shared machine, 93 and 232 samples skipped, end 4 deg short): a disturbed
+        run is reported and repeated on a fresh rig, three at most, as the QEMU test does."""
+        disturbed = []
+        for attempt in range(3):
+            bench = rig if attempt == 0 else _fresh(rig, tmp_path / f"again{attempt}")
+            try:
+                bench.start_mock()
+                transport = bench.transport()
+                transport.open()
+                run = step_to_angle(transport, bench.profile)  # 2.5 s, 250 steps on fresh samples
+                gaps = transport.health().sequence_gaps
+            finally:
+                if bench is not rig:
+                    bench.close()
+            reason = run.disturbance()
+            if reason is not None:
+                disturbed.append(reason)
+                continue
+            settled = run.angles_deg[-50:]  # the last 50 steps (0.5 s)
+            np.testing.assert_allclose(settled.mean(axis=0), 45.0, atol=2.0, err_msg=run.summary())
+            # nothing is lost on a pty: a host stalled long enough to overflow it times out first
+            assert gaps < 5
+            return
+        pytest.fail(f"no run kept the firmware's pace: {'; '.join(disturbed)}")
 
     @pytest.mark.parametrize("case", FAULTS, ids=[c.kind.name.lower() for c in FAULTS])
     def test_injected_fault_is_detected(self, rig: Rig, case: FaultCase,
