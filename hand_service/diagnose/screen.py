@@ -51,10 +51,11 @@ class Screen:
     separability: float
     starts: list[float]
     predicted_bic: float  # ΔBIC if k, B, N readjusted linearly: a cheap stand-in for the fit
-    predicted_white_bic: float = np.inf  # the same on the innovations (the noise's AR filter)
+    predicted_white_bic: float  # the same on the innovations (the noise's AR filter)
 
 
-def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[float, float, np.ndarray | None]:
+def scan(problem: Problem, base: Fit, param: Param, neutral: float,
+         basis: np.ndarray) -> tuple[float, float, np.ndarray | None]:
     """The effect value whose residual, after the best linear readjustment of the model's
     own parameters, is smallest over a logarithmic grid on both sides of neutral, and that
     residual's sum of squares, to start the joint fit in the right basin (the joint fit of
@@ -65,9 +66,8 @@ def scan(problem: Problem, base: Fit, param: Param, neutral: float) -> tuple[flo
     12 of the grid's 26 points. Along one side the cost falls to one minimum and rises
     again, so the search ends where the whole grid would (but for WHOLE_GRID's effects,
     scanned whole); after the first effect is accepted every simulation carries it, and
-    dry friction's cost ten times as much."""
+    dry friction's cost ten times as much. `basis`: readjustment_basis(base)."""
     mask = problem.fit_mask
-    basis = readjustment_basis(base)
     costs: dict[tuple[int, int], float] = {}
     residuals: dict[tuple[int, int], np.ndarray] = {}  # the fitting samples' misfits, readjusted
 
@@ -136,7 +136,8 @@ def screen(problem: Problem, base: Fit, name: str) -> Screen:
     corr = float(projected @ r) / (norm * float(np.sqrt(r @ r))) if norm > 0 and r.any() else 0.0
     step = float(projected @ residual) / norm**2 if norm > 0 else 0.0
     starts = [start_value(param, spec.neutral, step)]
-    scanned, scan_rss_deg2, scanned_residual = scan(problem, base, param, spec.neutral)
+    basis = readjustment_basis(base)
+    scanned, scan_rss_deg2, scanned_residual = scan(problem, base, param, spec.neutral, basis)
     if abs(scanned - starts[0]) > 0.2 * abs(starts[0] - spec.neutral) + 1e-12:
         starts.append(scanned)
     linear_rss_deg2 = base.rss_deg2 * (1.0 - corr**2)  # the Gauss-Newton step's prediction
@@ -144,7 +145,6 @@ def screen(problem: Problem, base: Fit, name: str) -> Screen:
     predicted = stats.delta_bic(base.rss_deg2, best_rss_deg2, problem.n_fit)
     # the same on the innovations, whose ΔBIC decides: correlated noise inflates the raw one
     # (it predicted 1 882 for a dead zone whose fit lost 15)
-    basis = readjustment_basis(base)
     base_r = residual - basis @ (basis.T @ residual)
     after = [white_rss(problem, base_r - step * projected)] if norm > 0 else []
     if scanned_residual is not None:
