@@ -126,14 +126,33 @@ def simulate(finger: SimFinger, pressure_cmd_kpa: np.ndarray, sample_rate_hz: fl
     initial angle and angle[k+1] follows command k. `substeps` >= 1 bounds the steps to a
     sample period / substeps; 0 leaves them to the dynamics, several periods long over a
     run of samples that hold one command (csrc/rtcore_sim_span.c)."""
+    chamber = np.empty(np.asarray(pressure_cmd_kpa).size)
+    angle = _run(finger, pressure_cmd_kpa, sample_rate_hz, substeps, angle0_deg, velocity0_deg_per_s,
+                 chamber0_kpa, chamber)
+    return angle, chamber
+
+
+def simulate_angle(finger: SimFinger, pressure_cmd_kpa: np.ndarray, sample_rate_hz: float,
+                   substeps: int = 10, angle0_deg: float = 0.0, velocity0_deg_per_s: float = 0.0,
+                   chamber0_kpa: float = 0.0) -> np.ndarray:
+    """simulate()'s angle alone: the same run, bit for bit, without writing the chamber's
+    pressure at every sample (over a run of held samples, one exponential each: a tenth
+    of a run at 1 kHz)."""
+    return _run(finger, pressure_cmd_kpa, sample_rate_hz, substeps, angle0_deg, velocity0_deg_per_s,
+                chamber0_kpa, None)
+
+
+def _run(finger: SimFinger, pressure_cmd_kpa: np.ndarray, sample_rate_hz: float, substeps: int,
+         angle0_deg: float, velocity0_deg_per_s: float, chamber0_kpa: float,
+         chamber: np.ndarray | None) -> np.ndarray:
     commands = np.ascontiguousarray(pressure_cmd_kpa, dtype=np.float64)
     n = commands.size
     angle = np.empty(n)
-    chamber = np.empty(n)
     code = lib.rtcore_sim_run(
         _c_finger(finger), sample_rate_hz, substeps, n,
         ffi.cast("double *", ffi.from_buffer(commands)), angle0_deg, velocity0_deg_per_s, chamber0_kpa,
-        ffi.cast("double *", ffi.from_buffer(angle)), ffi.cast("double *", ffi.from_buffer(chamber)))
+        ffi.cast("double *", ffi.from_buffer(angle)),
+        ffi.NULL if chamber is None else ffi.cast("double *", ffi.from_buffer(chamber)))
     if code != lib.RTCORE_OK:
         raise ConfigError(error_message(code, -1))
-    return angle, chamber
+    return angle

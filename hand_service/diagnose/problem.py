@@ -21,7 +21,7 @@ from hand_service.config.model import FingerModel
 from hand_service.diagnose.noise import WHITE, NoiseModel
 from hand_service.diagnose.simcache import SimulationCache, finger_key
 from hand_service.simulator import sim_finger
-from rtcore.sim import SimFinger, simulate
+from rtcore.sim import SimFinger, simulate_angle
 
 HOLDOUT_EVERY = 4  # every 4th block is held out from fitting
 BLOCKS_WANTED = 16
@@ -227,9 +227,8 @@ class Problem:
     def _simulate_uncached(self, finger: SimFinger) -> np.ndarray:
         if self.input_hold == "point":
             return self._simulate_between_points(finger)
-        angle, _ = simulate(finger, self.pressure_kpa, self.rate_hz, self.substeps, self.angle0_deg,
-                            0.0, self.chamber0_kpa)
-        return angle
+        return simulate_angle(finger, self.pressure_kpa, self.rate_hz, self.substeps, self.angle0_deg, 0.0,
+                              self.chamber0_kpa)
 
     def _simulate_between_points(self, finger: SimFinger) -> np.ndarray:
         """The command linear between its samples: each sub-step holds the command at its
@@ -240,8 +239,8 @@ class Problem:
         n = self.pressure_kpa.size
         middles = (np.arange(n * steps) + 0.5) / steps
         command = np.interp(middles, np.arange(n), self.pressure_kpa)
-        angle, _ = simulate(finger, command, self.rate_hz * steps, max(1, self.substeps // steps),
-                            self.angle0_deg, 0.0, self.chamber0_kpa)
+        angle = simulate_angle(finger, command, self.rate_hz * steps, max(1, self.substeps // steps),
+                               self.angle0_deg, 0.0, self.chamber0_kpa)
         return np.ascontiguousarray(angle[::steps])
 
     def residual(self, angle_deg: np.ndarray) -> np.ndarray:

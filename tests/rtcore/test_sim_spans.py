@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from rtcore import Effects, Prbm
-from rtcore.sim import SimFinger, simulate
+from rtcore.sim import SimFinger, simulate, simulate_angle
 
 FAMILIES = {
     "ringing": Prbm(inertia_kgm2=1.6e-4, damping_nms_per_rad=0.003, stiffness_nm_per_rad=0.57,
@@ -75,6 +75,8 @@ def test_spans_agree_with_a_step_per_sample(data: st.DataObject) -> None:
     spanned, chamber_spanned = simulate(finger, command, rate_hz, substeps=0, **start)
     stepped, chamber_stepped = simulate(finger, command, rate_hz, substeps=1, **start)
     np.testing.assert_allclose(chamber_spanned, chamber_stepped, rtol=0.0, atol=1e-9)
+    # the angle alone (diagnose's run, no chamber written) is the same run, bit for bit
+    np.testing.assert_array_equal(simulate_angle(finger, command, rate_hz, 0, **start), spanned)
     finite = np.isfinite(stepped)
     if not finite.all():  # a softening spring ran away: both runs do, within a sample or so
         assert not np.isfinite(spanned[-1])
