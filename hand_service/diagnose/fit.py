@@ -125,6 +125,11 @@ def column_map(function: Callable[[np.ndarray], np.ndarray],
     return iter([first, *(f.result() for f in later)])
 
 
+def parallel_columns() -> dict:
+    """least_squares' option that simulates a Jacobian's columns side by side, where SciPy has it."""
+    return {"workers": column_map} if _PARALLEL_COLUMNS else {}
+
+
 # A fit stops once an iteration gains less than this share of the noise's variance in the
 # residual's sum of squares, about as much of a ΔBIC. A fixed relative tolerance of 1e-7
 # spent some 60 % of a fit's simulations after its cost had come within 1e-4 of where it
@@ -170,7 +175,7 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
     result = least_squares(cost_rows, x0, bounds=(lower, upper), method="trf", x_scale="jac",
                            diff_step=1e-6, max_nfev=max_nfev, xtol=1e-7,
                            ftol=cost_tolerance(problem.n_fit), gtol=1e-8,
-                           **({"workers": column_map} if _PARALLEL_COLUMNS else {}))
+                           **parallel_columns())
     values = result.x * scales
     finger = problem.finger(params, values, base)
     n = problem.n_fit

@@ -14,19 +14,38 @@ for any stiffness), regressed with k, B, N and the other found effects on the
 prewhitened residual. When the onset family explains the residual better by more than its
 two extra parameters (θc, p) and SIGNIFICANT_BIC, the library's smooth torque was only
 approximating a torque that starts at θc: the answer is "outside the library", with θc.
+
+The linearised form holds while the smooth torques are a small part of the finger's own
+stiffness. Where their slope over the recorded range reaches LINEAR_SLOPE_SHARE of k (a
+stiff object met at 45° made an outside generator's finger look 15 times stiffer past it,
+and gravity was fitted at that size), the linear finger is not the finger, and the onset
+is fitted in full instead: the simulated finger with an object past θc (a spring, linear
+in the depth: the simulator's own contact) in place of the smooth torques, k, B, N, θc and
+the object's stiffness refitted, against the named model as fitted.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg, signal
+from scipy.optimize import least_squares
 
 from hand_service.config import effects as fx
 from hand_service.diagnose import noise, stats
-from hand_service.diagnose.fit import Fit, sensitivity
+from hand_service.diagnose.fit import (
+    COLUMN_WORKERS,
+    DIVERGED_DEG,
+    Fit,
+    cost_tolerance,
+    parallel_columns,
+    sensitivity,
+)
 from hand_service.diagnose.problem import Problem
+from rtcore.sim import SimFinger
 
 SIGNIFICANT_BIC = 10.0
 # the library's torques that are a function of the angle alone and smooth over it
@@ -34,6 +53,9 @@ SMOOTH_STATIC = ("cubic_stiffness", "gravity")
 ONSET_QUANTILES = (0.5, 0.6, 0.7, 0.8, 0.85, 0.9, 0.93, 0.95, 0.97, 0.98, 0.99)
 POWERS = (1.0, 1.5, 2.0)
 EXTRA_PARAMS = 2  # θc and p: the onset's size stands for the smooth torque it replaces
+# past this share of k, the smooth torques' slope makes the linear finger the wrong finger
+LINEAR_SLOPE_SHARE = 0.5
+FITTED_QUANTILES = (0.6, 0.8, 0.95)  # θc's starts for the onset fitted in full
 
 
 @dataclass(frozen=True)
@@ -42,19 +64,24 @@ class Onset:
     power: float
     closing: bool  # True: past θc as the finger bends (an object, a stop); False: below it
     share_past: float  # of the fitting samples beyond θc
-    delta_bic: float  # the onset torque against the smooth library torques, both linearised
+    delta_bic: float  # the onset torque against the smooth library torques
+    fitted: bool = False  # both fitted in full (LINEAR_SLOPE_SHARE), else both linearised
 
     def to_json(self) -> dict:
         return {"angle_deg": self.angle_deg, "power": self.power,
                 "side": "above" if self.closing else "below", "share_past": self.share_past,
-                "delta_bic": self.delta_bic}
+                "delta_bic": self.delta_bic, "compared": "fitted" if self.fitted else "linearised"}
+
+    @property
+    def compared(self) -> str:
+        return "an object and them each fitted in full" if self.fitted else "both linearised"
 
     def sentence(self, names: list[str]) -> str:
         side = "above" if self.closing else "below"
         return (f"the missing torque switches on {side} {self.angle_deg:.1f}° ({100 * self.share_past:.0f} % "
                 f"of the samples) and is zero on the other side, as a contact or an end stop makes it "
                 f"(∝ |θ − θc|^{self.power:g}): it explains the residual better than {' and '.join(names)} "
-                f"(ΔBIC {self.delta_bic:.0f}, both linearised), which only approximate"
+                f"(ΔBIC {self.delta_bic:.0f}, {self.compared}), which only approximate"
                 f"{'s' if len(names) == 1 else ''} it over the range; "
                 "this is outside the library")
 
@@ -94,6 +121,24 @@ def library_torque(name: str, theta_rad: np.ndarray) -> np.ndarray:
     if name == "gravity":
         return -(1.0 - np.cos(theta_rad))
     raise KeyError(name)
+
+
+def library_slope(name: str, theta_rad: np.ndarray) -> np.ndarray:
+    """d library_torque / dθ."""
+    if name == "cubic_stiffness":
+        return 3.0 * theta_rad**2
+    if name == "gravity":
+        return -np.sin(theta_rad)
+    raise KeyError(name)
+
+
+def smooth_slope_share(problem: Problem, final: Fit, smooth: list[str]) -> float:
+    """The smooth torques' largest slope over the recorded angles (the fitting samples),
+    as a share of the fitted k."""
+    theta = np.radians(problem.measured_deg[problem.fit_mask])
+    theta = np.concatenate((theta, [np.pi / 2] if theta.min() < np.pi / 2 < theta.max() else []))
+    slope = sum(np.abs(final.value(name) * library_slope(name, theta)) for name in smooth)
+    return float(np.max(slope)) / final.value("stiffness_nm_per_rad")
 
 
 class Projection:
@@ -141,6 +186,8 @@ def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
     smooth = [n for n in found if n in SMOOTH_STATIC]
     if not smooth:
         return None
+    if smooth_slope_share(problem, final, smooth) >= LINEAR_SLOPE_SHARE:
+        return fitted_onset(problem, final, smooth)
     mask = problem.fit_mask
     theta_deg = final.angle_deg
     theta = np.radians(theta_deg)
@@ -181,3 +228,71 @@ def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
     if gain <= SIGNIFICANT_BIC:
         return None
     return Onset(best.angle_deg, best.power, best.closing, best.share_past, gain)
+
+
+def object_finger(finger: SimFinger, angle_deg: float, stiffness_nm_per_rad: float) -> SimFinger:
+    """`finger` with the simulator's object met past `angle_deg` as it bends, its torque
+    stiffness_nm_per_rad·(θ − θc) (a lever arm of 1 m makes the simulator's N/m the
+    torque's N·m/rad)."""
+    return dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, lever_arm_m=1.0),
+                               contact_angle_deg=angle_deg, contact_stiffness_n_per_m=stiffness_nm_per_rad,
+                               contact_damping_ns_per_m=0.0)
+
+
+def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | None:
+    """The onset fitted in full: `final` with an object met past θc in place of its smooth
+    torques (its other effects as fitted), k, B, N, θc and the object's stiffness refitted
+    by output error from θc at FITTED_QUANTILES of the recorded angle, against
+    `final` on the innovations (the nominal's prior counted on both, where it holds k, B, N).
+    The best object when it wins by more than SIGNIFICANT_BIC, else None."""
+    mask = problem.fit_mask
+    plain = [p for p in final.params if not p.is_effect]
+    replaced = [p for p in final.params if p.label in smooth]
+    without = problem.finger(replaced, [fx.BY_NAME[p.label].neutral for p in replaced], final.finger)
+    start = problem.values(plain, final.finger)
+    k = final.value("stiffness_nm_per_rad")
+    valid = problem.measured_deg[mask]
+    span_deg = float(np.ptp(valid))
+    prior = problem.prior
+    held = [i for i, p in enumerate(plain) if p.label in prior.widths]
+    centres = np.array([prior.centres[plain[i].label] for i in held])
+    widths = np.array([prior.widths[plain[i].label] for i in held])
+    n_plain = len(plain)
+
+    def one(angle0_deg: float) -> tuple[float, float, float]:
+        """(innovations' RSS, prior χ², θc) of the object fitted from θc = angle0_deg:
+        x holds k, B, N over their start, θc's move over the angle's range, K over k."""
+        def finger(x: np.ndarray) -> SimFinger:
+            return object_finger(problem.finger(plain, x[:n_plain] * start, without),
+                                 angle0_deg + x[n_plain] * span_deg, x[n_plain + 1] * k)
+
+        def rows(x: np.ndarray) -> np.ndarray:
+            with np.errstate(invalid="ignore"):
+                error = -problem.misfit(problem.simulate(finger(x)))[mask]
+            error = np.where(np.isfinite(error), np.clip(error, -DIVERGED_DEG, DIVERGED_DEG), DIVERGED_DEG)
+            if not held:
+                return error
+            values = np.maximum(x[held] * start[held], 1e-300)
+            return np.concatenate((error, prior.weight_deg * np.log(values / centres) / widths))
+
+        x0 = np.concatenate((np.ones(n_plain), [0.0, 1.0]))
+        lower = np.concatenate((np.full(n_plain, 0.05), [-1.0, 1e-4]))
+        upper = np.concatenate((np.full(n_plain, 20.0), [1.0, 1e3]))
+        result = least_squares(rows, x0, bounds=(lower, upper), method="trf", x_scale="jac", diff_step=1e-6,
+                               max_nfev=60, ftol=cost_tolerance(problem.n_fit), xtol=1e-7, gtol=1e-8,
+                               **parallel_columns())
+        angle = problem.simulate(finger(result.x))
+        chi2 = float(result.fun[problem.n_fit:] @ result.fun[problem.n_fit:]) / prior.weight_deg**2 \
+            if held else 0.0
+        return problem.fit_rss(problem.innovations(angle)), chi2, angle0_deg + result.x[n_plain] * span_deg
+
+    starts = [float(np.quantile(valid, q)) for q in FITTED_QUANTILES]
+    with ThreadPoolExecutor(max_workers=min(COLUMN_WORKERS, len(starts))) as pool:  # each start its own fit
+        fits = list(pool.map(one, starts))
+    rss, chi2, angle_c = min(fits, key=lambda f: problem.n_fit * np.log(f[0]) + f[1])
+    final_chi2 = final.prior_cost_deg2 / prior.weight_deg**2 if prior.weight_deg > 0.0 else 0.0
+    gain = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), rss, problem.n_fit,
+                           2 - len(smooth)) + final_chi2 - chi2
+    if not gain > SIGNIFICANT_BIC:
+        return None
+    return Onset(angle_c, 1.0, True, float(np.mean(valid > angle_c)), gain, fitted=True)

@@ -75,3 +75,26 @@ def test_a_softening_spring_over_the_whole_range_is_still_named(tmp_path: Path) 
     assert [e["name"] for e in result["effects"]] == ["cubic_stiffness"], result["verdict"]
     k3 = truth["library_equivalent"]["k3_nm_per_rad3"]
     assert abs(result["effects"][0]["params"]["k3_nm_per_rad3"] / k3 - 1.0) < 0.3
+
+
+def test_a_stiffening_as_steep_as_the_finger_itself_is_still_named_when_fitted_in_full(
+        tmp_path: Path, monkeypatch) -> None:
+    """The control for the onset fitted in full: an evident spring that is not exactly cubic
+    (a sinh stiffening) on a chirp, whose slope over the range passes half of k, so the
+    linearised test would not hold. The object fitted in full loses to the cubic spring,
+    which is named."""
+    from hand_service.diagnose import onset as onset_module
+
+    calls: list[object] = []
+    fitted = onset_module.fitted_onset
+
+    def recorded(*args, **kwargs):
+        calls.append(fitted(*args, **kwargs))
+        return calls[-1]
+
+    monkeypatch.setattr(onset_module, "fitted_onset", recorded)
+    spec = cs.CaseSpec("cubic_stiffness", "chirp", 0, "evident", "stiff", 200.0, 0.19869400630970072)
+    result, _ = _diagnose(spec, tmp_path)
+    assert calls == [None]  # the full fit ran, and the object lost
+    assert result["onset"] is None
+    assert [e["name"] for e in result["effects"]][:1] == ["cubic_stiffness"], result["verdict"]

@@ -25,3 +25,18 @@ def test_a_spring_stiffening_faster_than_the_cube_on_a_one_way_ramp_is_named_a_c
     assert result["verdict"] == "missing_physics"
     assert "gravity" in [e["name"] for e in result["partial_effects"]]
     assert any("gravity does not hold across the recording's postures" in w for w in result["warnings"])
+
+
+def test_a_stiff_object_met_past_45_degrees_is_located_not_named_gravity(tmp_path: Path) -> None:
+    """An object five times as stiff as the finger, met past 45° on steps: gravity fitted it
+    with k at a third of the nominal and was named. Its slope over the range is many times
+    k, so the onset is fitted in full: it wins, within 2° of the object."""
+    out = tmp_path / "diagnose.json"
+    assert main(["diagnose", str(OUTSIDE / "stiff_contact_steps.csv"), "--model",
+                 str(OUTSIDE / "stiff_contact_steps.yaml"), "--json", str(out), "--quiet"]) == 0
+    result = json.loads(out.read_text())
+    assert result["verdict"] == "unexplained" and result["effects"] == [], result["verdict"]
+    onset = result["onset"]
+    assert onset is not None and onset["compared"] == "fitted" and onset["side"] == "above"
+    assert abs(onset["angle_deg"] - 45.0) < 2.0
+    assert any("switches on above" in w for w in result["warnings"])
