@@ -27,6 +27,8 @@ static const double MOTION_STEP_FRACTION = 0.25;
 static const double DAMPING_STEP_FRACTION = 1.0;
 static const double STIFFNESS_STEP_FRACTION = 0.25;
 static const double LAG_STEP_FRACTION = 0.0625;
+/* of the creep's bound, B + c0's own (rtcore_sim_integrate_segment) */
+static const double CREEP_STEP_SHARE = 0.25;
 /* a state-dependent slope (quadratic damping, cubic stiffness) shortens the step at most
  * this much, and no held segment takes more than 2^20 steps, so a run that diverges ends */
 static const double STATE_STEP_SHRINK = 256.0;

@@ -253,10 +253,28 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
         }
         double g_start = p->nonlinear ? nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
+        const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
+                                     ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
+                                     : 0.0;
         double h = settle_range_rad > 0.0 && cap_s < request_cap_s
                        ? rtcore_sim_settled_step_s(p, s, cap_s, request_cap_s, settle_range_rad,
                                                    torque_start + g_start, fabs(torque_last - torque_start))
                        : cap_s;
+        if (friction0 > 0.0 && !p->state_dependent) {
+            /* a finger that dry friction holds creeps on the time scale of the plant with
+             * B + c0, the one each step integrates exactly, far slower than the free
+             * finger's: a share of that plant's parameter bound (the reach below still
+             * keeps the velocity where c0 holds, and cuts the step where the finger breaks
+             * away; the error grows about as the share: 2.3e-4 of the range at the whole
+             * bound, 6.5e-5 at a quarter, on a stiff finger held at 0.25 Hz). Over a span,
+             * no longer than a sample period: the samples inside a step that took c0 are a
+             * cubic between its ends (rtcore_sim_span_emit), which a creep turning over
+             * several periods leaves (2e-5 of the range at 100 Hz, against 1e-6) */
+            sim_plant held;
+            with_damping(p, friction0, &held);
+            h = fmax(h, fmin(fmin(request_cap_s, span != 0 ? span->dt_s : INFINITY),
+                             CREEP_STEP_SHARE * rtcore_sim_parameter_step_s(&held)));
+        }
         double slope0 = 0.0; /* the friction's slope here, integrated exactly over the step */
         sim_plant local;
         double torque_mid = torque_start;
@@ -279,9 +297,6 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
         if (f->prbm.effects.coulomb_torque_nm > 0.0 || f->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0) {
             const double net_nm = torque_start + g_start - p->linear.stiffness_nm_per_rad * s->angle_rad
                                   - p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
-            const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
-                                         ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
-                                         : 0.0;
             /* the chamber's torque moves within the step by no more than over h from now (it
              * is monotonic): over a span of held samples the segment's whole change would
              * hold every step to what the chamber does in the first */

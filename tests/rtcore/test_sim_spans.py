@@ -106,3 +106,28 @@ def test_a_weak_friction_from_rest_over_a_span(friction_nm: float) -> None:
     for substeps in (0, 1):
         angle, _ = simulate(finger, command, 100.0, substeps=substeps, **start)
         assert np.max(np.abs(angle - fine)) <= 5e-4 * scale, substeps
+
+
+
+@pytest.mark.parametrize("friction_nm", [0.22, 1.0])
+@pytest.mark.parametrize(("rate_hz", "hold_samples"), [(0.25, 1), (100.0, 40)])
+def test_a_finger_held_by_friction_creeps_in_long_steps_that_keep_to_a_fine_one(
+        rate_hz: float, hold_samples: int, friction_nm: float) -> None:
+    """While dry friction holds a finger, its steps follow the creep's time scale (a quarter
+    of the plant's with B + c0, far slower than the free finger's: csrc/rtcore_sim_plant.c),
+    no longer than a sample period inside a span. A stiff finger whose friction holds it
+    against part of each level's change (0.22 N·m) or most of it (1 N·m), under levels held
+    for up to `hold_samples` samples at 0.25 Hz (4 s each) and at 100 Hz, against steps of
+    at most 1 ms: within 1e-4 of the range (the whole of B + c0's bound: 2.3e-4 at 0.25 Hz;
+    a step of the free finger's bound: 8e-7)."""
+    finger = SimFinger(dataclasses.replace(FAMILIES["stiff"], effects=Effects(coulomb_torque_nm=friction_nm)))
+    rng = np.random.default_rng(3)
+    runs = rng.integers(1, hold_samples + 1, size=60)
+    command = np.repeat(rng.uniform(0.0, 60.0, size=runs.size), runs)[: max(int(60 * rate_hz), 12)]
+    start = {"angle0_deg": 0.0, "chamber0_kpa": float(command[0])}
+    fine, _ = simulate(finger, command, rate_hz, substeps=max(1, int(1000.0 / rate_hz)), **start)
+    scale = float(np.ptp(fine))
+    assert scale > 10.0
+    for substeps in (0, 1):
+        angle, _ = simulate(finger, command, rate_hz, substeps=substeps, **start)
+        assert np.max(np.abs(angle - fine)) <= 1e-4 * scale, substeps
