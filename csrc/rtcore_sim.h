@@ -69,7 +69,8 @@ typedef struct {
     int32_t head;
     int32_t delay_samples;
     double delay_fraction;
-    /* longest step the finger's parameters allow (infinite for the plain linear finger) */
+    /* longest step the finger's parameters allow (infinite for the plain linear finger);
+     * a settled finger and one that dry friction holds step longer (rtcore_sim_plant.c) */
     double max_step_s;
     rtcore_pneumatic_state pneumatic; /* the pneumatic valve mode's chamber and regulator */
 } rtcore_sim_finger_state;

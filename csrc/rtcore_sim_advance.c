@@ -78,7 +78,8 @@ static void advance_pneumatic(const rtcore_sim_finger *f, rtcore_sim_finger_stat
 /* One sample period after pushing command_kpa: the dead time puts at most one breakpoint
  * inside the period, where the older command gives way to the newer one. The step is at
  * most dt/substeps (what the caller asks for) and what the finger's parameters allow
- * (more, up to dt/substeps, once the finger has settled: rtcore_sim_settled_step_s).
+ * (more, up to dt/substeps, once the finger has settled, rtcore_sim_settled_step_s, or
+ * while dry friction holds it: rtcore_sim_integrate_segment).
  * `plant` is rtcore_sim_plant_for(f): it depends on the finger alone, so a run over many
  * samples derives it once (rtcore_sim_run). */
 void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,

@@ -191,7 +191,8 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_finger_state *s, 
 }
 
 /* Integrate over duration_s with the valve input held at input_kpa, in steps of at most
- * step_cap_s, and of what rtcore_sim_state_step_s allows for the state at the start (the input is
+ * step_cap_s (longer for a settled finger, or one that dry friction holds: up to
+ * request_cap_s), and of what rtcore_sim_state_step_s allows for the state at the start (the input is
  * held, so what the segment will reach is known there). The chamber follows its exact
  * solution, on one side of the dead zone's threshold throughout (integrate_held splits
  * there). While its torque moves the step is at most LAG_STEP_FRACTION·τ·(S/|p − u|)^(1/3),
@@ -260,20 +261,28 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
                        ? rtcore_sim_settled_step_s(p, s, cap_s, request_cap_s, settle_range_rad,
                                                    torque_start + g_start, fabs(torque_last - torque_start))
                        : cap_s;
-        if (friction0 > 0.0 && !p->state_dependent) {
+        if (friction0 > 0.0) {
             /* a finger that dry friction holds creeps on the time scale of the plant with
-             * B + c0, the one each step integrates exactly, far slower than the free
-             * finger's: a share of that plant's parameter bound (the reach below still
-             * keeps the velocity where c0 holds, and cuts the step where the finger breaks
-             * away; the error grows about as the share: 2.3e-4 of the range at the whole
-             * bound, 6.5e-5 at a quarter, on a stiff finger held at 0.25 Hz). Over a span,
-             * no longer than a sample period: the samples inside a step that took c0 are a
-             * cubic between its ends (rtcore_sim_span_emit), which a creep turning over
-             * several periods leaves (2e-5 of the range at 100 Hz, against 1e-6) */
+             * B + c0 (and the drag's slope), the one each step integrates exactly, far
+             * slower than the free finger's: a share of that plant's bounds, the parameters'
+             * and, with a cubic spring, the state's (so the steps move continuously as one
+             * switches on). The reach below still keeps the velocity where c0 holds and cuts
+             * the step where the finger breaks away; the error grows about as the share
+             * (2.3e-4 of the range at the whole bound, 6.5e-5 at a quarter, on a stiff finger
+             * held at 0.25 Hz). Over a span, no longer than a sample period: the samples
+             * inside a step that took c0 are a cubic between its ends (rtcore_sim_span_emit),
+             * which a creep turning over several periods leaves (2e-5 of the range at
+             * 100 Hz, against 1e-6) */
             sim_plant held;
-            with_damping(p, friction0, &held);
-            h = fmax(h, fmin(fmin(request_cap_s, span != 0 ? span->dt_s : INFINITY),
-                             CREEP_STEP_SHARE * rtcore_sim_parameter_step_s(&held)));
+            double creep_s;
+            with_damping(p, friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s),
+                         &held);
+            creep_s = rtcore_sim_parameter_step_s(&held);
+            if (p->state_dependent) {
+                creep_s = fmin(creep_s, state_cap_s(&held, s, torque_start, torque_last, INFINITY, 0.0,
+                                                    span != 0 && t_s > 0.0));
+            }
+            h = fmax(h, fmin(fmin(request_cap_s, span != 0 ? span->dt_s : INFINITY), CREEP_STEP_SHARE * creep_s));
         }
         double slope0 = 0.0; /* the friction's slope here, integrated exactly over the step */
         sim_plant local;

@@ -136,8 +136,8 @@ def simulate_angle(finger: SimFinger, pressure_cmd_kpa: np.ndarray, sample_rate_
                    substeps: int = 10, angle0_deg: float = 0.0, velocity0_deg_per_s: float = 0.0,
                    chamber0_kpa: float = 0.0) -> np.ndarray:
     """simulate()'s angle alone: the same run, bit for bit, without writing the chamber's
-    pressure at every sample (over a run of held samples, one exponential each: a tenth
-    of a run at 1 kHz)."""
+    pressure at every sample (over a run of held samples, one exponential each: a sixth
+    of a run at 1 kHz with a valve lag)."""
     return _run(finger, pressure_cmd_kpa, sample_rate_hz, substeps, angle0_deg, velocity0_deg_per_s,
                 chamber0_kpa, None)
 

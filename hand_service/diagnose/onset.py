@@ -41,6 +41,7 @@ from hand_service.diagnose.fit import (
     DIVERGED_DEG,
     Fit,
     cost_tolerance,
+    nominal_prior,
     parallel_columns,
     sensitivity,
 )
@@ -74,7 +75,7 @@ class Onset:
 
     @property
     def compared(self) -> str:
-        return "an object and them each fitted in full" if self.fitted else "both linearised"
+        return "both fitted in full" if self.fitted else "both linearised"
 
     def sentence(self, names: list[str]) -> str:
         side = "above" if self.closing else "below"
@@ -133,9 +134,9 @@ def library_slope(name: str, theta_rad: np.ndarray) -> np.ndarray:
 
 
 def smooth_slope_share(problem: Problem, final: Fit, smooth: list[str]) -> float:
-    """The smooth torques' largest slope over the recorded angles (the fitting samples),
-    as a share of the fitted k."""
-    theta = np.radians(problem.measured_deg[problem.fit_mask])
+    """The largest slope of the smooth torques over the fitted angles (each torque's size
+    added: a bound on their sum's), as a share of the fitted k."""
+    theta = np.radians(final.angle_deg[problem.fit_mask])
     theta = np.concatenate((theta, [np.pi / 2] if theta.min() < np.pi / 2 < theta.max() else []))
     slope = sum(np.abs(final.value(name) * library_slope(name, theta)) for name in smooth)
     return float(np.max(slope)) / final.value("stiffness_nm_per_rad")
@@ -241,27 +242,32 @@ def object_finger(finger: SimFinger, angle_deg: float, stiffness_nm_per_rad: flo
 
 def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | None:
     """The onset fitted in full: `final` with an object met past θc in place of its smooth
-    torques (its other effects as fitted), k, B, N, θc and the object's stiffness refitted
-    by output error from θc at FITTED_QUANTILES of the recorded angle, against
-    `final` on the innovations (the nominal's prior counted on both, where it holds k, B, N).
-    The best object when it wins by more than SIGNIFICANT_BIC, else None."""
+    torques (its other effects held as fitted), k, B, N, θc and the object's stiffness
+    refitted by output error from θc at FITTED_QUANTILES of the simulated angle (θc kept
+    within its 0.5 % to 99.5 % quantiles: an object never or always touched is no onset),
+    against `final` on the innovations. k, B and N are held by the same prior as `final`
+    was (the engine's, or the nominal's where the effect's fit needed it), and the gain is
+    the data's alone: the prior decides nothing here. The best object when it wins by
+    more than SIGNIFICANT_BIC, else None."""
     mask = problem.fit_mask
     plain = [p for p in final.params if not p.is_effect]
     replaced = [p for p in final.params if p.label in smooth]
     without = problem.finger(replaced, [fx.BY_NAME[p.label].neutral for p in replaced], final.finger)
     start = problem.values(plain, final.finger)
     k = final.value("stiffness_nm_per_rad")
-    valid = problem.measured_deg[mask]
-    span_deg = float(np.ptp(valid))
-    prior = problem.prior
+    valid = final.angle_deg[mask]  # the simulator's frame, θc's (the sensor's offset and drift out)
+    low_deg, high_deg = (float(q) for q in np.quantile(valid, (0.005, 0.995)))
+    span_deg = max(high_deg - low_deg, 1e-9)
+    prior = problem.prior if problem.prior.widths or final.prior_information is None else \
+        nominal_prior(problem, plain, final.sigma_deg)
     held = [i for i, p in enumerate(plain) if p.label in prior.widths]
     centres = np.array([prior.centres[plain[i].label] for i in held])
     widths = np.array([prior.widths[plain[i].label] for i in held])
     n_plain = len(plain)
 
-    def one(angle0_deg: float) -> tuple[float, float, float]:
-        """(innovations' RSS, prior χ², θc) of the object fitted from θc = angle0_deg:
-        x holds k, B, N over their start, θc's move over the angle's range, K over k."""
+    def one(angle0_deg: float) -> tuple[float, float]:
+        """(innovations' RSS, θc) of the object fitted from θc = angle0_deg: x holds k, B, N
+        over their start, θc's move over the angle's range, K over k."""
         def finger(x: np.ndarray) -> SimFinger:
             return object_finger(problem.finger(plain, x[:n_plain] * start, without),
                                  angle0_deg + x[n_plain] * span_deg, x[n_plain + 1] * k)
@@ -276,23 +282,20 @@ def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | Non
             return np.concatenate((error, prior.weight_deg * np.log(values / centres) / widths))
 
         x0 = np.concatenate((np.ones(n_plain), [0.0, 1.0]))
-        lower = np.concatenate((np.full(n_plain, 0.05), [-1.0, 1e-4]))
-        upper = np.concatenate((np.full(n_plain, 20.0), [1.0, 1e3]))
+        lower = np.concatenate((np.full(n_plain, 0.05), [(low_deg - angle0_deg) / span_deg, 1e-4]))
+        upper = np.concatenate((np.full(n_plain, 20.0), [(high_deg - angle0_deg) / span_deg, 1e3]))
         result = least_squares(rows, x0, bounds=(lower, upper), method="trf", x_scale="jac", diff_step=1e-6,
                                max_nfev=60, ftol=cost_tolerance(problem.n_fit), xtol=1e-7, gtol=1e-8,
                                **parallel_columns())
         angle = problem.simulate(finger(result.x))
-        chi2 = float(result.fun[problem.n_fit:] @ result.fun[problem.n_fit:]) / prior.weight_deg**2 \
-            if held else 0.0
-        return problem.fit_rss(problem.innovations(angle)), chi2, angle0_deg + result.x[n_plain] * span_deg
+        return problem.fit_rss(problem.innovations(angle)), angle0_deg + result.x[n_plain] * span_deg
 
     starts = [float(np.quantile(valid, q)) for q in FITTED_QUANTILES]
     with ThreadPoolExecutor(max_workers=min(COLUMN_WORKERS, len(starts))) as pool:  # each start its own fit
-        fits = list(pool.map(one, starts))
-    rss, chi2, angle_c = min(fits, key=lambda f: problem.n_fit * np.log(f[0]) + f[1])
-    final_chi2 = final.prior_cost_deg2 / prior.weight_deg**2 if prior.weight_deg > 0.0 else 0.0
+        rss, angle_c = min(pool.map(one, starts))
+    # θc and K against the smooth torques' own parameters: one more against one, none against two
     gain = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), rss, problem.n_fit,
-                           2 - len(smooth)) + final_chi2 - chi2
+                           2 - len(smooth))
     if not gain > SIGNIFICANT_BIC:
         return None
     return Onset(angle_c, 1.0, True, float(np.mean(valid > angle_c)), gain, fitted=True)

@@ -80,7 +80,7 @@ def test_a_softening_spring_over_the_whole_range_is_still_named(tmp_path: Path) 
 def test_a_stiffening_as_steep_as_the_finger_itself_is_still_named_when_fitted_in_full(
         tmp_path: Path, monkeypatch) -> None:
     """The control for the onset fitted in full: an evident spring that is not exactly cubic
-    (a sinh stiffening) on a chirp, whose slope over the range passes half of k, so the
+    (the generator's power-law stiffening) on a chirp, whose slope over the range passes half of k, so the
     linearised test would not hold. The object fitted in full loses to the cubic spring,
     which is named."""
     from hand_service.diagnose import onset as onset_module

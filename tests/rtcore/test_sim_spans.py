@@ -108,18 +108,18 @@ def test_a_weak_friction_from_rest_over_a_span(friction_nm: float) -> None:
         assert np.max(np.abs(angle - fine)) <= 5e-4 * scale, substeps
 
 
-
 @pytest.mark.parametrize("friction_nm", [0.22, 1.0])
-@pytest.mark.parametrize(("rate_hz", "hold_samples"), [(0.25, 1), (100.0, 40)])
+@pytest.mark.parametrize(("rate_hz", "hold_samples", "tolerance"), [(0.25, 1, 1e-4), (100.0, 40, 1e-5)])
 def test_a_finger_held_by_friction_creeps_in_long_steps_that_keep_to_a_fine_one(
-        rate_hz: float, hold_samples: int, friction_nm: float) -> None:
+        rate_hz: float, hold_samples: int, tolerance: float, friction_nm: float) -> None:
     """While dry friction holds a finger, its steps follow the creep's time scale (a quarter
-    of the plant's with B + c0, far slower than the free finger's: csrc/rtcore_sim_plant.c),
-    no longer than a sample period inside a span. A stiff finger whose friction holds it
-    against part of each level's change (0.22 N·m) or most of it (1 N·m), under levels held
-    for up to `hold_samples` samples at 0.25 Hz (4 s each) and at 100 Hz, against steps of
-    at most 1 ms: within 1e-4 of the range (the whole of B + c0's bound: 2.3e-4 at 0.25 Hz;
-    a step of the free finger's bound: 8e-7)."""
+    of the plant with B + c0's bounds, far slower than the free finger's:
+    csrc/rtcore_sim_plant.c), no longer than a sample period inside a span. A stiff finger
+    whose friction holds it against part of each level's change (0.22 N·m) or most of it
+    (1 N·m), under levels held for up to `hold_samples` samples at 0.25 Hz (4 s each) and at
+    100 Hz, against steps of at most 1 ms. At 0.25 Hz within 1e-4 of the range (the whole of
+    B + c0's bound: 2.3e-4; the free finger's bound: 8e-7); at 100 Hz within 1e-5 (a step
+    over several periods of a span: 2.3e-5; now 1e-6)."""
     finger = SimFinger(dataclasses.replace(FAMILIES["stiff"], effects=Effects(coulomb_torque_nm=friction_nm)))
     rng = np.random.default_rng(3)
     runs = rng.integers(1, hold_samples + 1, size=60)
@@ -130,4 +130,23 @@ def test_a_finger_held_by_friction_creeps_in_long_steps_that_keep_to_a_fine_one(
     assert scale > 10.0
     for substeps in (0, 1):
         angle, _ = simulate(finger, command, rate_hz, substeps=substeps, **start)
-        assert np.max(np.abs(angle - fine)) <= 1e-4 * scale, substeps
+        assert np.max(np.abs(angle - fine)) <= tolerance * scale, substeps
+
+
+@pytest.mark.parametrize("effect", ["cubic_stiffness_nm_per_rad3"])
+def test_the_creeps_steps_move_continuously_as_a_state_dependent_effect_switches_on(effect: str) -> None:
+    """A cubic spring switched on at 1e-9 beside a friction that holds the finger moves the
+    angle by next to nothing: its slope joins the creep's bounds (found in review: the
+    creep's longer steps were off with it, and 1e-9 of a cubic moved a 0.25 Hz run by 6e-5
+    of its range). (Air drag is not continuous in this sense, before the creep's steps as
+    now: with both, friction and drag each get half of the slope allowance,
+    rtcore_sim_velocity_reach_rad_per_s.)"""
+    rate_hz = 0.25
+    finger = SimFinger(dataclasses.replace(FAMILIES["stiff"], effects=Effects(coulomb_torque_nm=1.0)))
+    on = dataclasses.replace(finger, prbm=dataclasses.replace(
+        finger.prbm, effects=dataclasses.replace(finger.prbm.effects, **{effect: 1e-9})))
+    command = np.repeat(np.random.default_rng(3).uniform(0.0, 60.0, size=12), 1)
+    start = {"angle0_deg": 0.0, "chamber0_kpa": float(command[0])}
+    plain, _ = simulate(finger, command, rate_hz, substeps=0, **start)
+    switched, _ = simulate(on, command, rate_hz, substeps=0, **start)
+    assert np.max(np.abs(switched - plain)) <= 1e-7 * float(np.ptp(plain))
