@@ -257,6 +257,12 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
         const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
                                      ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
                                      : 0.0;
+        /* the friction's and the drag's slopes here, integrated exactly over the step: the
+         * plant with B + slope0 */
+        const double slope0
+            = friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s);
+        sim_plant local;
+        with_damping(p, slope0, &local);
         double h = settle_range_rad > 0.0 && cap_s < request_cap_s
                        ? rtcore_sim_settled_step_s(p, s, cap_s, request_cap_s, settle_range_rad,
                                                    torque_start + g_start, fabs(torque_last - torque_start))
@@ -273,19 +279,13 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
              * inside a step that took c0 are a cubic between its ends (rtcore_sim_span_emit),
              * which a creep turning over several periods leaves (2e-5 of the range at
              * 100 Hz, against 1e-6) */
-            sim_plant held;
-            double creep_s;
-            with_damping(p, friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s),
-                         &held);
-            creep_s = rtcore_sim_parameter_step_s(&held);
+            double creep_s = rtcore_sim_parameter_step_s(&local);
             if (p->state_dependent) {
-                creep_s = fmin(creep_s, state_cap_s(&held, s, torque_start, torque_last, INFINITY, 0.0,
+                creep_s = fmin(creep_s, state_cap_s(&local, s, torque_start, torque_last, INFINITY, 0.0,
                                                     span != 0 && t_s > 0.0));
             }
             h = fmax(h, fmin(fmin(request_cap_s, span != 0 ? span->dt_s : INFINITY), CREEP_STEP_SHARE * creep_s));
         }
-        double slope0 = 0.0; /* the friction's slope here, integrated exactly over the step */
-        sim_plant local;
         double torque_mid = torque_start;
         double torque_end = torque_start;
         double chamber_end_kpa = chamber_now_kpa;
@@ -313,14 +313,10 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
                                                                               fmin(t_s + h, duration_s)))
                                                  - torque_start
                                            : 0.0;
-            slope0 = friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s);
-            with_damping(p, slope0, &local);
             h = fmin(h, rtcore_sim_damping_step_s(&local, s->velocity_rad_per_s,
                                                   rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0), net_nm,
                                                   drift_nm, h));
             g_start += slope0 * s->velocity_rad_per_s;
-        } else {
-            local = *p;
         }
         if (span != 0) {
             h = rtcore_sim_span_step_s(span, t_s, h);

@@ -143,33 +143,50 @@ def cost_tolerance(n_fit: int) -> float:
     return max(1e-7, NOISE_SHARE_TOLERANCE / max(n_fit, 1))
 
 
+def error_rows(problem: Problem, angle_deg: np.ndarray) -> np.ndarray:
+    """−misfit on the fitting samples, the rows an output-error fit takes: a finger driven
+    unstable (strong softening, say) is a very bad fit, not a crash."""
+    with np.errstate(invalid="ignore"):
+        error = -problem.misfit(angle_deg)[problem.fit_mask]
+    return np.where(np.isfinite(error), np.clip(error, -DIVERGED_DEG, DIVERGED_DEG), DIVERGED_DEG)
+
+
+@dataclass(frozen=True)
+class PriorRows:
+    """The prior on those of a fit's parameters it holds (`held`, their indices), as rows in
+    the residual's units: a log-normal about the nominal, w·ln(v/v0)/s."""
+
+    weight_deg: float
+    held: list[int]
+    centres: np.ndarray
+    widths: np.ndarray
+
+    @staticmethod
+    def of(prior: Prior, params: Sequence[Param]) -> PriorRows:
+        held = [i for i, p in enumerate(params) if p.label in prior.widths]
+        return PriorRows(prior.weight_deg, held, np.array([prior.centres[params[i].label] for i in held]),
+                         np.array([prior.widths[params[i].label] for i in held]))
+
+    def __call__(self, values: np.ndarray) -> np.ndarray:
+        """The rows at every parameter's (physical) `values`."""
+        return self.weight_deg * np.log(np.maximum(values[self.held], 1e-300) / self.centres) / self.widths
+
+
 def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base: SimFinger | None = None,
         max_nfev: int = 60) -> Fit:
     """Least squares over `params` from `start`, everything else held at `base`."""
     params = tuple(params)
     scales = np.array([p.scale for p in params])
     lower, upper = _scaled_bounds(params)
-    mask = problem.fit_mask
 
     def residual(x: np.ndarray) -> np.ndarray:
-        angle = problem.simulate(problem.finger(params, x * scales, base))
-        with np.errstate(invalid="ignore"):
-            error = -problem.misfit(angle)[mask]
-        # a finger driven unstable (strong softening, say) is a very bad fit, not a crash
-        return np.where(np.isfinite(error), np.clip(error, -DIVERGED_DEG, DIVERGED_DEG), DIVERGED_DEG)
+        return error_rows(problem, problem.simulate(problem.finger(params, x * scales, base)))
 
-    prior = problem.prior
-    held = [i for i, p in enumerate(params) if p.label in prior.widths]
-    centres = np.array([prior.centres[params[i].label] for i in held])
-    widths = np.array([prior.widths[params[i].label] for i in held])
-
-    def prior_rows(x: np.ndarray) -> np.ndarray:
-        """A log-normal prior about the nominal, in the residual's units: w·ln(v/v0)/s."""
-        values = np.maximum(x[held] * scales[held], 1e-300)
-        return prior.weight_deg * np.log(values / centres) / widths
+    prior_rows = PriorRows.of(problem.prior, params)
+    held = prior_rows.held
 
     def cost_rows(x: np.ndarray) -> np.ndarray:
-        return np.concatenate((residual(x), prior_rows(x))) if held else residual(x)
+        return np.concatenate((residual(x), prior_rows(x * scales))) if held else residual(x)
 
     x0 = _into_bounds(np.asarray(start, dtype=float) / scales, lower, upper)
     result = least_squares(cost_rows, x0, bounds=(lower, upper), method="trf", x_scale="jac",
@@ -184,7 +201,7 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
     prior_cost = 0.0
     if held:
         information = np.zeros(len(params))
-        information[held] = (prior.weight_deg / (widths * values[held])) ** 2
+        information[held] = (prior_rows.weight_deg / (prior_rows.widths * values[held])) ** 2
         prior_cost = float(result.fun[n:] @ result.fun[n:])
     # the solver returns a point it evaluated: its angle comes from the problem's cache
     return Fit(params, values, finger, problem.simulate(finger), float(data @ data), result.jac[:n] / scales,

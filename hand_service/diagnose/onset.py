@@ -38,9 +38,10 @@ from hand_service.config import effects as fx
 from hand_service.diagnose import noise, stats
 from hand_service.diagnose.fit import (
     COLUMN_WORKERS,
-    DIVERGED_DEG,
     Fit,
+    PriorRows,
     cost_tolerance,
+    error_rows,
     nominal_prior,
     parallel_columns,
     sensitivity,
@@ -260,9 +261,7 @@ def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | Non
     span_deg = max(high_deg - low_deg, 1e-9)
     prior = problem.prior if problem.prior.widths or final.prior_information is None else \
         nominal_prior(problem, plain, final.sigma_deg)
-    held = [i for i, p in enumerate(plain) if p.label in prior.widths]
-    centres = np.array([prior.centres[plain[i].label] for i in held])
-    widths = np.array([prior.widths[plain[i].label] for i in held])
+    prior_rows = PriorRows.of(prior, plain)
     n_plain = len(plain)
 
     def one(angle0_deg: float) -> tuple[float, float]:
@@ -273,13 +272,8 @@ def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | Non
                                  angle0_deg + x[n_plain] * span_deg, x[n_plain + 1] * k)
 
         def rows(x: np.ndarray) -> np.ndarray:
-            with np.errstate(invalid="ignore"):
-                error = -problem.misfit(problem.simulate(finger(x)))[mask]
-            error = np.where(np.isfinite(error), np.clip(error, -DIVERGED_DEG, DIVERGED_DEG), DIVERGED_DEG)
-            if not held:
-                return error
-            values = np.maximum(x[held] * start[held], 1e-300)
-            return np.concatenate((error, prior.weight_deg * np.log(values / centres) / widths))
+            error = error_rows(problem, problem.simulate(finger(x)))
+            return np.concatenate((error, prior_rows(x[:n_plain] * start))) if prior_rows.held else error
 
         x0 = np.concatenate((np.ones(n_plain), [0.0, 1.0]))
         lower = np.concatenate((np.full(n_plain, 0.05), [(low_deg - angle0_deg) / span_deg, 1e-4]))
