@@ -71,6 +71,11 @@ static int32_t validate_sim_finger(const rtcore_sim_finger *f)
         && f->contact_damping_ns_per_m >= 0.0)) {
         return RTCORE_ERR_MODEL;
     }
+    if (!(isfinite(f->hysteresis_torque_nm) && f->hysteresis_torque_nm >= 0.0)
+        || (f->hysteresis_torque_nm > 0.0
+            && !(isfinite(f->hysteresis_travel_deg) && f->hysteresis_travel_deg > 0.0))) {
+        return RTCORE_ERR_MODEL;
+    }
     /* a lever arm of 0 is a free finger with no force point: it can meet no object */
     if ((f->contact_stiffness_n_per_m > 0.0 || f->contact_damping_ns_per_m > 0.0)
         && !(m->lever_arm_m > 0.0)) {
@@ -106,6 +111,7 @@ static void place(rtcore_sim_finger_state *s, double angle_rad, double velocity_
     s->angle_rad = angle_rad;
     s->velocity_rad_per_s = velocity_rad_per_s;
     s->chamber_kpa = chamber_kpa;
+    s->hysteresis_z = 0.0;
     rtcore_pneumatic_reset(&s->pneumatic, chamber_kpa);
     for (k = 0; k < RTCORE_SIM_HISTORY; ++k) {
         s->command_kpa[k] = chamber_kpa;

@@ -8,8 +8,9 @@
  * those terms and the valve lag need (csrc/rtcore_sim_step_size.c); the plain linear finger takes
  * one step per sample at any stiffness. The valve is a first-order lag behind a dead time,
  * integrated exactly (the dead time's breakpoints split the period), or, for a finger whose
- * pneumatic.valve_model asks for it, the valve board's pneumatics (rtcore_pneumatic.h); an optional object is
- * a spring-damper at the force point; the flex sensor reads the angle through the inverse
+ * pneumatic.valve_model asks for it, the valve board's pneumatics (rtcore_pneumatic.h); an
+ * optional object is a spring-damper at the force point, an optional hysteresis a Dahl
+ * loop in the angle; the flex sensor reads the angle through the inverse
  * calibration with noise and ADC quantisation.
  *
  * The block between the CDEF markers is read verbatim by rtcore/_build.py (with the
@@ -41,6 +42,11 @@ typedef struct {
     double contact_angle_deg;
     double contact_stiffness_n_per_m;
     double contact_damping_ns_per_m;
+    /* a rate-independent loop (hysteresis in the material; outside the controller's model):
+     * the torque -hysteresis_torque_nm*z, z in [-1, 1] turning toward the direction of
+     * travel, e-fold every hysteresis_travel_deg moved (Dahl's form); torque 0 means none */
+    double hysteresis_torque_nm;
+    double hysteresis_travel_deg;
     /* the sensor: mv = (angle_deg + noise - offset) / gain, quantised to adc_step_mv */
     double sensor_gain_deg_per_mv;
     double sensor_offset_deg;
@@ -64,6 +70,7 @@ typedef struct {
     double velocity_rad_per_s;
     double chamber_kpa;
     double contact_force_n;
+    double hysteresis_z; /* the loop's state, in [-1, 1] */
     /* commands of the last samples, newest at head, for the dead time */
     double command_kpa[RTCORE_SIM_HISTORY];
     int32_t head;

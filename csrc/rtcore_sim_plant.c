@@ -42,16 +42,33 @@ double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, 
     return touches(f, angle_rad) ? touching_force_n(f, angle_rad, velocity_rad_per_s) : 0.0;
 }
 
+/* The loop's z at angle_rad, from `from` (the state at a step's start) moving one way:
+ * Dahl's dz/dθ = (sign(dθ) − z)/d solved over the travel, so a step that does not turn
+ * integrates it exactly (a turn inside a step is resolved by the step's bound on the loop's
+ * slope, rtcore_sim_plant_for). */
+static double loop_z(const rtcore_sim_finger *f, const rtcore_sim_finger_state *from, double angle_rad)
+{
+    const double travel_rad = angle_rad - from->angle_rad;
+    const double toward = travel_rad > 0.0 ? 1.0 : -1.0;
+    if (travel_rad == 0.0) {
+        return from->hysteresis_z;
+    }
+    return toward + (from->hysteresis_z - toward) * exp(-fabs(travel_rad) / (f->hysteresis_travel_deg * RTCORE_RAD_PER_DEG));
+}
+
 /* g(θ, θ'): the torque beyond N·p_eff − k·θ − B·θ', with the object touching or not as a
  * step has it (the damper makes the force jump as the finger reaches the surface, so a
- * step that reaches it ends there and the next one starts touching). rtcore_model_torque_nm
- * (shared with the controller) includes the plain k·θ, which the linear part takes. */
-static double nonlinear_torque_nm(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s,
-                                  int32_t touching)
+ * step that reaches it ends there and the next one starts touching), and the loop's as it
+ * has moved from `from`, the state at the step's start. rtcore_model_torque_nm (shared
+ * with the controller) includes the plain k·θ, which the linear part takes. */
+static double nonlinear_torque_nm(const rtcore_sim_finger *f, const rtcore_sim_finger_state *from, double angle_rad,
+                                  double velocity_rad_per_s, int32_t touching)
 {
     const rtcore_prbm *m = &f->prbm;
-    const double torque_nm = m->stiffness_nm_per_rad * angle_rad
-                             - rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);
+    double torque_nm = m->stiffness_nm_per_rad * angle_rad - rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);
+    if (f->hysteresis_torque_nm > 0.0) {
+        torque_nm -= f->hysteresis_torque_nm * loop_z(f, from, angle_rad);
+    }
     return touching ? torque_nm - m->lever_arm_m * touching_force_n(f, angle_rad, velocity_rad_per_s) : torque_nm;
 }
 
@@ -71,12 +88,15 @@ void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p)
     rtcore_exact_plant_init(&p->linear, m->inertia_kgm2, m->damping_nms_per_rad, m->stiffness_nm_per_rad);
     p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0;
     p->nonlinear = p->state_dependent || contact || e->coulomb_torque_nm > 0.0 || e->gravity_torque_nm != 0.0
-                   || e->asymmetric_stiffness_ratio != 1.0;
+                   || e->asymmetric_stiffness_ratio != 1.0 || f->hysteresis_torque_nm > 0.0;
     p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0;
     p->damping_slope_nms_per_rad = contact ? f->contact_damping_ns_per_m * r2 : 0.0;
     p->stiffness_slope_nm_per_rad = fabs(e->asymmetric_stiffness_ratio - 1.0) * m->stiffness_nm_per_rad
                                     + fabs(e->gravity_torque_nm)
-                                    + (contact ? f->contact_stiffness_n_per_m * r2 : 0.0);
+                                    + (contact ? f->contact_stiffness_n_per_m * r2 : 0.0)
+                                    + (f->hysteresis_torque_nm > 0.0
+                                           ? f->hysteresis_torque_nm / (f->hysteresis_travel_deg * RTCORE_RAD_PER_DEG)
+                                           : 0.0); /* the loop's steepest, just after a turn */
 }
 
 /* The same plant with the damping B + extra: the linear part a step integrates exactly. */
@@ -96,9 +116,9 @@ static void with_damping(const sim_plant *base, double extra_nms_per_rad, sim_pl
  * Matthews 2002): stages a and b from x and c from a over h/2, each with the total torque
  * held (at x, at a, and 2·(at b) − (at x)), then the exact response to the quadratic
  * through the torque at x, the mean of those at a and b, and at c. */
-static void step(const sim_plant *p, rtcore_propagator_cache *cache, double *angle_rad, double *velocity_rad_per_s,
-                 double h, double p_start, double p_mid, double p_end, double g_start, int32_t touching,
-                 double linearized_nms_per_rad, double torque_nm[3])
+static void step(const sim_plant *p, const rtcore_sim_finger_state *from, rtcore_propagator_cache *cache,
+                 double *angle_rad, double *velocity_rad_per_s, double h, double p_start, double p_mid, double p_end,
+                 double g_start, int32_t touching, double linearized_nms_per_rad, double torque_nm[3])
 {
     const rtcore_sim_finger *f = p->finger;
     const int32_t slot = rtcore_exact_propagators(&p->linear, cache, h, p->nonlinear);
@@ -123,11 +143,11 @@ static void step(const sim_plant *p, rtcore_propagator_cache *cache, double *ang
     }
     n_x = p_start + g_start;
     rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_x, &th_a, &w_a);
-    n_a = p_mid + nonlinear_torque_nm(f, th_a, w_a, touching) + linearized_nms_per_rad * w_a;
+    n_a = p_mid + nonlinear_torque_nm(f, from, th_a, w_a, touching) + linearized_nms_per_rad * w_a;
     rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_a, &th_b, &w_b);
-    n_b = p_mid + nonlinear_torque_nm(f, th_b, w_b, touching) + linearized_nms_per_rad * w_b;
+    n_b = p_mid + nonlinear_torque_nm(f, from, th_b, w_b, touching) + linearized_nms_per_rad * w_b;
     rtcore_exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
-    n_c = p_end + nonlinear_torque_nm(f, th_c, w_c, touching) + linearized_nms_per_rad * w_c;
+    n_c = p_end + nonlinear_torque_nm(f, from, th_c, w_c, touching) + linearized_nms_per_rad * w_c;
     torque_nm[0] = n_x;
     torque_nm[1] = 0.5 * (n_a + n_b);
     torque_nm[2] = n_c;
@@ -180,7 +200,7 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_finger_state *s, 
                           double torque_last_nm, double step_cap_s, double floor_s, int32_t en_route)
 {
     const rtcore_sim_finger *f = p->finger;
-    const double g_nm = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
+    const double g_nm = nonlinear_torque_nm(f, s, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
     const double spring_nm = p->linear.stiffness_nm_per_rad * s->angle_rad;
     const double linear_nm = spring_nm + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
     double accel_nm = fmax(fabs(torque_now_nm + g_nm - linear_nm), fabs(torque_last_nm + g_nm - linear_nm));
@@ -253,7 +273,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
              * sample would take it at each sample */
             cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
         }
-        double g_start = p->nonlinear ? nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
+        double g_start = p->nonlinear ? nonlinear_torque_nm(f, s, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
         const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
                                      ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
                                      : 0.0;
@@ -339,7 +359,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
                 }
                 torque_end = last ? torque_last : pressure_torque_nm(f, chamber_end_kpa);
             }
-            step(&local, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
+            step(&local, s, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
                  touching, slope0, torque_nm);
             if (p->kinks && !cut) {
                 fraction = before_kink(p, touching, s->angle_rad, s->velocity_rad_per_s, angle_rad,
@@ -355,13 +375,16 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             if (fraction < 1.0 && surface && !flipped) {
                 touching = !touching; /* the surface is where the step starts: take it past */
                 flipped = 1;
-                g_start = nonlinear_torque_nm(f, s->angle_rad, s->velocity_rad_per_s, touching)
+                g_start = nonlinear_torque_nm(f, s, s->angle_rad, s->velocity_rad_per_s, touching)
                           + slope0 * s->velocity_rad_per_s;
                 continue;
             }
             if (span != 0) {
                 rtcore_sim_span_emit(span, &local.linear, t_s, h, s->angle_rad, s->velocity_rad_per_s, torque_nm,
                                      angle_rad, velocity_rad_per_s);
+            }
+            if (f->hysteresis_torque_nm > 0.0) {
+                s->hysteresis_z = loop_z(f, s, angle_rad);
             }
             s->angle_rad = angle_rad;
             s->velocity_rad_per_s = velocity_rad_per_s;

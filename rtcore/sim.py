@@ -33,6 +33,10 @@ class SimFinger(HasPrbm):
     contact_angle_deg: float = 0.0
     contact_stiffness_n_per_m: float = 0.0
     contact_damping_ns_per_m: float = 0.0
+    # a loop in the angle (hysteresis in the material): −torque·z, z turning toward the
+    # direction of travel within about travel_deg (Dahl's form); 0 means none
+    hysteresis_torque_nm: float = 0.0
+    hysteresis_travel_deg: float = 0.0
     sensor_gain_deg_per_mv: float = 1.0
     sensor_offset_deg: float = 0.0
     sensor_noise_deg: float = 0.0

@@ -178,6 +178,39 @@ static void check_sliver_of_a_segment(void)
     }
 }
 
+/* The loop in the angle: after a long travel up, z has turned over to +1, so a finger held
+ * at p rests at (N·p − T)/k, below the plain finger's N·p/k; after travelling back down far
+ * enough, at (N·p + T)/k above it. Steps per sample and spans alike. A loop without a travel
+ * is refused. */
+static void check_hysteresis_loop(void)
+{
+    enum { N = 600 };
+    static double command[N];
+    static double angle[N];
+    rtcore_sim_finger f = plain_finger(1e-5, 0.05, 0.5); /* over-damped: rests within 0.1 s */
+    const double torque_nm = 0.05;
+    int32_t substeps;
+    int i;
+    f.hysteresis_torque_nm = torque_nm;
+    f.hysteresis_travel_deg = 2.0;
+    for (i = 0; i < N; ++i) { /* up to 80 kPa over 2 s, held 1 s; from 160 kPa down to 80, held */
+        command[i] = i < 300 ? fmin(80.0, 0.4 * (double)i) : fmax(80.0, 160.0 - 0.4 * (double)(i - 300));
+    }
+    command[300] = 160.0;
+    for (substeps = 0; substeps <= 1; ++substeps) {
+        const double up_deg = (0.01 * 80.0 - torque_nm) / 0.5 * 180.0 / 3.141592653589793;
+        const double down_deg = (0.01 * 80.0 + torque_nm) / 0.5 * 180.0 / 3.141592653589793;
+        CHECK(rtcore_sim_run(&f, 100.0, substeps, N, command, 0.0, 0.0, 0.0, angle, 0) == RTCORE_OK, "runs");
+        CHECK(fabs(angle[299] - up_deg) < 1e-3, "substeps %d: rests at %.6f deg after the way up, not %.6f",
+              (int)substeps, angle[299], up_deg);
+        CHECK(fabs(angle[N - 1] - down_deg) < 1e-3, "substeps %d: rests at %.6f deg after the way down, not %.6f",
+              (int)substeps, angle[N - 1], down_deg);
+    }
+    f.hysteresis_travel_deg = 0.0;
+    CHECK(rtcore_sim_run(&f, 100.0, 0, N, command, 0.0, 0.0, 0.0, angle, 0) == RTCORE_ERR_MODEL,
+          "a loop without a travel is refused");
+}
+
 void run_sim_tests(void)
 {
     const double a = 1.6e-4;
@@ -194,4 +227,5 @@ void run_sim_tests(void)
     check_divergence_ends();
     check_sliver_of_a_segment();
     check_spans();
+    check_hysteresis_loop();
 }

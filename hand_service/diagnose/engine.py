@@ -30,8 +30,7 @@ from hand_service.diagnose.fit import (
     relative_std,
     unpinned,
 )
-from hand_service.diagnose.loop import Loop, loop_check
-from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
+from hand_service.diagnose.outside import Outside, outside_checks
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
 from hand_service.diagnose.search import (
     SIGNIFICANT_BIC,
@@ -73,8 +72,7 @@ class Diagnosis:
     partial_effects: list[FoundEffect] = field(default_factory=list)  # significant, yet not explaining
     explained_share: float = 0.0  # of the refitted model's mismatch, by the effects found
     structure_left: str = ""  # what says the final model still misses something ('' if nothing)
-    onset: Onset | None = None  # a torque that switches on at an angle (onset.py), when found
-    loop: Loop | None = None  # a lag that does not grow with the rate (loop.py), when found
+    outside: Outside = field(default_factory=Outside)  # physics outside the library a name stood for
 
     @property
     def grade(self) -> str | None:
@@ -128,8 +126,7 @@ class Diagnosis:
             "grade": self.grade,
             "explained_share": self.explained_share,
             "structure_left": self.structure_left,
-            "onset": None if self.onset is None else self.onset.to_json(),
-            "loop": None if self.loop is None else self.loop.to_json(),
+            **self.outside.to_json(),
             "notes": self.notes,
             "seconds": self.seconds,
         }
@@ -326,15 +323,11 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append("so no effect is named: the mismatch lies outside the library "
                             "(see partial_effects)")
             verdict, notes = "unexplained", []
-    # a cubic spring or gravity standing in for a contact or an end stop (onset); a valve lag
-    # or a dead time standing in for a loop that does not grow with the rate (hysteresis, backlash)
+    # a named effect standing in for physics outside the library (outside.py)
     names = [e.name for e in found]
-    onset = onset_check(problem, final, names) if verdict in NAMING and found else None
-    loop = loop_check(problem, final, names) if verdict in NAMING and found else None
-    outside = [said for said in (onset and onset.sentence([n for n in names if n in SMOOTH_STATIC]),
-                                 loop and loop.sentence()) if said]
-    if outside:
-        warnings.extend(outside)
+    outside = outside_checks(problem, final, names) if verdict in NAMING and found else Outside()
+    if said := outside.sentences(names):
+        warnings.extend(said)
         if verdict == "missing_physics":
             warnings.append("so no effect is named (see partial_effects)")
             verdict, notes = "unexplained", []
@@ -357,7 +350,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained,
                      structure_left(final_white, final_cross) if found or partial else
-                     structure_left(refit_white, refit_cross), onset, loop)
+                     structure_left(refit_white, refit_cross), outside)
 
 
 EVEN_ODD = {"gravity", "cubic_stiffness"}  # a torque even in θ (1 − cos θ), one odd (θ³)

@@ -32,21 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg, signal
-from scipy.optimize import least_squares
 
 from hand_service.config import effects as fx
 from hand_service.diagnose import noise, stats
-from hand_service.diagnose.fit import (
-    COLUMN_WORKERS,
-    Fit,
-    PriorRows,
-    cost_tolerance,
-    error_rows,
-    nominal_prior,
-    parallel_columns,
-    sensitivity,
-)
+from hand_service.diagnose.fit import COLUMN_WORKERS, Fit, sensitivity
 from hand_service.diagnose.problem import Problem
+from hand_service.diagnose.rival import fit_rival
 from rtcore.sim import SimFinger
 
 SIGNIFICANT_BIC = 10.0
@@ -251,38 +242,19 @@ def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | Non
     the data's alone: the prior decides nothing here. The best object when it wins by
     more than SIGNIFICANT_BIC, else None."""
     mask = problem.fit_mask
-    plain = [p for p in final.params if not p.is_effect]
-    replaced = [p for p in final.params if p.label in smooth]
-    without = problem.finger(replaced, [fx.BY_NAME[p.label].neutral for p in replaced], final.finger)
-    start = problem.values(plain, final.finger)
     k = final.value("stiffness_nm_per_rad")
     valid = final.angle_deg[mask]  # the simulator's frame, θc's (the sensor's offset and drift out)
     low_deg, high_deg = (float(q) for q in np.quantile(valid, (0.005, 0.995)))
     span_deg = max(high_deg - low_deg, 1e-9)
-    prior = problem.prior if problem.prior.widths or final.prior_information is None else \
-        nominal_prior(problem, plain, final.sigma_deg)
-    prior_rows = PriorRows.of(prior, plain)
-    n_plain = len(plain)
 
     def one(angle0_deg: float) -> tuple[float, float]:
-        """(innovations' RSS, θc) of the object fitted from θc = angle0_deg: x holds k, B, N
-        over their start, θc's move over the angle's range, K over k."""
-        def finger(x: np.ndarray) -> SimFinger:
-            return object_finger(problem.finger(plain, x[:n_plain] * start, without),
-                                 angle0_deg + x[n_plain] * span_deg, x[n_plain + 1] * k)
-
-        def rows(x: np.ndarray) -> np.ndarray:
-            error = error_rows(problem, problem.simulate(finger(x)))
-            return np.concatenate((error, prior_rows(x[:n_plain] * start))) if prior_rows.held else error
-
-        x0 = np.concatenate((np.ones(n_plain), [0.0, 1.0]))
-        lower = np.concatenate((np.full(n_plain, 0.05), [(low_deg - angle0_deg) / span_deg, 1e-4]))
-        upper = np.concatenate((np.full(n_plain, 20.0), [(high_deg - angle0_deg) / span_deg, 1e3]))
-        result = least_squares(rows, x0, bounds=(lower, upper), method="trf", x_scale="jac", diff_step=1e-6,
-                               max_nfev=60, ftol=cost_tolerance(problem.n_fit), xtol=1e-7, gtol=1e-8,
-                               **parallel_columns())
-        angle = problem.simulate(finger(result.x))
-        return problem.fit_rss(problem.innovations(angle)), angle0_deg + result.x[n_plain] * span_deg
+        """(innovations' RSS, θc) of the object fitted from θc = angle0_deg: θc's move over
+        the angle's range, K over k."""
+        lower = np.array([(low_deg - angle0_deg) / span_deg, 1e-4])
+        upper = np.array([(high_deg - angle0_deg) / span_deg, 1e3])
+        rss, (shift, _) = fit_rival(problem, final, smooth, np.array([0.0, 1.0]), lower, upper,
+                                    lambda f, x: object_finger(f, angle0_deg + x[0] * span_deg, x[1] * k))
+        return rss, angle0_deg + float(shift) * span_deg
 
     starts = [float(np.quantile(valid, q)) for q in FITTED_QUANTILES]
     with ThreadPoolExecutor(max_workers=min(COLUMN_WORKERS, len(starts))) as pool:  # each start its own fit

@@ -40,3 +40,18 @@ def test_a_stiff_object_met_past_45_degrees_is_located_not_named_gravity(tmp_pat
     assert onset is not None and onset["compared"] == "fitted" and onset["side"] == "above"
     assert abs(onset["angle_deg"] - 45.0) < 2.0
     assert any("switches on above" in w for w in result["warnings"])
+
+
+def test_a_loop_in_the_angle_is_hysteresis_not_dry_friction(tmp_path: Path) -> None:
+    """A Bouc–Wen loop (±0.1 N·m, turning over within about 2.9° of travel) on a slow ramp:
+    dry friction was named for it. The loop fitted in full in its place wins, and its travel
+    is a loop's, not a friction's: outside the library, with the travel and the torque."""
+    out = tmp_path / "diagnose.json"
+    assert main(["diagnose", str(OUTSIDE / "boucwen_ramp.csv"), "--model", str(OUTSIDE / "boucwen_ramp.yaml"),
+                 "--json", str(out), "--quiet"]) == 0
+    result = json.loads(out.read_text())
+    assert result["verdict"] == "unexplained" and result["effects"] == [], result["verdict"]
+    loop = result["hysteresis"]
+    assert loop is not None and loop["delta_bic"] > 10.0 and loop["memory_delta_bic"] > 10.0, loop
+    assert 1.5 < loop["travel_deg"] < 6.0 and abs(loop["torque_nm"] / 0.1 - 1.0) < 0.3, loop
+    assert any("hysteresis is outside the library" in w for w in result["warnings"])

@@ -1,0 +1,39 @@
+"""The checks that a named effect is not standing in for physics outside the library: a
+cubic spring or gravity for a contact or an end stop (onset.py), a valve lag or a dead
+time for a loop that does not grow with the rate (loop.py), dry friction for a loop in the
+angle, hysteresis in the material (hysteresis.py). Each is run on the final model when it
+names its effect; any that wins turns the answer into "outside the library"."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from hand_service.diagnose.fit import Fit
+from hand_service.diagnose.hysteresis import Hysteresis, hysteresis_check
+from hand_service.diagnose.loop import Loop, loop_check
+from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
+from hand_service.diagnose.problem import Problem
+
+
+@dataclass(frozen=True)
+class Outside:
+    onset: Onset | None = None  # a torque that switches on at an angle
+    loop: Loop | None = None  # a lag that does not grow with the rate
+    hysteresis: Hysteresis | None = None  # a loop in the angle, in dry friction's place
+
+    def sentences(self, names: list[str]) -> list[str]:
+        """What each check that won says, for the warnings."""
+        said = [self.onset and self.onset.sentence([n for n in names if n in SMOOTH_STATIC]),
+                self.loop and self.loop.sentence(), self.hysteresis and self.hysteresis.sentence()]
+        return [s for s in said if s]
+
+    def to_json(self) -> dict:
+        return {"onset": None if self.onset is None else self.onset.to_json(),
+                "loop": None if self.loop is None else self.loop.to_json(),
+                "hysteresis": None if self.hysteresis is None else self.hysteresis.to_json()}
+
+
+def outside_checks(problem: Problem, final: Fit, names: list[str]) -> Outside:
+    """Every check whose effect `names` holds, on the final model."""
+    return Outside(onset_check(problem, final, names), loop_check(problem, final, names),
+                   hysteresis_check(problem, final, names))

@@ -1,0 +1,62 @@
+"""A rival to a named effect, fitted in full: the final model with that effect taken out and
+the rival's own physics put in (the simulator's: an object past an angle, a loop in the
+angle), its other found effects held as fitted, k, B, N and the rival's parameters refitted
+by output error. onset.py and hysteresis.py compare such a rival with the named model on
+the innovations."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from hand_service.config import effects as fx
+from hand_service.diagnose.fit import (
+    Fit,
+    PriorRows,
+    cost_tolerance,
+    error_rows,
+    nominal_prior,
+    parallel_columns,
+)
+from hand_service.diagnose.problem import Problem
+from rtcore.sim import SimFinger
+
+PLAIN_BOUNDS = (0.05, 20.0)  # k, B and N, as factors of their fitted values
+
+
+Build = Callable[[SimFinger, np.ndarray], SimFinger]
+
+
+def fit_rival(problem: Problem, final: Fit, replaced: list[str], extra0: np.ndarray, lower: np.ndarray,
+              upper: np.ndarray, build: Build) -> tuple[float, np.ndarray]:
+    """`final` with the effects `replaced` at neutral, and `build(finger, extra)` adding the
+    rival's physics for its parameters `extra` (from extra0, within lower and upper). k, B
+    and N are held by the same prior as `final` was (the engine's, or the nominal's where
+    the effect's fit needed it), so a comparison's gain is the data's alone. Returns the
+    innovations' RSS on the fitting samples and the fitted `extra`."""
+    plain = [p for p in final.params if not p.is_effect]
+    params = [p for p in final.params if p.label in replaced]
+    without = problem.finger(params, [fx.BY_NAME[p.label].neutral for p in params], final.finger)
+    start = problem.values(plain, final.finger)
+    prior = problem.prior if problem.prior.widths or final.prior_information is None else \
+        nominal_prior(problem, plain, final.sigma_deg)
+    prior_rows = PriorRows.of(prior, plain)
+    n_plain = len(plain)
+
+    def finger(x: np.ndarray) -> SimFinger:
+        return build(problem.finger(plain, x[:n_plain] * start, without), x[n_plain:])
+
+    def rows(x: np.ndarray) -> np.ndarray:
+        error = error_rows(problem, problem.simulate(finger(x)))
+        return np.concatenate((error, prior_rows(x[:n_plain] * start))) if prior_rows.held else error
+
+    x0 = np.concatenate((np.ones(n_plain), extra0))
+    low = np.concatenate((np.full(n_plain, PLAIN_BOUNDS[0]), lower))
+    high = np.concatenate((np.full(n_plain, PLAIN_BOUNDS[1]), upper))
+    result = least_squares(rows, x0, bounds=(low, high), method="trf", x_scale="jac", diff_step=1e-6,
+                           max_nfev=60, ftol=cost_tolerance(problem.n_fit), xtol=1e-7, gtol=1e-8,
+                           **parallel_columns())
+    angle = problem.simulate(finger(result.x))
+    return problem.fit_rss(problem.innovations(angle)), result.x[n_plain:]
