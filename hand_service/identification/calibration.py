@@ -31,6 +31,7 @@ from rtcore.sim import SimFinger, simulate
 
 MIN_SPAN_KPA = 10.0
 MIN_PAIRS = 3
+MIN_REPORTED_SHARE = 0.5  # of the samples: the board may leave pressure_meas_kpa out (NaN) now and then
 
 
 @dataclass
@@ -64,19 +65,26 @@ def static_torque_nm(model: FingerModel, angle_rad: np.ndarray) -> np.ndarray:
     return np.array([model_torque(prbm, float(a), 0.0) for a in angle_rad])
 
 
-def _pressure(recording: Recording, which: str) -> tuple[str, np.ndarray]:
-    measured = recording.optional("pressure_meas_kpa")
-    if which == "measured" or (which == "auto" and measured is not None):
-        if measured is None:
-            raise UserError(f"{recording.path}: no usable pressure_meas_kpa column "
-                            "(asked for --pressure measured)")
-        return "pressure_meas_kpa", measured
-    return "pressure_kpa", recording.pressure_kpa
+def _pressure(recording: Recording, which: str) -> tuple[str, np.ndarray, np.ndarray]:
+    """The pressure column the fit uses, its gaps (NaN where the board did not report it,
+    docs/formats.md) filled by interpolation, and which samples it reported. `auto` takes
+    the measured pressure when the board reported at least MIN_REPORTED_SHARE of it."""
+    measured = recording.columns.get("pressure_meas_kpa")
+    reported = np.isfinite(measured) if measured is not None else np.zeros(len(recording), dtype=bool)
+    share = float(reported.mean())
+    if which == "measured" or (which == "auto" and share >= MIN_REPORTED_SHARE):
+        if measured is None or share < MIN_REPORTED_SHARE:
+            raise UserError(f"{recording.path}: the board reported pressure_meas_kpa in {share:.0%} of the "
+                            f"samples (asked for --pressure measured; at least {MIN_REPORTED_SHARE:.0%} "
+                            "is needed)")
+        filled = np.interp(recording.t_s, recording.t_s[reported], measured[reported])
+        return "pressure_meas_kpa", filled, reported
+    return "pressure_kpa", recording.pressure_kpa, np.ones(len(recording), dtype=bool)
 
 
 def fit_pressure_gain(recording: Recording, model: FingerModel, pressure: str = "auto") -> GainFit:
     """N from a slow sweep: τ(θ) = N·p_eff + N_lag·ṗ_eff + τ₀ by least squares."""
-    column, p = _pressure(recording, pressure)
+    column, p, reported = _pressure(recording, pressure)
     config_effects = fx.to_rtcore(model.effects)
     p_eff = np.array([effective_pressure(config_effects, float(v)) for v in p])
     if float(np.ptp(p_eff)) < MIN_SPAN_KPA:
@@ -85,21 +93,24 @@ def fit_pressure_gain(recording: Recording, model: FingerModel, pressure: str = 
     dt = 1.0 / recording.sample_rate_hz
     window = max(5, int(0.25 * recording.sample_rate_hz) | 1)
     p_rate = signal.savgol_filter(p_eff, window, 2, deriv=1, delta=dt)
+    # fitted where the pressure and its rate are the board's own: no gap within the window
+    used = np.convolve(~reported, np.ones(window), mode="same") == 0
     torque = static_torque_nm(model, np.radians(recording.angle_deg))
     design = np.column_stack([p_eff, p_rate, np.ones_like(p_eff)])
-    coefficients, *_ = np.linalg.lstsq(design, torque, rcond=None)
+    coefficients, *_ = np.linalg.lstsq(design[used], torque[used], rcond=None)
     residual = torque - design @ coefficients
-    dof = max(1, torque.size - 3)
-    covariance = np.linalg.inv(design.T @ design) * float(residual @ residual) / dof
+    fitted = residual[used]
+    dof = max(1, fitted.size - 3)
+    covariance = np.linalg.inv(design[used].T @ design[used]) * float(fitted @ fitted) / dof
     gain = float(coefficients[0])
     if gain <= 0:
         raise UserError(f"{recording.path}: the angle does not grow with the pressure "
                         f"(fitted N = {gain:.3g}); is this a pressure sweep of this finger?")
     k = float(model.stiffness_nm_per_rad)  # type: ignore[arg-type]
-    total = float(np.sum((torque - torque.mean()) ** 2))
+    total = float(np.sum((torque[used] - torque[used].mean()) ** 2))
     return GainFit(gain, math.sqrt(covariance[0, 0]), float(coefficients[2]), -float(coefficients[1]) / gain,
-                   1.0 - float(residual @ residual) / total if total > 0 else 0.0,
-                   math.degrees(math.sqrt(float(np.mean(residual**2))) / k), k, column, p_eff, torque,
+                   1.0 - float(fitted @ fitted) / total if total > 0 else 0.0,
+                   math.degrees(math.sqrt(float(np.mean(fitted**2))) / k), k, column, p_eff, torque,
                    residual / k)
 
 
@@ -208,16 +219,20 @@ def step_samples(command_kpa: np.ndarray, steps: str) -> np.ndarray:
 def fit_valve(recording: Recording, steps: str = "all") -> ValveFit:
     """The first-order lag and dead time whose response to the recorded commands best
     matches the measured chamber pressure, judged after the `steps` (VALVE_STEPS) only."""
-    measured = recording.optional("pressure_meas_kpa")
+    measured = recording.columns.get("pressure_meas_kpa")
     if measured is None:
         raise UserError(f"{recording.path}: the valve fit needs the measured chamber pressure "
                         "(column pressure_meas_kpa)")
+    reported = np.isfinite(measured)  # NaN where the board did not report it (docs/formats.md)
+    if reported.mean() < MIN_REPORTED_SHARE:
+        raise UserError(f"{recording.path}: the board reported pressure_meas_kpa in {reported.mean():.0%} of "
+                        f"the samples; the valve fit needs at least {MIN_REPORTED_SHARE:.0%}")
     command = recording.pressure_kpa
     if float(np.ptp(command)) < MIN_SPAN_KPA:
         raise UserError(f"{recording.path}: the commands span only {np.ptp(command):.3g} kPa; step the "
                         f"valve by at least {MIN_SPAN_KPA:g} kPa")
     dt = 1.0 / recording.sample_rate_hz
-    judged = step_samples(command, steps)
+    judged = step_samples(command, steps) & reported
     if not judged.any():
         raise UserError(f"{recording.path}: the commands have no {steps} step")
 
