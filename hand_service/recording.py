@@ -33,6 +33,12 @@ log = logging.getLogger(__name__)
 
 REQUIRED = ("t", "pressure_kpa", "angle_deg")
 MIN_DURATION_S = 1.0
+# Bounds past any reading of the quantity, a thousand times and more beyond a real one: a
+# cell past them is a corrupt or mis-scaled file, which would overflow the fits' squares.
+LIMITS = {"t": (1e10, "s", "time of a recording (three centuries)"),
+          "angle_deg": (1e6, "deg", "angle of a finger (2 800 turns)"),
+          "pressure_kpa": (1e7, "kPa", "pressure (10 GPa)"),
+          "pressure_meas_kpa": (1e7, "kPa", "pressure (10 GPa)")}
 
 
 @dataclass
@@ -152,7 +158,18 @@ def read_recording(path: str | Path, finger: str | None = None, required: tuple[
     if header is None:
         raise UserError(f"{path}: no header line (expected columns {', '.join(REQUIRED)})")
     names = _select_finger(header, finger, path, header_line)
-    index = {name: i for i, name in enumerate(names) if not name.startswith("\0")}
+    index: dict[str, int] = {}
+    for i, name in enumerate(names):
+        if name.startswith("\0"):
+            continue
+        if name in index:
+            own = [k for k in (index[name], i) if header[k] != name]  # the finger's own column
+            if len(own) != 1:
+                raise UserError(f"{where(path, header_line)}: column '{header[i]}' appears twice in the "
+                                f"header (fields {index[name] + 1} and {i + 1}): which one is meant?")
+            index[name] = own[0]  # a finger's column before the one its fingers share
+            continue
+        index[name] = i
     for name in required:
         if name not in index:
             hint = ""
@@ -181,6 +198,12 @@ def read_recording(path: str | Path, finger: str | None = None, required: tuple[
         if bad.size:
             raise UserError(f"{where(path, row_lines[bad[0]], name)}: {cells_text(values[bad[0]])} "
                             "where a finite number is required")
+    for name, (limit, unit, what) in LIMITS.items():
+        values = columns.get(name)
+        bad = np.flatnonzero(np.abs(values) > limit) if values is not None else []
+        if len(bad):
+            raise UserError(f"{where(path, row_lines[bad[0]], name)}: {values[bad[0]]:g} {unit} is past any "
+                            f"{what}: a corrupt or mis-scaled file? (|{name}| <= {limit:g})")
     t = columns["t"] if "t" in columns else np.arange(len(rows), dtype=float)
     if "t" in required:
         steps = np.diff(t)

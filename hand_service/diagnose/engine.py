@@ -32,6 +32,7 @@ from hand_service.diagnose.fit import (
 )
 from hand_service.diagnose.outside import Outside, outside_checks
 from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
+from hand_service.diagnose.scales import check_nominal
 from hand_service.diagnose.search import (
     SIGNIFICANT_BIC,
     Candidate,
@@ -199,6 +200,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if progress:
         progress("simulating the nominal model on the recorded command")
     nominal_angle = problem.simulate(problem.base)
+    check_nominal(model, nominal_angle)
     params = plain_params(problem, model, warnings)
     if noise_model == "ar":  # the sensor's offset and slow drift are fitted with every model
         problem.noise = noise.nuisance_only(problem.measured_deg.size, rate_hz)

@@ -126,8 +126,8 @@ def nominal_start(problem: Problem, base: Fit) -> np.ndarray | None:
     values = base.values.copy()
     nominal = problem.values(base.params)
     plain = [i for i, p in enumerate(base.params) if not p.is_effect]
-    if np.max(np.abs(values[plain] / nominal[plain] - 1.0)) < ABSORBED:
-        return None
+    if np.all(np.abs(values[plain] - nominal[plain]) < ABSORBED * np.abs(nominal[plain])):
+        return None  # (a nominal of 0, B for one, moved by any refit: no division by it)
     values[plain] = nominal[plain]
     return values
 

@@ -3,6 +3,7 @@ recording made by an integrator apart from the project's simulator."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -132,3 +133,21 @@ def test_effect_ranges_scale_with_the_finger() -> None:
     d = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0)
     assert [e.name for e in d.effects][:1] == ["coulomb_friction"], (d.verdict, d.warnings)
     assert d.effects[0].value == pytest.approx(0.5, rel=0.2)
+
+
+@pytest.mark.parametrize(("key", "value", "message"), [
+    ("stiffness_nm_per_rad", 1e300, "rings at 1.2.e\\+151 Hz"),  # it ran for ever
+    ("stiffness_nm_per_rad", 1e9, "times the recording's 100 Hz"),  # so did this one, for minutes
+    ("damping_nms_per_rad", 1e300, "reaches inf°"),  # a traceback: non-finite residuals
+    ("pressure_gain_nm_per_kpa", 1e300, "reaches .*e\\+30"),  # the same
+])
+def test_a_model_in_the_wrong_units_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str], key: str,
+                                                value: float, message: str) -> None:
+    path, model = _recording(tmp_path, 0.0, seed=3)
+    lines = [f"{key}: {value!r}" if line.startswith(f"{key}:") else line
+             for line in model.read_text().splitlines()]
+    model.write_text("\n".join(lines) + "\n")
+    assert main(["diagnose", str(path), "--model", str(model), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "in their units?" in err, err
+    assert re.search(message, err), err

@@ -41,6 +41,11 @@ def test_multi_finger_columns_need_and_accept_a_finger(tmp_path: Path) -> None:
     assert read_recording(path, finger="index").text_columns["mode"][0] == "position"
     with pytest.raises(UserError, match="no columns for finger 'ring'"):
         read_recording(path, finger="ring")
+    shared = tmp_path / "shared.csv"  # a finger's own column before the one the fingers share
+    write_recording(shared, {"t": t, "pressure_kpa": 5 * t, "pressure_kpa_index": t,
+                             "angle_deg_index": 2 * t, "angle_deg_thumb": 4 * t})
+    np.testing.assert_allclose(read_recording(shared, finger="index").pressure_kpa, t, rtol=1e-5)
+    np.testing.assert_allclose(read_recording(shared, finger="thumb").pressure_kpa, 5 * t, rtol=1e-5)
 
 
 @pytest.mark.parametrize(("mutate", "message"), [
@@ -48,6 +53,15 @@ def test_multi_finger_columns_need_and_accept_a_finger(tmp_path: Path) -> None:
     (lambda s: s.replace("\n0.5,", "\nabc,", 1), r"rec.csv:\d+: column 't': not a number"),
     (lambda s: s.replace("\n0.5,", "\n0.5,1,2,", 1), r"rec.csv:\d+: 5 fields where the header has 3"),
     (lambda s: s.replace("\n1,", "\n0.1,", 1), "does not increase"),
+    # finite, yet past any reading: a corrupt or mis-scaled file (they overflowed the fits)
+    (lambda s: s.replace("\n0.06,0.59964,", "\n0.06,1e300,", 1),
+     r"rec.csv:\d+: column 'pressure_kpa': 1e\+300 kPa is past any pressure"),
+    (lambda s: s.replace("\n0.06,0.59964,1.19928", "\n0.06,0.59964,-2e6", 1),
+     r"rec.csv:\d+: column 'angle_deg': -2e\+06 deg"),
+    (lambda s: s.rstrip("\n").rsplit("\n", 1)[0] + "\n1e300,0,0\n",
+     r"rec.csv:\d+: column 't': 1e\+300 s is past"),
+    (lambda s: s.replace("t,pressure_kpa,angle_deg", "angle_deg,pressure_kpa,angle_deg", 1),
+     r"rec.csv:1: column 'angle_deg' appears twice in the header \(fields 1 and 3\)"),
 ])
 def test_bad_input_is_named(tmp_path: Path, mutate, message: str) -> None:
     path = good(tmp_path)
