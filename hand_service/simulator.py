@@ -6,12 +6,14 @@ its `effects` block) plus the profile's `simulation:` section (noise, ADC, seed)
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.config.pneumatics import valves_for
 from hand_service.config.profile import FingerProfile, Profile
+from hand_service.errors import UserError
 from rtcore.pneumatic import PneumaticValves
 from rtcore.sim import SimFinger, Simulator, simulate
 
@@ -57,15 +59,36 @@ def profile_sim_finger(finger: FingerProfile, simulation: dict, contact: Contact
                       simulation["pressure_noise_kpa"], contact, pneumatic=valves_for(simulation))
 
 
+RINGING_LIMIT = 1000.0  # a finger's ringing frequency, at most this many times the sample rate
+
+
+def check_ringing(model: FingerModel, finger: SimFinger, rate_hz: float, rate_is: str) -> None:
+    """A finger that rings over a thousand times faster than it is sampled (`rate_is`: whose
+    rate that is) is a model in the wrong units, said in one line: nothing sampled so could
+    show it, and its simulation would crawl at its time scale (k = 1e9 N·m/rad for a finger
+    of A = 1.6e-4 kg·m² ran for minutes, 1e300 for ever). An over-damped finger, however
+    stiff, moves on its slow time scale and passes."""
+    prbm = finger.prbm
+    a, b, k = prbm.inertia_kgm2, prbm.damping_nms_per_rad, prbm.stiffness_nm_per_rad
+    zeta = b / (2.0 * math.sqrt(k * a))
+    ringing_hz = math.sqrt(k / a) * math.sqrt(max(0.0, 1.0 - zeta * zeta)) / (2.0 * math.pi)
+    if zeta < 1.0 and ringing_hz > RINGING_LIMIT * rate_hz:
+        raise UserError(f"{model.source}: {model.finger or 'the model'}: the finger rings at "
+                        f"{ringing_hz:.3g} Hz, {ringing_hz / rate_hz:.3g} times {rate_is} {rate_hz:.3g} Hz: "
+                        "nothing sampled so could show that; are k (N·m/rad) and A (kg·m²) in their units?")
+
+
 def hand_simulator(profile: Profile, seed: int | None = None,
                    contacts: dict[str, Contact] | None = None) -> Simulator:
     """The profile's hand as a simulator at the profile's control rate."""
     contacts = contacts or {}
     sim = profile.simulation
     fingers = [profile_sim_finger(f, sim, contacts.get(f.name)) for f in profile.fingers]
+    for finger, sim_f in zip(profile.fingers, fingers, strict=True):
+        check_ringing(finger.model, sim_f, profile.control.rate_hz, "the control rate,")
     return Simulator(fingers, sample_rate_hz=profile.control.rate_hz, substeps=sim["substeps"],
                      seed=sim["seed"] if seed is None else seed)
 
 
-__all__ = ["Contact", "SimFinger", "Simulator", "hand_simulator", "profile_sim_finger", "sim_finger",
-           "simulate"]
+__all__ = ["Contact", "SimFinger", "Simulator", "check_ringing", "hand_simulator", "profile_sim_finger",
+           "sim_finger", "simulate"]

@@ -19,9 +19,8 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose.noise import WHITE, NoiseModel
-from hand_service.diagnose.scales import check_scales
 from hand_service.diagnose.simcache import SimulationCache, finger_key
-from hand_service.simulator import sim_finger
+from hand_service.simulator import check_ringing, sim_finger
 from rtcore.sim import SimFinger, simulate_angle
 
 HOLDOUT_EVERY = 4  # every 4th block is held out from fitting
@@ -345,7 +344,7 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
     noise model that takes the motion of such a start as a nuisance); so are `missing`
     samples (see regular_grid)."""
     base = sim_finger(model)
-    check_scales(model, base, rate_hz)
+    check_ringing(model, base, rate_hz, "the recording's")
     # the valves as recorded: a signed command (vacuum, a bipolar drive) or one above the
     # usual supply is simulated as it is, never clamped
     base = dataclasses.replace(base, supply_min_kpa=min(base.supply_min_kpa, float(np.min(pressure_kpa))),

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from hand_service.cli import main
+from hand_service.config.profile import DEFAULT_PROFILE
 from hand_service.errors import UserError
 from hand_service.replicate import run as rep
 from hand_service.replicate.tracking import pid_alone
@@ -128,3 +129,16 @@ def test_full_replicate_meets_the_acceptance() -> None:
     for finger in data["ldm"].values():
         assert abs(finger["stiffness_error_pct"]) < 1.0 and abs(finger["damping_error_pct"]) < 5.0
 
+
+
+def test_a_profile_finger_in_the_wrong_units_is_one_line(tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """The thumb's k at 1e300 (ringing at 1.7e151 Hz at a 100 Hz control rate): the simulated
+    hand ran for ever; now one line, before anything is simulated."""
+    text = DEFAULT_PROFILE.read_text()
+    assert text.count("stiffness_nm_per_rad: 0.6541") == 1
+    profile = tmp_path / "wrong_units.yaml"
+    profile.write_text(text.replace("stiffness_nm_per_rad: 0.6541", "stiffness_nm_per_rad: 1e300"))
+    assert main(["replicate", "--quick", "--quiet", "--profile", str(profile)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "thumb: the finger rings at 1.67e+151 Hz" in err, err
