@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 import hand_service.diagnose.engine as engine
+import hand_service.diagnose.outside as outside
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_in_process
 
@@ -40,6 +41,6 @@ def test_without_the_check_the_rate_test_still_refuses_the_lag(tmp_path: Path,
 def test_without_either_check_the_hysteresis_is_named_a_valve_lag(tmp_path: Path,
                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))
-    monkeypatch.setattr(engine, "loop_check", lambda *args: None)
+    monkeypatch.setattr(outside, "loop_check", lambda *args: None)
     result = _diagnose(tmp_path)
     assert [e["name"] for e in result["effects"]] == ["valve_lag"], result["verdict"]
