@@ -156,7 +156,9 @@ def read_recording(path: str | Path, finger: str | None = None, required: tuple[
     header, header_line, rows, row_lines, metadata = (lines.header, lines.header_line, lines.rows,
                                                       lines.row_lines, lines.metadata)
     if header is None:
-        raise UserError(f"{path}: no header line (expected columns {', '.join(REQUIRED)})")
+        raise UserError(f"{path}: no header line (expected columns {', '.join(required)})")
+    if not rows:
+        raise UserError(f"{where(path, header_line)}: a header and no data rows after it")
     names = _select_finger(header, finger, path, header_line)
     index: dict[str, int] = {}
     for i, name in enumerate(names):
@@ -212,7 +214,7 @@ def read_recording(path: str | Path, finger: str | None = None, required: tuple[
             k = bad[0] + 1
             raise UserError(f"{where(path, row_lines[k], 't')}: t = {t[k]:g} does not increase "
                             f"(previous {t[k - 1]:g})")
-    if t.size < 2 or t[-1] - t[0] < min_duration_s:
+    if "t" in required and (t.size < 2 or t[-1] - t[0] < min_duration_s):  # (pairs need no duration)
         span = t[-1] - t[0] if t.size >= 2 else 0.0
         raise UserError(f"{path}: only {span:.3g} s of data; at least {min_duration_s:g} s is needed")
     return Recording(path=path, t_s=t, pressure_kpa=columns.get("pressure_kpa", np.zeros_like(t)),

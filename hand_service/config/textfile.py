@@ -50,6 +50,10 @@ def decode_text(data: bytes, path: str | Path) -> str:
         name = "UTF-8" if codec.startswith("utf-8") else codec.upper()
         raise UserError(f"{where(path, line)}: not {name} text (byte "
                         f"0x{data[exc.start]:02x} at offset {exc.start}): save the file as UTF-8") from None
+    if "\0" in text:  # valid UTF-8, and never in a text file: UTF-16 without its mark, most likely
+        line = text[: text.index("\0")].count("\n") + 1
+        raise UserError(f"{where(path, line)}: a NUL byte in the text (UTF-16 without a byte-order "
+                        "mark?): save the file as UTF-8")
     return text.replace("\r\n", "\n").replace("\r", "\n")
 
 

@@ -100,3 +100,19 @@ def test_500_hz_with_jitter(tmp_path: Path) -> None:
     path = tmp_path / "fast.csv"
     write_recording(path, {"t": t, "pressure_kpa": np.zeros(1000), "angle_deg": np.zeros(1000)})
     assert read_recording(path).sample_rate_hz == pytest.approx(500.0, rel=1e-3)
+
+
+def test_a_header_alone_utf16_without_its_mark_and_a_short_pairs_file(tmp_path: Path) -> None:
+    """Messages that said something else (an outside probe): a header with no rows was "only
+    0 s of data", UTF-16 without a byte-order mark "missing required column 't'", and a
+    pairs file (which needs no duration) of one row "at least 0 s is needed"."""
+    path = tmp_path / "rec.csv"
+    path.write_text("t,pressure_kpa,angle_deg\n# finger: index\n")
+    with pytest.raises(UserError, match=r"rec.csv:1: a header and no data rows after it"):
+        read_recording(path)
+    path.write_bytes("t,pressure_kpa,angle_deg\n0,1,2\n".encode("utf-16-le"))
+    with pytest.raises(UserError, match=r"rec.csv:1: a NUL byte in the text \(UTF-16 without"):
+        read_recording(path)
+    path.write_text("sensor_mv,angle_deg\n1.0,20.0\n")
+    pairs = read_recording(path, required=("sensor_mv", "angle_deg"), min_duration_s=0.0)
+    assert pairs.columns["angle_deg"].tolist() == [20.0]
