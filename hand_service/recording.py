@@ -28,6 +28,7 @@ import numpy as np
 
 from hand_service.config.textfile import cell_text, read_text
 from hand_service.errors import UserError, where
+from hand_service.export.units import unit_of
 
 log = logging.getLogger(__name__)
 
@@ -189,7 +190,7 @@ def read_recording(path: str | Path, finger: str | None = None, required: tuple[
         try:
             columns[name] = np.array([float(c) for c in cells], dtype=np.float64)
         except ValueError:
-            if name in required:
+            if name in required or unit_of(name):  # a measured quantity: a typo is an error
                 bad = next(k for k, c in enumerate(cells) if not _is_float(c))
                 raise UserError(f"{where(path, row_lines[bad], name)}: not a number: "
                                 f"{cells[bad]!r}") from None

@@ -116,3 +116,20 @@ def test_a_header_alone_utf16_without_its_mark_and_a_short_pairs_file(tmp_path: 
     path.write_text("sensor_mv,angle_deg\n1.0,20.0\n")
     pairs = read_recording(path, required=("sensor_mv", "angle_deg"), min_duration_s=0.0)
     assert pairs.columns["angle_deg"].tolist() == [20.0]
+
+
+def test_a_typo_in_a_measured_column_is_an_error_not_text(tmp_path: Path) -> None:
+    """pressure_meas_kpa with 'abc' in one cell became a text column, and calibrate gain fell
+    back to the command without a word (an outside probe): a column whose name carries a
+    unit is a measured quantity (docs/formats.md), as export already held it."""
+    path = good(tmp_path, pressure_meas_kpa=np.full(300, 5.0), mode=np.array(["position"] * 300))
+    lines = path.read_text().splitlines()
+    lines[10] = lines[10].replace(",5,", ",abc,")
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(UserError, match=r"rec.csv:11: column 'pressure_meas_kpa': not a number: 'abc'"):
+        read_recording(path)
+    lines[10] = lines[10].replace(",abc,", ",nan,").replace("position", "force")  # NaN: a number; text stays
+    path.write_text("\n".join(lines) + "\n")
+    recording = read_recording(path)
+    (row,) = np.flatnonzero(np.isnan(recording.columns["pressure_meas_kpa"]))
+    assert recording.text_columns["mode"][row] == "force"
