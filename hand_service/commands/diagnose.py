@@ -66,13 +66,25 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
     from hand_service.outputs import check_writable
-    from hand_service.recording import read_recording
+    from hand_service.recording import check_finger, read_recording
 
     for path in (args.json, args.report, args.write_model):
         if path is not None:
             check_writable(path)  # before minutes of fitting, not after
     recording = read_recording(args.recording, args.finger)
-    model = load_model(args.model, args.finger or recording.finger)
+    try:
+        model = load_model(args.model, args.finger or recording.finger)
+    except UserError as refused:
+        if args.finger is not None or recording.finger is None:
+            raise
+        # the recording's `# finger:` line chose the finger: a model file of another finger
+        # is the recording's mismatch, said of the recording (check_finger), as identify does
+        try:
+            other = load_model(args.model)
+        except UserError:
+            raise refused from None
+        check_finger(recording, other.finger)
+        raise
     model.require_prbm(purpose="diagnose", force_point=False)  # a free finger: no force
     grid = regular_grid(recording.t_s, recording.pressure_kpa, recording.angle_deg, args.recording)
     rate_hz = grid.rate_hz

@@ -151,3 +151,16 @@ def test_a_model_in_the_wrong_units_is_one_line(tmp_path: Path, capsys: pytest.C
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "in their units?" in err, err
     assert re.search(message, err), err
+
+
+def test_a_recording_of_another_finger_is_said_of_the_recording(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """Its `# finger: thumb` line against a model of the index: the message named the model
+    file ("this model is for finger 'index', not 'thumb'"); the mismatch is the recording's."""
+    path, model = _recording(tmp_path, 0.0, seed=4)
+    model.write_text("finger: index\n" + model.read_text())
+    text = path.read_text().splitlines()
+    path.write_text("\n".join([text[0], "# finger: thumb", *text[1:]]) + "\n")
+    assert main(["diagnose", str(path), "--model", str(model), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith(f"{path}: recorded from finger 'thumb', but the model is finger 'index'"), err
