@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
+from hand_service.config import effects as fx
 from hand_service.diagnose.problem import PRIOR_RELATIVE_WIDTH, Param, Prior, Problem
 from rtcore.sim import SimFinger
 
@@ -41,6 +42,12 @@ class Fit:
     # its share of the cost: the nominal model's uncertainty, when the problem has one
     prior_information: np.ndarray | None = None
     prior_cost_deg2: float = 0.0
+
+    def without(self, problem: Problem, names: Iterable[str]) -> SimFinger:
+        """This fit's finger with its effects `names` at their neutral values: left out."""
+        left_out = set(names)
+        params = [p for p in self.params if p.label in left_out]
+        return problem.finger(params, [fx.BY_NAME[p.label].neutral for p in params], self.finger)
 
     @property
     def cost_deg2(self) -> float:

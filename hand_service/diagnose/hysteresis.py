@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.config import effects as fx
 from hand_service.diagnose import stats
 from hand_service.diagnose.fit import COLUMN_WORKERS, Fit
 from hand_service.diagnose.problem import Problem
@@ -83,8 +82,7 @@ def hysteresis_check(problem: Problem, final: Fit, found: list[str]) -> Hysteres
     torque0_nm = max(final.value(FRICTION), 1e-9)
     span_deg = max(float(np.ptp(final.angle_deg[problem.fit_mask])), 1e-9)
     floor_deg = MIN_TRAVEL_SHARE * span_deg
-    (friction,) = [p for p in final.params if p.label == FRICTION]
-    without = problem.finger([friction], [fx.BY_NAME[FRICTION].neutral], final.finger)
+    without = final.without(problem, [FRICTION])
 
     def as_fitted(travel_deg: float) -> float:
         """The innovations' RSS of the loop in the friction's place, nothing refitted."""

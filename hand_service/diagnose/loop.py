@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.config import effects as fx
 from hand_service.diagnose import stats
 from hand_service.diagnose.fit import Fit, sensitivity
 from hand_service.diagnose.onset import incumbent_projection, linear_finger, through
@@ -113,9 +112,7 @@ def _against(problem: Problem, final: Fit, name: str, columns: dict[str, np.ndar
     `name`, with its ΔBIC over it; `columns`: every fitted parameter's sensitivity."""
     mask = problem.fit_mask
     shared = [column for label, column in columns.items() if label != name]
-    (param,) = [p for p in final.params if p.label == name]
-    without = problem.finger([param], [fx.BY_NAME[name].neutral], final.finger)
-    alone = problem.simulate(without)
+    alone = problem.simulate(final.without(problem, [name]))
     target = problem.misfit(alone)
     lag = problem.noise.detrend(final.angle_deg - alone)  # the timed effect's whole signature, as fitted
     fitted, a = incumbent_projection(problem, shared, lag, target)  # the AR filter: the lag's residual

@@ -33,7 +33,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, signal
 
-from hand_service.config import effects as fx
 from hand_service.diagnose import noise, stats
 from hand_service.diagnose.fit import COLUMN_WORKERS, Fit, sensitivity
 from hand_service.diagnose.problem import Problem
@@ -189,9 +188,7 @@ def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
     shared = [detrend(sensitivity(problem, p, final.finger, final.angle_deg)) for p in final.params
               if p.label not in smooth]
     # the final model without its smooth static torques: what they, or an onset, must explain
-    params = [p for p in final.params if p.label in smooth]
-    without = problem.finger(params, [fx.BY_NAME[p.label].neutral for p in params], final.finger)
-    target = problem.misfit(problem.simulate(without))
+    target = problem.misfit(problem.simulate(final.without(problem, smooth)))
     linear = linear_finger(problem, final)
     smooth_cols = np.column_stack([detrend(linear.response_deg(library_torque(n, theta))) for n in smooth])
     # the noise's AR filter, from the smooth model's residual (the incumbent's: conservative)

@@ -11,7 +11,6 @@ from collections.abc import Callable
 import numpy as np
 from scipy.optimize import least_squares
 
-from hand_service.config import effects as fx
 from hand_service.diagnose.fit import (
     Fit,
     PriorRows,
@@ -37,8 +36,7 @@ def fit_rival(problem: Problem, final: Fit, replaced: list[str], extra0: np.ndar
     the effect's fit needed it), so a comparison's gain is the data's alone. Returns the
     innovations' RSS on the fitting samples and the fitted `extra`."""
     plain = [p for p in final.params if not p.is_effect]
-    params = [p for p in final.params if p.label in replaced]
-    without = problem.finger(params, [fx.BY_NAME[p.label].neutral for p in params], final.finger)
+    without = final.without(problem, replaced)
     start = problem.values(plain, final.finger)
     prior = problem.prior if problem.prior.widths or final.prior_information is None else \
         nominal_prior(problem, plain, final.sigma_deg)
