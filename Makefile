@@ -18,29 +18,31 @@ run: $(STAMP)
 	$(VENV)/bin/hand-service run --demo
 
 # The tests that keep time (daemon, HIL, CLI, bench) run at normal priority; the CPU-bound
-# ones (diagnose, tools, model, rtcore, wire, packaging, fuzz) beside them at nice 19, in the time
+# ones (diagnose, tools, model, rtcore, wire, packaging, fuzz, the board's C build) beside them at nice 19, in the time
 # the first leave idle waiting on real time, so they cannot delay a deadline. The CPU-bound
 # ones run in two pytest-xdist workers: one process alone left a core idle while the timed
 # tests waited (374 s beside them, 293 s in two workers, on a 2-core machine).
+# `make test DURATIONS=--durations=25` lists the CPU-bound group's slowest.
 CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/pinch tests/wire tests/packaging \
-             tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py \
+             tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py tests/board/test_board_build.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
 SELECT := -m "not slow and not thorough and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu"
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
-	@nice -n 19 $(PY) -m pytest -q -p no:cacheprovider -n 2 $(SELECT) $(CPU_TESTS) > .test-cpu.log 2>&1 & \
+	@nice -n 19 $(PY) -m pytest -q -p no:cacheprovider -n 2 $(SELECT) $(DURATIONS) $(CPU_TESTS) > .test-cpu.log 2>&1 & \
 	cpu=$$!; \
 	$(PY) -m pytest -q $(SELECT) $(addprefix --ignore=,$(CPU_TESTS)); timed=$$?; \
 	wait $$cpu; cpu_status=$$?; \
 	echo "-- the CPU-bound tests, run beside them at nice 19:"; cat .test-cpu.log; rm -f .test-cpu.log; \
 	exit $$(( timed || cpu_status ))
 
-# diagnose's repetitions beyond make test's slice (marker thorough): each library effect on the
-# project's own generator named and recovered, the real-rig converter's fitter, a slow valve
-# under a PI loop (about 30 s in two workers; make test keeps two effects and the rigs' runs)
+# diagnose's and the simulator's repetitions beyond make test's slice (marker thorough): each
+# library effect on the project's own generator named and recovered, the real-rig converter's
+# fitter, a slow valve under a PI loop, the checks shown load-bearing, the costliest fine
+# references (about 1 min in two workers; make test keeps two effects and the rigs' runs)
 test-thorough: $(STAMP)
-	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m thorough tests/diagnose
+	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m thorough tests/diagnose tests/rtcore
 
 # a wheel of the checkout, installed in a fresh venv outside it, runs (about 10 s)
 test-install: $(STAMP)

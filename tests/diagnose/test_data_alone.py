@@ -28,6 +28,7 @@ def test_a_lag_the_prior_alone_asks_for_is_not_named(tmp_path: Path) -> None:
     assert result["verdict"] in ("insufficient_excitation", "unexplained")
 
 
+@pytest.mark.thorough  # the checks shown load-bearing: in make test-thorough, with the rest
 def test_without_the_check_the_rate_test_still_refuses_the_lag(tmp_path: Path,
                                                                monkeypatch: pytest.MonkeyPatch) -> None:
     """A second line: the valve lag's delay does not grow with the ramps' rates, and a loop
@@ -38,6 +39,7 @@ def test_without_the_check_the_rate_test_still_refuses_the_lag(tmp_path: Path,
     assert result["loop"] is not None and result["loop"]["replaces"] == "valve_lag"
 
 
+@pytest.mark.thorough  # the checks shown load-bearing: in make test-thorough, with the rest
 def test_without_either_check_the_hysteresis_is_named_a_valve_lag(tmp_path: Path,
                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))

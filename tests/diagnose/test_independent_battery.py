@@ -315,6 +315,7 @@ def test_diagnose_on_an_independent_recording(
     )
 
 
+@pytest.mark.thorough  # 25 s; make test keeps out-of-library contact in test_outside_recordings
 def test_an_object_met_above_some_angle_is_not_named_a_stiffening_spring(tmp_path: Path) -> None:
     """A finger that presses into an object above 55° on a ramp (out of the library): a
     cubic spring and gravity together fit that one-sided stiffening with a white residual

@@ -4,6 +4,7 @@ stderr is a file; nothing with --quiet; and a `done in` that is the process's wa
 from __future__ import annotations
 
 import io
+import json
 import os
 import subprocess
 import sys
@@ -74,9 +75,16 @@ def test_trials_count_in_lines_and_quiet_silences_them(tmp_path: Path,
 def test_replicate_says_its_wall_time(tmp_path: Path) -> None:
     """`done in N s`: the process's whole wall time (start-up, imports, simulations,
     figures), not the simulations' alone: at least 60 % of what the test measured from
-    outside, and no more than it."""
-    out, stderr, seen_s = run(["replicate", "--quick", "--json", "r.json"], tmp_path, "replicate")
-    assert "\r" not in stderr and "| finger |" in out
+    outside, and no more than it. The same run is the command's end-to-end test: its
+    tables on stdout, its JSON and its figures."""
+    from tests.tools.test_replicate import check_json
+
+    out, stderr, seen_s = run(["replicate", "--quick", "--json", "r.json", "--plots", "plots"], tmp_path,
+                              "replicate")
+    assert "\r" not in stderr and "| finger |" in out and "### Table 2" in out
+    check_json(json.loads((tmp_path / "r.json").read_text()))
+    assert {p.name for p in (tmp_path / "plots").iterdir()} >= {"table1_ldm.png", "table2_tracking.png",
+                                                                "force.png", "identify_index.png"}
     done = progress_lines(stderr, "replicate")[-1]
     assert done.startswith("replicate: done in ")
     said_s = float(done.split()[-2])

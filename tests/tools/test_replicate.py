@@ -107,14 +107,8 @@ def test_replicate_refuses_a_truth_without_noise_or_valve(tmp_path: Path) -> Non
         rep.replicate(rep.Options.quick_run(profile=fast))
 
 
-def test_replicate_command_json_and_plots(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out, plots = tmp_path / "replicate.json", tmp_path / "plots"
-    assert main(["replicate", "--quick", "--json", str(out), "--plots", str(plots)]) == 0
-    check_json(json.loads(out.read_text()))
-    assert {p.name for p in plots.iterdir()} >= {"table1_ldm.png", "table2_tracking.png", "force.png",
-                                                  "identify_index.png"}
-    captured = capsys.readouterr()
-    assert "### Table 2" in captured.out and "replicate: done in" in captured.err
+# the command end to end (its tables, JSON and figures, in its own process): tests/tools/
+# test_progress.py's test_replicate_says_its_wall_time, which runs it once for both
 
 
 @pytest.mark.slow
