@@ -18,8 +18,9 @@ from tests.diagnose.truth.battery import diagnose_argv
 
 def test_the_linear_response_matches_an_ode_solver_on_a_stiff_and_a_ringing_finger() -> None:
     """J·δ'' + B·δ' + k·δ = −τ, τ held between samples: the difference equation against
-    scipy's Radau on the same held input, for an over-damped finger (B/J = 2500/s) and a
-    ringing one."""
+    scipy's LSODA (its stiff method where it must be: within 1.3e-8 of the peak here, Radau
+    within 6e-11 at twice the time; the bound is 1e-6) on the same held input, for an
+    over-damped finger (B/J = 2500/s) and a ringing one."""
     rate_hz = 200.0
     t = np.arange(100) / rate_hz
     torque_nm = np.where((t > 0.05) & (t < 0.3), 0.01 * np.sin(20.0 * t) + 0.02, 0.0)
@@ -37,7 +38,7 @@ def test_the_linear_response_matches_an_ode_solver_on_a_stiff_and_a_ringing_fing
         want = np.zeros(t.size)
         x = np.zeros(2)
         for i in range(t.size - 1):  # sample by sample, so the held input has no jump inside a step
-            x = solve_ivp(rhs, (t[i], t[i + 1]), x, method="Radau", rtol=1e-9, atol=1e-13).y[:, -1]
+            x = solve_ivp(rhs, (t[i], t[i + 1]), x, method="LSODA", rtol=1e-9, atol=1e-13).y[:, -1]
             want[i + 1] = np.degrees(x[0])
         assert np.max(np.abs(got - want)) < 1e-6 * np.max(np.abs(want))
 
