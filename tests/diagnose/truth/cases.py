@@ -256,16 +256,23 @@ def library_equivalent(effect: str, truth: Truth) -> dict[str, float]:
     }.get(effect, dict)()
 
 
-def linear_part(truth: Truth) -> tuple[float, float]:
-    """(damping, stiffness) the truth's extra physics adds to the plain finger's about rest:
-    what a lab measuring its finger's B and k (a decrement, a static fit) measures with them.
-    Air drag's linear part, c2·ω_k, is one: on an over-damped finger, whose drag must be large
-    to show at its low speeds, it reaches several times B. Left out of the nominal and of the
-    judge's plain finger, it would be a B many times off the nominal, counted as the drag's
-    own visibility; a lab's nominal is off by its ±10 %, as for every other effect. Gravity's
-    slope at rest (G·sin φ0 from the mounting angle, a quarter of k at most here) lies within
-    the nominal's stated uncertainty (±25 %) and is left with the effect, k fitted beside it."""
-    return truth.drag_c2 * truth.drag_knee_rad_s, 0.0
+def linear_damping(truth: Truth) -> float:
+    """The damping the truth's extra physics adds to the plain finger's about rest: what a lab
+    measuring its finger's B (a decrement) measures with it. Air drag's linear part, c2·ω_k:
+    on an over-damped finger, whose drag must be large to show at its low speeds, it reaches
+    several times B. Left out of the nominal and of the judge's plain finger, it would be a B
+    many times off the nominal, counted as the drag's own visibility; a lab's nominal is off
+    by its ±10 %, as for every other effect. Gravity's slope at rest (G·sin φ0 from the
+    mounting angle, a quarter of k at most here) lies within the nominal's stated uncertainty
+    (±25 %) and is left with the effect, k fitted beside it."""
+    return truth.drag_c2 * truth.drag_knee_rad_s
+
+
+def plain_finger(family: Family, truth: Truth, valve_tau_s: float, delay_s: float) -> LinearModel:
+    """The truth's own plain linear finger (the battery judge's, and a lab's nominal before its
+    ±10 %): the family's, with the damping the truth's physics adds (linear_damping)."""
+    return LinearModel(family.inertia_kgm2, family.damping_nms_per_rad + linear_damping(truth),
+                       family.stiffness_nm_per_rad, family.gain_nm_per_kpa, valve_tau_s, delay_s)
 
 
 def known_effects(effect: str, shape: Shape) -> tuple[dict[str, dict[str, float]], float, float]:
@@ -348,14 +355,7 @@ def build(spec: CaseSpec) -> Case:
     )
     plan = ex.make(spec.excitation, _rng(spec, "excitation"), spec.rate_hz, family, nominal, spec.duration_s)
     additive = sensor.additive(_rng(spec, "noise"), plan.n, plan.rate_hz)
-    start = LinearModel(
-        family.inertia_kgm2,
-        family.damping_nms_per_rad,
-        family.stiffness_nm_per_rad,
-        family.gain_nm_per_kpa,
-        tau0,
-        delay0,
-    )
+    start = plain_finger(family, Truth(family), tau0, delay0)
     contact_deg = math.inf
     if spec.effect == "contact":
         free, _ = _run(Truth(family), plan, sensor, additive)
@@ -396,13 +396,11 @@ def build(spec: CaseSpec) -> Case:
                 float(_rng(spec, "target-" + spec.magnitude).uniform(*TARGETS[spec.magnitude])),
             )
     truth = make_truth(s)
-    # the nominal and the judge's plain finger hold the truth's own linear part (linear_part);
+    # the nominal and the judge's plain finger hold the truth's own damping (linear_damping);
     # the plan was made before, from the nominal the strength did not yet change
-    extra_damping, extra_stiffness = linear_part(truth)
-    nominal = replace(nominal, damping_nms_per_rad=nominal.damping_nms_per_rad + extra_damping * factors[0],
-                      stiffness_nm_per_rad=nominal.stiffness_nm_per_rad + extra_stiffness * factors[1])
-    start = replace(start, damping_nms_per_rad=start.damping_nms_per_rad + extra_damping,
-                    stiffness_nm_per_rad=start.stiffness_nm_per_rad + extra_stiffness)
+    start = plain_finger(family, truth, tau0, delay0)
+    nominal = replace(nominal,
+                      damping_nms_per_rad=nominal.damping_nms_per_rad + linear_damping(truth) * factors[0])
     ok, reason = exercised(spec.effect, truth, plan, traj)
     if ok and spec.effect in LIBRARY and v < 0.4:
         ok, reason = False, "absorbed by k, B and N at every plausible size tried"

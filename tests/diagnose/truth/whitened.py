@@ -155,10 +155,7 @@ def spec_of(case_id: str) -> cs.CaseSpec:
 def analyse(case_id: str) -> dict:
     case = cs.build(spec_of(case_id))
     family = cs.FAMILIES[case.spec.resolved().family]
-    extra_damping, extra_stiffness = cs.linear_part(case.truth)  # as the battery's judge has it
-    plain = LinearModel(family.inertia_kgm2, family.damping_nms_per_rad + extra_damping,
-                        family.stiffness_nm_per_rad + extra_stiffness, family.gain_nm_per_kpa,
-                        case.nominal.valve_tau_s, case.nominal.delay_s)
+    plain = cs.plain_finger(family, case.truth, case.nominal.valve_tau_s, case.nominal.delay_s)  # the judge's
     traj = case.trajectory
     whitener = sensor_whitener(case.sensor, case.plan.rate_hz)
     args = (case.spec.effect, traj.theta_deg, traj.command_kpa, case.plan.rate_hz, plain,
