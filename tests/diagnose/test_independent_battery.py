@@ -335,6 +335,41 @@ def test_an_object_met_above_some_angle_is_not_named_a_stiffening_spring(tmp_pat
     assert any("does not hold across the recording's postures" in w for w in result["warnings"])
 
 
+@pytest.mark.thorough  # 12 s
+@pytest.mark.parametrize(
+    ("spec", "named"),
+    [
+        # Hunt-Crossley contact past 47°, concealed (0.87 × the noise), one-sided multisine
+        (cs.CaseSpec("contact", "multisine", 1, "concealed", "ringing", 500.0, 0.015936347983592968), None),
+        # a stiffening spring (tanh form, not cubic) evident in steps: the cubic holds alone
+        (cs.CaseSpec("cubic_stiffness", "steps", 2, "evident", "ringing", 100.0, 0.2644553328554351),
+         ["cubic_stiffness", "gravity"]),
+    ],
+    ids=["contact", "stiffening-spring"],
+)
+def test_a_second_smooth_torque_may_not_mend_the_firsts_form(
+    spec: cs.CaseSpec, named: list[str] | None, tmp_path: Path
+) -> None:
+    """A cubic spring and a gravity load together fit an object met part way with a white
+    residual and halves that agree, while the cubic alone, on the lower and upper half of the
+    angles, is 0.0022 and 0.0055 (9 standard errors apart): the pair is a blend, so nothing is
+    named (stability.first_needs_later). A spring that truly stiffens holds alone, and keeps
+    its names with gravity beside it."""
+    from hand_service.cli import main
+
+    case = cs.build(spec)
+    rec, model = cs.write(case, tmp_path)
+    out = tmp_path / "diagnose.json"
+    assert main(diagnose_argv(rec, model, out)) == 0
+    result = json.loads(out.read_text())
+    if named is None:
+        assert result["verdict"] == "unexplained" and result["effects"] == [], result["effects"]
+        assert [e["name"] for e in result["partial_effects"]] == ["cubic_stiffness", "gravity"]
+        assert any("only as a blend of two forms" in w for w in result["warnings"])
+    else:
+        assert [e["name"] for e in result["effects"]] == named, result["warnings"]
+
+
 def test_a_slow_valve_that_the_refit_mimics_by_scaling_k_b_n_is_named(tmp_path: Path) -> None:
     """On an over-damped finger a valve lag of 33 ms is fitted as well by k, B and N all
     scaled down ~150× (the inertia then makes the second pole): the data alone cannot tell
