@@ -31,11 +31,12 @@ def _silence(session: Session, waited_ms: float) -> str:
 
 
 def handshake(session: Session) -> CheckResult:
-    """Ask as the host does, every 100 ms, until VersionInfo comes or the profile's timeout."""
+    """Ask as the host does, every 100 ms, until VersionInfo comes or the profile's timeout
+    (and --latency-ms: what the link may add) has passed."""
     cfg = session.settings
     name = "handshake"
     start = time.monotonic()
-    deadline = start + cfg.handshake_timeout_ms / 1e3
+    deadline = start + cfg.answer_wait_ms / 1e3
     got: list[Received] = []
     info: tuple[float, VersionInfo] | None = None
     while info is None and time.monotonic() < deadline:
@@ -47,7 +48,7 @@ def handshake(session: Session) -> CheckResult:
             if isinstance(item.message, VersionInfo):
                 info = (item.t_s - asked, item.message)
     if info is None:
-        return failed(name, _silence(session, cfg.handshake_timeout_ms))
+        return failed(name, _silence(session, cfg.answer_wait_ms))
     answer_s, version = info
     status_first = any(isinstance(r.message, Status) for r in got)
     values = {"answer_ms": answer_s * 1e3, "protocol_version": version.protocol_version,
@@ -71,7 +72,7 @@ def _ask(session: Session, protocol_version: int) -> tuple[float, VersionInfo] |
     """Send one VersionRequest; the VersionInfo that answers it and how long it took (s)."""
     session.link.send(VersionRequest(protocol_version))
     asked = time.monotonic()
-    got = session.pump(session.settings.handshake_timeout_ms / 1e3,
+    got = session.pump(session.settings.answer_wait_ms / 1e3,
                        until=lambda r: isinstance(r.message, VersionInfo))
     answers = [(r.t_s - asked, r.message) for r in got if isinstance(r.message, VersionInfo)]
     return answers[0] if answers else None  # type: ignore[return-value]
@@ -87,7 +88,7 @@ def version_refusal(session: Session) -> CheckResult:
     other = cfg.protocol_version + 1 if cfg.protocol_version < 0xFFFF else cfg.protocol_version - 1
     answer = _ask(session, other)
     if answer is None:
-        return failed(name, f"no VersionInfo within {cfg.handshake_timeout_ms:.0f} ms of a VersionRequest "
+        return failed(name, f"no VersionInfo within {cfg.answer_wait_ms:.0f} ms of a VersionRequest "
                       f"for protocol {other}: a board answers every request with the protocol it speaks")
     answer_s, info = answer
     probe = session.command(0.0)
@@ -105,7 +106,7 @@ def version_refusal(session: Session) -> CheckResult:
                       "claim a protocol it does not speak", **values)
     if again is None or again[1].protocol_version != cfg.protocol_version:
         return failed(name, f"after the refused request, no answer with protocol {cfg.protocol_version} "
-                      f"to a request for it within {cfg.handshake_timeout_ms:.0f} ms", **values)
+                      f"to a request for it within {cfg.answer_wait_ms:.0f} ms", **values)
     return passed(name, f"asked for protocol {other}, the board answered with its own, "
                   f"{info.protocol_version}; it {after} the valve command that followed; asked for "
                   f"{cfg.protocol_version}, it answered", **values)

@@ -44,6 +44,12 @@ class Settings:
     def period_s(self) -> float:
         return 1.0 / self.rate_hz
 
+    @property
+    def answer_wait_ms(self) -> float:
+        """How long a VersionRequest's answer is waited for: the host's handshake timeout and
+        what the link may add to it (an emulator's UART, a loaded machine)."""
+        return self.handshake_timeout_ms + self.latency_ms
+
 
 @dataclass
 class Session:

@@ -13,6 +13,7 @@ was measured and PASS or FAIL (N/A: the check cannot be made on this board, with
 
   handshake        VersionRequest -> Status, then VersionInfo with the profile's protocol
                    and finger count, within the profile's handshake_timeout_ms
+                   + --latency-ms
   version-refusal  a request for another protocol gets the board's own protocol back
   report-rate      samples at the profile's rate (±5 %) with no command; jitter; no gap
                    longer than the host's stale time (stale_sensor_ticks) + --latency-ms
