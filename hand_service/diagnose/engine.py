@@ -200,7 +200,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if progress:
         progress("simulating the nominal model on the recorded command")
     nominal_angle = problem.simulate(problem.base)
-    check_nominal(model, nominal_angle)
+    check_nominal(model, nominal_angle, measured, problem.pressure_kpa)
     params = plain_params(problem, model, warnings)
     if noise_model == "ar":  # the sensor's offset and slow drift are fitted with every model
         problem.noise = noise.nuisance_only(problem.measured_deg.size, rate_hz)

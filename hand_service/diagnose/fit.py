@@ -65,16 +65,19 @@ class Fit:
     def covariance(self, with_prior: bool = True) -> np.ndarray:
         """σ²·(JᵀJ + P)⁻¹, P the prior's information; by pseudo-inverse so that a
         rank-deficient J shows as huge variance. Without the prior: what the data alone say."""
-        jtj = self.jacobian.T @ self.jacobian
+        with np.errstate(over="ignore", invalid="ignore"):
+            jtj = self.jacobian.T @ self.jacobian
         if with_prior and self.prior_information is not None:
             jtj = jtj + np.diag(self.prior_information)
-        scale = np.sqrt(np.maximum(np.diag(jtj), 1e-300))
-        normalised = jtj / np.outer(scale, scale)
-        inverse = np.linalg.pinv(normalised, rcond=1e-12)
-        cov = inverse / np.outer(scale, scale) * self.sigma_deg**2
-        dead = np.diag(jtj) <= 1e-300
-        cov[dead, :] = np.inf
-        cov[:, dead] = np.inf
+        # a parameter whose sensitivity overflowed (a model far out of its units) says nothing
+        dead = ~((np.diag(jtj) > 1e-300) & np.isfinite(np.diag(jtj)))
+        live = ~dead
+        cov = np.full(jtj.shape, np.inf)
+        if live.any():
+            block = jtj[np.ix_(live, live)]
+            scale = np.sqrt(np.diag(block))
+            inverse = np.linalg.pinv(block / np.outer(scale, scale), rcond=1e-12)
+            cov[np.ix_(live, live)] = inverse / np.outer(scale, scale) * self.sigma_deg**2
         return cov
 
     def std(self, with_prior: bool = True) -> np.ndarray:

@@ -14,11 +14,31 @@ from hand_service.errors import UserError
 ANGLE_LIMIT_DEG = 1e6  # the recording reader's bound on an angle (hand_service/recording.py)
 
 
-def check_nominal(model: FingerModel, angle_deg: np.ndarray) -> None:
+# A model whose finger moves less than this share of what the recorded one did is not
+# this finger in other units, it is the units: A (kg·m²) given in g·mm² makes no motion.
+STILL_SHARE = 1e-6
+MOVED_DEG = 1.0  # the recorded finger must have moved this much for its stillness to say so
+
+
+def check_nominal(model: FingerModel, angle_deg: np.ndarray, measured_deg: np.ndarray | None = None,
+                  pressure_kpa: np.ndarray | None = None) -> None:
     """The model as given, driven by the recorded command, must give angles a finger could
-    have: a model in the wrong units otherwise, said in one line."""
+    have, and must move where the recorded finger moved: a model in the wrong units
+    otherwise, said in one line."""
     worst = float(np.max(np.abs(angle_deg))) if np.all(np.isfinite(angle_deg)) else math.inf
     if worst > ANGLE_LIMIT_DEG:
         raise UserError(f"{model.source}: driven by the recorded command, the model's finger reaches "
                         f"{worst:.3g}° (beyond {ANGLE_LIMIT_DEG:g}°): are B (N·m·s/rad), k (N·m/rad) and N "
                         "(N·m/kPa) in their units?")
+    if measured_deg is None or pressure_kpa is None:
+        return
+    moved = float(np.subtract(*np.nanpercentile(measured_deg, (99, 1))))
+    # what the command's span could bend the model's finger, held: a gain far out of its
+    # units moves it nothing, though the start's own settling may move it a little
+    reach_deg = math.degrees(model.pressure_gain_nm_per_kpa * float(np.ptp(pressure_kpa))
+                             / model.stiffness_nm_per_rad)
+    motion = min(float(np.ptp(angle_deg)), reach_deg) if reach_deg > 0.0 else float(np.ptp(angle_deg))
+    if moved > MOVED_DEG and motion < STILL_SHARE * moved:
+        raise UserError(f"{model.source}: driven by the recorded command, the model's finger moves "
+                        f"{motion:.3g}° where the recorded one moved {moved:.3g}°: are A (kg·m²), "
+                        "B (N·m·s/rad), k (N·m/rad) and N (N·m/kPa) in their units?")

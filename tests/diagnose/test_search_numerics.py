@@ -98,3 +98,17 @@ def test_a_later_round_fits_only_what_the_screen_predicts_a_gain_for(monkeypatch
     monkeypatch.setattr(search, "LATER_WHITE_BIC", min(s.predicted_white_bic for s in screens) - 1.0)
     search.run_round(problem, refit, names, None, fit_all=False)
     assert sorted(fitted) == sorted(s.name for s in screens[: search.LATER_TOP])
+
+
+def test_a_sensitivity_that_overflowed_leaves_its_parameter_unknown_not_a_traceback() -> None:
+    """N of 1e-300 made its column 1e300 and JᵀJ infinite: numpy's SVD did not converge and
+    diagnose ended in a traceback. That parameter's variance is infinite, the others' as
+    before."""
+    _, refit = _problem()
+    broken = dataclasses.replace(refit, jacobian=refit.jacobian.copy())
+    broken.jacobian[:, 2] *= 1e300
+    std = broken.std()
+    assert np.isinf(std[2]) and np.all(np.isfinite(std[:2]))
+    before = dataclasses.replace(refit, jacobian=np.delete(refit.jacobian, 2, axis=1),
+                                 params=refit.params[:2], values=refit.values[:2])
+    assert np.allclose(std[:2], before.std(), rtol=1e-3)  # σ² counts one parameter more
