@@ -30,14 +30,14 @@ def check_nominal(model: FingerModel, angle_deg: np.ndarray, measured_deg: np.nd
         raise UserError(f"{model.source}: driven by the recorded command, the model's finger reaches "
                         f"{worst:.3g}° (beyond {ANGLE_LIMIT_DEG:g}°): are B (N·m·s/rad), k (N·m/rad) and N "
                         "(N·m/kPa) in their units?")
-    if measured_deg is None or pressure_kpa is None:
-        return
+    if measured_deg is None or pressure_kpa is None or not np.ptp(pressure_kpa) > 0.0:
+        return  # a command that never changes drives nothing: a still model says nothing then
     moved = float(np.subtract(*np.nanpercentile(measured_deg, (99, 1))))
     # what the command's span could bend the model's finger, held: a gain far out of its
     # units moves it nothing, though the start's own settling may move it a little
     reach_deg = math.degrees(model.pressure_gain_nm_per_kpa * float(np.ptp(pressure_kpa))
                              / model.stiffness_nm_per_rad)
-    motion = min(float(np.ptp(angle_deg)), reach_deg) if reach_deg > 0.0 else float(np.ptp(angle_deg))
+    motion = min(float(np.ptp(angle_deg)), reach_deg)
     if moved > MOVED_DEG and motion < STILL_SHARE * moved:
         raise UserError(f"{model.source}: driven by the recorded command, the model's finger moves "
                         f"{motion:.3g}° where the recorded one moved {moved:.3g}°: are A (kg·m²), "
