@@ -19,7 +19,7 @@ INCLUDES = [f"-I{CSRC}", *(f"-I{ROOT / name}" for name in BOARD_DIRS), f"-I{GENE
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic"]
 BUILDS = {
     "optimised": ["-O2"],
-    "sanitized": ["-O1", "-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
+    "sanitized": ["-O0", "-g", "-fno-omit-frame-pointer", "-fsanitize=address,undefined",
                   "-fno-sanitize-recover=all"],
 }
 
