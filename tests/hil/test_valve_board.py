@@ -301,8 +301,13 @@ class TestValveBoard:
         feeder = WireFeeder(rig)
 
         # 2 500 inputs per transport (up to 160 bytes each): every resynchronisation path
-        # is reached many times over, in 6 s for all three instead of 25 (make test's budget)
-        @settings(max_examples=2_500, deadline=None, derandomize=True,
+        # is reached many times over, in 6 s for all three instead of 25 (make test's budget);
+        # over SLCAN 1 000: python-can's line parser costs 4 ms an input (10.5 s for 2 500,
+        # a sixth of this file's time in make test), and the CAN codec behind it has the
+        # virtual bus's 2 500
+        examples = 1_000 if rig.name == "slcan" else 2_500
+
+        @settings(max_examples=examples, deadline=None, derandomize=True,
                   suppress_health_check=list(HealthCheck))
         @given(raw=st.binary(max_size=160))
         def garbage_then_good_frames(raw: bytes) -> None:
@@ -318,4 +323,4 @@ class TestValveBoard:
             if rig.name == "slcan":
                 feeder.transport.link.close()  # shut the loopback bus down
         stats = feeder.codec.stats
-        assert stats.crc_errors + stats.decode_errors + stats.garbage_bytes > 1000
+        assert stats.crc_errors + stats.decode_errors + stats.garbage_bytes > 0.4 * examples
