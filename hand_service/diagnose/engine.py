@@ -320,14 +320,14 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         warnings.extend(posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":
         unstable = stability.check(problem, final, [e.name for e in found])
-        warnings.extend(u.sentence() for u in unstable)
-        if not unstable and len(found) > 1 and (unstable := stability.first_needs_later(selection, problem)):
+        mended = [] if unstable or len(found) < 2 else stability.first_alone_unstable(problem, selection)
+        warnings.extend(u.sentence() for u in unstable + mended)
+        if mended:
             later = " and ".join(e.name for e in found[1:])
-            warnings.extend(u.sentence() for u in unstable)
             warnings.append(f"with {later} beside it the halves agree, but only as a blend of two forms, "
                             f"as any smooth stiffening can be made over the angles recorded: that does not "
                             f"make {found[0].name} the form")
-        if unstable:
+        if unstable or mended:
             warnings.append("so no effect is named: the mismatch lies outside the library "
                             "(see partial_effects)")
             verdict, notes = "unexplained", []

@@ -70,8 +70,7 @@ class Fit:
         if with_prior and self.prior_information is not None:
             jtj = jtj + np.diag(self.prior_information)
         # a parameter whose sensitivity overflowed (a model far out of its units) says nothing
-        dead = ~((np.diag(jtj) > 1e-300) & np.isfinite(np.diag(jtj)))
-        live = ~dead
+        live = (np.diag(jtj) > 1e-300) & np.isfinite(np.diag(jtj))
         cov = np.full(jtj.shape, np.inf)
         if live.any():
             block = jtj[np.ix_(live, live)]

@@ -20,8 +20,8 @@ STILL_SHARE = 1e-6
 MOVED_DEG = 1.0  # the recorded finger must have moved this much for its stillness to say so
 
 
-def check_nominal(model: FingerModel, angle_deg: np.ndarray, measured_deg: np.ndarray | None = None,
-                  pressure_kpa: np.ndarray | None = None) -> None:
+def check_nominal(model: FingerModel, angle_deg: np.ndarray, measured_deg: np.ndarray,
+                  pressure_kpa: np.ndarray) -> None:
     """The model as given, driven by the recorded command, must give angles a finger could
     have, and must move where the recorded finger moved: a model in the wrong units
     otherwise, said in one line."""
@@ -30,7 +30,7 @@ def check_nominal(model: FingerModel, angle_deg: np.ndarray, measured_deg: np.nd
         raise UserError(f"{model.source}: driven by the recorded command, the model's finger reaches "
                         f"{worst:.3g}° (beyond {ANGLE_LIMIT_DEG:g}°): are B (N·m·s/rad), k (N·m/rad) and N "
                         "(N·m/kPa) in their units?")
-    if measured_deg is None or pressure_kpa is None or not np.ptp(pressure_kpa) > 0.0:
+    if not np.ptp(pressure_kpa) > 0.0:
         return  # a command that never changes drives nothing: a still model says nothing then
     moved = float(np.subtract(*np.nanpercentile(measured_deg, (99, 1))))
     # what the command's span could bend the model's finger, held: a gain far out of its

@@ -110,22 +110,18 @@ def later_unstable(problem: Problem, final: Fit, selection: Selection) -> list[S
     failed = check(problem, final, names)
     if not failed or names[0] in {u.name for u in failed}:
         return []
-    first = selection.accepted[0]
-    return [] if check(problem, first.fit, [first.name]) else failed
+    return [] if first_alone_unstable(problem, selection) else failed
 
 
-def first_needs_later(selection: Selection, problem: Problem) -> list[Stability]:
-    """The first accepted effect, when it is posture-dependent and, fitted alone, does not
-    hold across the recording's postures, though later effects were accepted beside it (else
-    []). The later ones are then mending its form, not adding physics: over one side of the
-    angles a cubic spring and a gravity load together make a two-term stiffening (θ² and θ³
-    beside k's θ) that fits an object met part way (Hunt-Crossley, δ^1.5 past 47°, with its
-    own damping) across both halves, while the cubic alone, 0.0022 below the median angle and
-    0.0055 above, fails. A spring that truly is cubic, or a true gravity load, holds alone
-    with a second effect named beside it (six such battery cases)."""
-    if len(selection.accepted) < 2:
-        return []
+def first_alone_unstable(problem: Problem, selection: Selection) -> list[Stability]:
+    """The first accepted effect, fitted alone (its own round's fit), if it does not hold
+    across the recording's postures (else []; [] too for an effect that is not
+    posture-dependent). With later effects named beside it that hold, they are mending its
+    form, not adding physics: over one side of the angles a cubic spring and a gravity load
+    together make a two-term stiffening (θ² and θ³ beside k's θ) that fits an object met part
+    way (Hunt-Crossley, δ^1.5 past 47°, with its own damping) across both halves, while the
+    cubic alone, 0.0022 below the median angle and 0.0055 above, fails. A spring that truly
+    is cubic, or a true gravity load, holds alone with a second effect named beside it (six
+    such battery cases)."""
     first = selection.accepted[0]
-    if first.name not in POSTURE_EFFECTS:
-        return []
     return check(problem, first.fit, [first.name])

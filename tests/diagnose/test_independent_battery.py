@@ -353,7 +353,7 @@ def test_a_second_smooth_torque_may_not_mend_the_firsts_form(
     """A cubic spring and a gravity load together fit an object met part way with a white
     residual and halves that agree, while the cubic alone, on the lower and upper half of the
     angles, is 0.0022 and 0.0055 (9 standard errors apart): the pair is a blend, so nothing is
-    named (stability.first_needs_later). A spring that truly stiffens holds alone, and keeps
+    named (stability.first_alone_unstable). A spring that truly stiffens holds alone, and keeps
     its names with gravity beside it."""
     from hand_service.cli import main
 
