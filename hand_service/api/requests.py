@@ -23,14 +23,12 @@ from hand_service.config.profile import Profile
 from hand_service.config.textfile import show
 from hand_service.errors import UserError
 from hand_service.service.background import Background
-from hand_service.service.safety import finite_or_none
-from hand_service.service.states import Event, State, TransitionError
-from hand_service.service.supervisor import Supervisor
+from hand_service.service.states import State, TransitionError
+from hand_service.service.surface import HandControl
 from hand_service.service.trajectory import Trajectory
 from hand_service.service.trajectory_csv import read_trajectory
 from hand_service.version import software_version
-from rtcore import MODE_FORCE, MODE_IMPEDANCE, MODE_POSITION, MODE_PRESSURE
-from rtcore.config import MODE_NAMES, MODES_BY_NAME, flag_names
+from rtcore.config import MODE_NAMES, MODES_BY_NAME
 
 log = logging.getLogger(__name__)
 
@@ -116,7 +114,7 @@ def _parse_trajectory(path: str, profile: Profile, rate_hz: float) -> tuple[Traj
         traj = read_trajectory(path, profile, rate_hz)
     except UserError as exc:
         raise UserError(trajectory_error(str(exc), path, profile)) from None
-    return traj, Supervisor.check_trajectory(traj)
+    return traj, traj.checked_driven()
 
 
 @dataclass
@@ -134,7 +132,7 @@ class _Loading:
 class Api:
     """Request name -> (parameters, handler). `handle(request)` never raises."""
 
-    def __init__(self, supervisor: Supervisor, metadata: Callable[[], dict[str, object]],
+    def __init__(self, supervisor: HandControl, metadata: Callable[[], dict[str, object]],
                  record_dir: Path | None = None) -> None:
         self.sup = supervisor
         self.metadata = metadata
@@ -147,13 +145,13 @@ class Api:
             "status": ({}, self.status),
             "params": ({}, self.params),
             "faults": ({}, self.faults),
-            "arm": ({}, lambda: self._event(Event.ARM)),
-            "disarm": ({}, lambda: self._event(Event.DISARM)),
-            "start": ({}, lambda: self._event(Event.START)),
-            "hold": ({}, lambda: self._event(Event.HOLD)),
-            "resume": ({}, lambda: self._event(Event.RESUME)),
-            "estop": ({}, lambda: self._event(Event.ESTOP)),
-            "reset": ({}, self.reset),
+            "arm": ({}, lambda: self._state(self.sup.arm())),
+            "disarm": ({}, lambda: self._state(self.sup.disarm())),
+            "start": ({}, lambda: self._state(self.sup.start())),
+            "hold": ({}, lambda: self._state(self.sup.hold())),
+            "resume": ({}, lambda: self._state(self.sup.resume())),
+            "estop": ({}, lambda: self._state(self.sup.estop())),
+            "reset": ({}, lambda: self._state(self.sup.reset())),
             "mode": ({"finger": Param(str, doc="finger name or 'all'"),
                       "mode": Param(str, doc="vent | pressure | position | force | impedance"),
                       "stiffness_n_per_deg": Param(float, False, doc="impedance: virtual stiffness"),
@@ -223,25 +221,17 @@ class Api:
             raise RequestError(f"unknown finger {_name(name)} (fingers: {', '.join(names)}, all)")
         return [names.index(name)]
 
-    def _event(self, event: Event) -> dict[str, str]:
-        self.sup.fire(event)
-        return {"state": self.sup.state.name}
+    @staticmethod
+    def _state(state: State) -> dict[str, str]:
+        return {"state": state.name}
 
     def _not_driven(self, fingers: list[int], what: str) -> None:
-        traj = self.sup.trajectory
-        if traj is None or self.sup.trajectory_done or self.sup.state not in (State.RUNNING, State.HOLD):
-            return
-        mask = self.sup.trajectory_driven
-        driven = [self.sup.names[i] for i in fingers if mask is not None and mask[i]]
+        driven = [self.sup.names[i] for i in self.sup.trajectory_drives(fingers)]
         if driven:
             raise RequestError(f"{what}: {', '.join(driven)} follow the running trajectory; "
                                "clear_trajectory first")
 
     # -- requests -----------------------------------------------------------------------
-    def reset(self) -> dict[str, str]:
-        self.sup.reset()
-        return {"state": self.sup.state.name}
-
     def mode(self, finger: str, mode: str, stiffness_n_per_deg: float | None = None,
              damping_n_s_per_deg: float | None = None) -> dict[str, Any]:
         fingers = self._fingers(finger)
@@ -251,11 +241,9 @@ class Api:
         gains = impedance_gains(mode, stiffness_n_per_deg, damping_n_s_per_deg, limits)
         self._not_driven(fingers, "mode")
         reply: dict[str, Any] = {"fingers": [self.sup.names[i] for i in fingers], "mode": mode}
-        if gains is not None:  # the step holds these inputs (the tick leaves them be)
-            self.sup.hand.inputs.impedance_stiffness_n_per_deg[fingers] = gains[0]
-            self.sup.hand.inputs.impedance_damping_n_s_per_deg[fingers] = gains[1]
+        if gains is not None:
             reply.update(stiffness_n_per_deg=gains[0], damping_n_s_per_deg=gains[1])
-        self.sup.targets.mode[fingers] = MODES_BY_NAME[mode]
+        self.sup.set_mode(fingers, MODES_BY_NAME[mode], gains)
         return reply
 
     def target(self, finger: str, angle_deg: float | None = None, force_n: float | None = None,
@@ -266,7 +254,7 @@ class Api:
             raise RequestError("target: give exactly one of angle_deg, force_n, pressure_kpa")
         fingers = self._fingers(finger)
         self._not_driven(fingers, "target")
-        safety, targets = self.sup.profile.safety, self.sup.targets
+        safety = self.sup.profile.safety
         (key, value), = given.items()
         for i in fingers:
             if key == "angle_deg":
@@ -279,14 +267,8 @@ class Api:
             if not low <= value <= high:
                 raise RequestError(f"target: {key} = {value:g} is outside [{low:g}, {high:g}] for "
                                    f"{self.sup.names[i]} (profile)")
-        mode = {"angle_deg": MODE_POSITION, "force_n": MODE_FORCE, "pressure_kpa": MODE_PRESSURE}[key]
-        array = {"angle_deg": targets.angle_deg, "force_n": targets.force_n,
-                 "pressure_kpa": targets.pressure_kpa}[key]
-        array[fingers] = value
-        # an angle is also impedance mode's reference: a finger in impedance stays in it
-        keep = (targets.mode[fingers] == MODE_IMPEDANCE) & (key == "angle_deg")
-        targets.mode[fingers] = np.where(keep, MODE_IMPEDANCE, mode)
-        modes = {self.sup.names[i]: MODE_NAMES[int(targets.mode[i])] for i in fingers}
+        after = self.sup.set_target(fingers, key, value)
+        modes = {self.sup.names[i]: MODE_NAMES[m] for i, m in zip(fingers, after, strict=True)}
         shown: str | dict[str, str] = next(iter(modes.values())) if len(set(modes.values())) == 1 else modes
         return {"fingers": [self.sup.names[i] for i in fingers], key: value, "mode": shown}
 
@@ -313,23 +295,25 @@ class Api:
                 "fingers": [n for n, d in zip(self.sup.names, driven, strict=True) if d]}
 
     def clear_trajectory(self) -> dict[str, Any]:
-        if self.sup.state is State.RUNNING and self.sup.trajectory and not self.sup.trajectory_done:
+        playing = self.sup.trajectory_status()
+        if self.sup.state is State.RUNNING and playing is not None and not playing.done:
             raise RequestError("clear_trajectory: not while it runs (hold first)")
-        self.sup.set_trajectory(None)
+        self.sup.clear_trajectory()
         return {"trajectory": None}
 
     def record_start(self, path: str) -> dict[str, Any]:
-        self.sup.recorder.start(new_file_in("record_start", path, self.record_dir), self.metadata())
-        return self.sup.recorder.status()
+        return self.sup.start_recording(new_file_in("record_start", path, self.record_dir), self.metadata())
 
     def record_stop(self) -> dict[str, Any]:
-        if not self.sup.recorder.active:
+        stopped = self.sup.stop_recording()
+        if stopped is None:
             raise RequestError("record_stop: not recording")
-        return self.sup.recorder.stop()
+        return stopped
 
     def faults(self) -> dict[str, Any]:
-        log = self.sup.faults
-        return {"counts": dict(log.counts), "total": log.total, "faults": [f.as_dict() for f in log.faults]}
+        history = self.sup.fault_history()
+        return {"counts": history.counts, "total": history.total,
+                "faults": [f.as_dict() for f in history.faults]}
 
     def params(self) -> dict[str, Any]:
         prof = self.sup.profile
@@ -353,46 +337,13 @@ class Api:
         }
 
     def status(self) -> dict[str, Any]:
-        sup = self.sup
-        inputs, outputs = sup.hand.inputs, sup.hand.outputs
-        fingers = {}
-        for i, name in enumerate(sup.names):
-            mode = int(inputs.mode[i])
-            fingers[name] = {
-                "mode": MODE_NAMES.get(mode, "?"),
-                "target_mode": MODE_NAMES.get(int(sup.targets.mode[i]), "?"),
-                "angle_deg": float(outputs.angle_deg[i]),
-                "angle_filt_deg": float(outputs.angle_filt_deg[i]),
-                "angle_ref_deg": (float(inputs.angle_ref_deg[i]) if mode in (MODE_POSITION, MODE_IMPEDANCE)
-                                  else None),
-                "force_ref_n": float(inputs.force_ref_n[i]) if mode == MODE_FORCE else None,
-                "pressure_cmd_kpa": float(sup.sent_kpa[i]),
-                "pressure_meas_kpa": finite_or_none(float(inputs.pressure_meas_kpa[i])),
-                "force_est_n": float(outputs.force_normal_n[i]),  # signed, like force_ref_n
-                "flags": flag_names(int(outputs.flags[i])),
-            }
-        traj = sup.trajectory
-        firmware = sup.transport.status() if sup.link_open else None
-        return {
-            "state": sup.state.name, "t_s": sup.t_s, "tick": sup.tick_index, "rate_hz": sup.rate_hz,
-            "fingers": fingers,
-            "timing": sup.stats.summary(last=int(10 * sup.rate_hz)),
-            "faults": {"counts": dict(sup.faults.counts), "total": sup.faults.total,
-                       "last": sup.faults.faults[-1].as_dict() if sup.faults.faults else None},
-            "trajectory": None if traj is None else {
-                "source": traj.source, "duration_s": traj.duration_s, "loop": sup.trajectory_loop,
-                "t_s": min(sup.trajectory_tick, traj.n_ticks) / traj.rate_hz, "done": sup.trajectory_done},
-            "trajectory_loading": None if self._loading is None else self._loading.path,
-            "recording": sup.recorder.status(),
-            "transport": {"kind": sup.transport.kind, "open": sup.link_open,
-                          "health": sup.transport.health().as_dict() if sup.link_open else None,
-                          "firmware": None if firmware is None else {
-                              "protocol_version": firmware.protocol_version,
-                              "firmware_version": firmware.firmware_version,
-                              "vented": firmware.vented, "fault_code": firmware.fault_code,
-                              "fault_text": firmware.fault_text}},
-            "api": {"requests": self.requests, "errors": self.errors},
-            "gc": {"collections": sup.gc.collections, "collect_ns_max": sup.gc.collect_ns_max},
-        }
-
-
+        """The supervisor's snapshot, with the API's own part after its trajectory and
+        its transport."""
+        reply: dict[str, Any] = {}
+        for key, value in self.sup.status().as_dict().items():
+            reply[key] = value
+            if key == "trajectory":
+                reply["trajectory_loading"] = None if self._loading is None else self._loading.path
+            elif key == "transport":
+                reply["api"] = {"requests": self.requests, "errors": self.errors}
+        return reply

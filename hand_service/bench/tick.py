@@ -19,13 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from hand_service.commands.progress import Progress
+from hand_service.config.at_rate import with_rate
 from hand_service.config.profile import Profile
 from hand_service.errors import UserError
-from hand_service.service.daemon import with_rate
+from hand_service.service.factory import supervisor
 from hand_service.service.recorder import Recorder
-from hand_service.service.states import Event, State
-from hand_service.service.supervisor import Supervisor
-from hand_service.service.timing import SWITCH_INTERVAL_S, TickStats, setup_realtime, switch_interval
+from hand_service.service.states import State
+from hand_service.service.timing import SWITCH_INTERVAL_S, setup_realtime, switch_interval
 from hand_service.service.trajectory import CosineSweep, Trajectory
 from hand_service.transports import Transport, transport_class
 from rtcore import clock
@@ -87,7 +87,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
     if transport is None:
         transport = transport_class(profile.transport["kind"])(profile)
     rec = Recorder(profile.finger_names, rate_hz, recorder or "process", record_sync_s)
-    sup = Supervisor(profile, transport, rec, spin_us=spin_us)
+    sup = supervisor(profile, transport, rec, spin_us=spin_us)
     tmp = tempfile.TemporaryDirectory(prefix="hand-service-bench-")
     if recorder:
         rec.start(Path(tmp.name) / "bench.csv", {"bench": "tick"})
@@ -98,37 +98,30 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
     n_ticks = max(block, round(seconds * rate_hz))
     spin_ns = int(spin_us * 1000)
     schedule = clock.Schedule(sup.period_ns)
-    sup.schedule = schedule
     floor_late: list[np.ndarray] = []
     floor_misses = 0
     cpu_sup_s = cpu_floor_s = 0.0
-    plant_ns: list[int] = []  # the simulated hand's period, simulated in the slack after each tick
-    advance = sup.advance_hand
-    if advance is not None:
-        def timed_advance() -> None:
-            start = clock.now_ns()
-            advance()
-            plant_ns.append(clock.now_ns() - start)
-        sup.advance_hand = timed_advance
+    # the simulated hand's period, simulated in the slack after each tick
+    timed = sup.time_hand_advance()
+    plant_ns: list[int] = [] if timed is None else timed
     shown = Progress("bench", total=n_ticks, quiet=not progress)
     batch: CanTickCore | None = None
     phase_ns: list[tuple[int, ...]] = []  # per tick over can-v1 in C: its phases (PHASES)
-    sup.gc.start()
-    with shown, switch_interval(switch_interval_s):
-        try:
+    try:
+        with shown, switch_interval(switch_interval_s), sup.stepping("bench done"):
             handshake_end_s = time.monotonic() + HANDSHAKE_TIMEOUT_S
             while sup.state is not State.DISARMED:  # the handshake, not measured
                 if sup.state is State.FAULT or time.monotonic() > handshake_end_s:
-                    last = sup.faults.faults[-1] if sup.faults.faults else None
-                    why = f"{last.cause.value}: {last.detail}" if last else "no answer"
+                    faults = sup.fault_history().faults
+                    why = f"{faults[-1].cause.value}: {faults[-1].detail}" if faults else "no answer"
                     raise UserError(f"the firmware did not come up within {HANDSHAKE_TIMEOUT_S:g} s "
                                     f"({sup.state.name}, {why})")
                 sup.run_one(schedule)
-            sup.fire(Event.ARM)
-            sup.fire(Event.START)
+            sup.arm()
+            sup.start()
             for _ in range(max(1, round(rate_hz / 4))):  # settle
                 sup.run_one(schedule)
-            sup.stats = TickStats(sup.period_ns)
+            sup.reset_timing()
             plant_ns.clear()
             batch = bus_batch(transport)  # bound by now (the supervisor's first tick in C)
             done = 0
@@ -151,14 +144,11 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
                 if done // rate_hz > (done - count) // rate_hz or done == n_ticks:  # a second on
                     shown.advance(done - shown.count, f"{done / rate_hz:.0f} of {n_ticks / rate_hz:g} s "
                                   "ticked (and as long for the bare loop)")
-        finally:
-            sup.gc.stop()
-            sup.request_stop("bench done")
-            sup.shutdown()
-            tmp.cleanup()
-            if realtime.memory_locked is True:
-                clock.unlock_memory()
-    s = sup.stats.summary()
+    finally:
+        tmp.cleanup()
+        if realtime.memory_locked is True:
+            clock.unlock_memory()
+    s = sup.timing()
     floor = np.concatenate(floor_late) / 1e3
     busy_s = n_ticks / rate_hz
     return {
@@ -174,7 +164,7 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
         "skipped_deadlines": s["skipped_deadlines"], "spin_us": spin_us,
         "cpu_percent": 100.0 * cpu_sup_s / busy_s, "cpu_percent_floor": 100.0 * cpu_floor_s / busy_s,
         "recorder": recorder or "off", "record_sync_s": record_sync_s,
-        "faults": sum(sup.faults.counts.values()),
+        "faults": sup.fault_history().total,
         "realtime": realtime.describe(),
         "switch_interval_us": switch_interval_s * 1e6,
         "tick_return_ns_p50": s.get("tick_return_ns_p50"), "tick_return_ns_p99": s.get("tick_return_ns_p99"),

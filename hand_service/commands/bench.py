@@ -116,10 +116,10 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
     """Every argument checked before anything is measured; returns the rate (Hz) and the
     ticking time (s)."""
     from hand_service.commands import checks
+    from hand_service.config.at_rate import with_rate
     from hand_service.errors import UserError
     from hand_service.firmware.rig import Rig
     from hand_service.outputs import check_writable
-    from hand_service.service.daemon import with_rate
 
     rate_hz = with_rate(profile, args.rate).control.rate_hz  # range, filter cutoff, a bus firmware's rate
     if profile.transport["kind"] != "sim" and Rig.name_for(profile) is None:

@@ -85,10 +85,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from hand_service.app.daemon import Daemon, DaemonOptions, print_summary
     from hand_service.commands import checks
+    from hand_service.config.at_rate import with_rate
     from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
-    from hand_service.service.daemon import Daemon, DaemonOptions, print_summary, with_rate
     from hand_service.transports import transport_class
 
     checks.positive(args.duration, "--duration")
@@ -115,7 +116,7 @@ def main(args: argparse.Namespace) -> int:
     if args.demo:
         if kind != "sim":
             raise UserError(f"--demo runs on the simulated hand (transport sim), not {kind}")
-        from hand_service.service.demo import contacts
+        from hand_service.app.demo import contacts
         transport_options["contacts"] = contacts(profile)
     if args.port is not None:
         if kind == "sim":
@@ -137,7 +138,7 @@ def main(args: argparse.Namespace) -> int:
         seed=args.seed)
     daemon = Daemon(profile, transport, options)
     if args.demo:
-        from hand_service.service.demo import run_demo
+        from hand_service.app.demo import run_demo
         return run_demo(daemon, args.record, sys.stdout)
     daemon.open()
     view = None

@@ -285,15 +285,6 @@ class Recorder:
                 "ring_path": str(self._ring.path), **counts,
                 "failure": self.failure.as_dict() if self.failure else None}  # as check() found it
 
-    def status_text(self) -> str:
-        """The recording's part of the daemon's status line."""
-        if not self.active:
-            return ""
-        counts = self._counts()
-        if self.failure is None:
-            return f" | rec {counts['rows']} rows"
-        return f" | rec FAILED ({self.failure.reason}): {counts['rows_lost']} rows lost"
-
     def stop(self, wait_s: float = 0.0) -> dict[str, object]:
         """Tell the writer to drain everything and close the file; wait at most wait_s
         (default: not at all; reap() collects the result later)."""

@@ -17,26 +17,29 @@ import contextlib
 import logging
 import signal
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
 import rtcore
 from hand_service.config.profile import Profile
-from hand_service.service import bus_tick
+from hand_service.service.bus_tick import BusTickPath, PythonTickPath
+from hand_service.service.hand_commands import HandCommands
 from hand_service.service.recorder import SHUTDOWN_STATE, Recorder
 from hand_service.service.safety import Cause, Fault, FaultLog, SafetyGate
-from hand_service.service.states import ACTIVE, LATCHED, REFS, Event, State, StateMachine
+from hand_service.service.states import ACTIVE, LATCHED, Event, State, StateMachine
+from hand_service.service.tick_path import CoreTickPath, TickPath, sleep_to
 from hand_service.service.timing import GcControl, TickStats
-from hand_service.service.trajectory import NOT_DRIVEN, Trajectory
+from hand_service.service.trajectory import Trajectory
 from hand_service.transports import FirmwareStatus, HandshakeError, Transport
+from hand_service.transports.in_c import BusTickInC, HandInProcess
 from rtcore import MODE_VENT, clock
 from rtcore.tick import FOUND_LEAK, FOUND_TRAJECTORY_END, Tick
 
 log = logging.getLogger(__name__)
 
 
-class Supervisor:
+class Supervisor(HandCommands):
     def __init__(self, profile: Profile, transport: Transport, recorder: Recorder | None = None,
                  spin_us: float = 0.0) -> None:
         self.profile = profile
@@ -65,59 +68,31 @@ class Supervisor:
         self.tick_index = 0
         self.t_s = 0.0
         self.sent_kpa = self._ts.sent_kpa
-        self._control, self._follow = self._ts.control, self._ts.follow
-        # the transport says how the tick reaches the hand: on the in-process simulated
-        # hand, the whole tick, sensors to valves, is one C call, and on the schedule the
-        # sleep, that tick and its ring row are one C call too; else the transport in
-        # Python around the C control and follow halves
-        self.tick_path = transport.tick_path()
-        in_core = None if self.tick_path.link is None else self._ts.on_link(self.tick_path.link)
-        self._tick_core = None if in_core is None else in_core.tick
-        self._tick_at = None if in_core is None else in_core.tick_at
-        self._times_ns = Tick.times()  # its wake-up and end
-        # the simulated hand lives through the period of the command just sent in the slack
-        # after the tick, as a board's firmware runs beside the host
-        self.advance_hand: Callable[[], object] | None = None if in_core is None else in_core.advance
-        self._bus_tick = None if in_core is not None else transport.bus_tick(self._ts)  # can-v1: in C
+        self.missed_last = False  # the tick before missed its deadline
+        self.path = self._choose_path()
+        # tests/hil/matrix.py times the vents the C tick over can-v1 encodes through this
+        self._bus_tick = self.path.bus if isinstance(self.path, BusTickPath) else None
         # the recording's rows; on the simulated hand with its true angle (the sample's)
-        truth = None if self.tick_path.link is None else self.tick_path.link.simulator.c_outputs.angle_deg
+        link = self.path.link
+        truth = None if link is None else link.simulator.c_outputs.angle_deg
         self.recorder.bind(self.hand.c_inputs, self.hand.c_outputs, self.sent_kpa, self._ts.c, truth)
-        self._last_missed = False
         self._latched_causes: set[Cause] = set()
         self.on_fault: list[Callable[[Fault], None]] = []
         self.on_state: list[Callable[[State], None]] = []
 
-    @property
-    def trajectory(self) -> Trajectory | None:
-        """The trajectory the tick plays while RUNNING (set_trajectory)."""
-        return self._ts.trajectory
-
-    @property
-    def trajectory_loop(self) -> bool:
-        return self._ts.loop
-
-    @property
-    def trajectory_driven(self) -> np.ndarray | None:
-        """The fingers the trajectory drives (checked off the loop)."""
-        return self._ts.driven
-
-    @property
-    def trajectory_tick(self) -> int:
-        """The trajectory's row the next RUNNING tick plays."""
-        return self._ts.trajectory_tick
-
-    @trajectory_tick.setter
-    def trajectory_tick(self, value: int) -> None:
-        self._ts.trajectory_tick = value
-
-    @property
-    def trajectory_done(self) -> bool:
-        """It reached its end (and did not loop): its last row is the targets, HOLD."""
-        return self._ts.trajectory_done
-
-    @trajectory_done.setter
-    def trajectory_done(self, value: bool) -> None:
-        self._ts.trajectory_done = value
+    def _choose_path(self) -> TickPath:
+        """How the tick reaches the hand, once: on the in-process simulated hand the whole
+        tick, sensors to valves, is one C call (and on the schedule the sleep, that tick and
+        its ring row); over can-v1 decoding, control and encoding are; else the transport in
+        Python around the C control and follow halves (service/tick_path.py)."""
+        transport = self.transport
+        link = transport.core_link() if isinstance(transport, HandInProcess) else None
+        if link is not None:
+            return CoreTickPath(self, self._ts, link)
+        bus = transport.bus_tick(self._ts) if isinstance(transport, BusTickInC) else None
+        if bus is not None:
+            return BusTickPath(self, self._ts, bus)
+        return PythonTickPath(self, self._ts)
 
     # -- state changes -----------------------------------------------------------------
     @property
@@ -165,10 +140,11 @@ class Supervisor:
         self.hand.reset()
         self.fire(Event.HANDSHAKE_OK)
 
-    def reset(self) -> None:
+    def reset(self) -> State:
         """FAULT or ESTOP -> INIT; the next tick shakes hands again."""
         self.fire(Event.RESET)
         self._close_link()
+        return self.state
 
     def _close_link(self) -> None:
         if not self.link_open:
@@ -180,48 +156,31 @@ class Supervisor:
             log.warning("closing the transport: %s: %s", type(exc).__name__, exc)
 
     # -- references --------------------------------------------------------------------
-    @staticmethod
-    def check_trajectory(traj: Trajectory) -> np.ndarray:
-        """Which fingers traj drives; a ValueError unless it drives each at every tick or never."""
-        driven = traj.driven()
-        if ((traj.mode == NOT_DRIVEN) != ~driven).any():
-            raise ValueError("a trajectory drives a finger at every tick or never")
-        return driven
-
     def set_trajectory(self, traj: Trajectory | None, loop: bool = False,
                        driven: np.ndarray | None = None) -> None:
         """Follow `traj` from its start when RUNNING (and from its start again at every
         `start`; `resume` after `hold` continues where it paused). A finger it drives
         follows it at every tick; the others keep their API targets. `driven`: what
-        check_trajectory returned already (off the loop: checking an hour of trajectory
-        takes milliseconds)."""
+        Trajectory.checked_driven returned already (off the loop)."""
         if traj is not None and driven is None:
-            driven = self.check_trajectory(traj)
+            driven = traj.checked_driven()
         self._ts.bind_trajectory(traj, loop, driven)
 
     # -- the tick ------------------------------------------------------------------------
     def tick(self, woke_ns: int, check_model: bool = True) -> None:
         state = self.machine.state
         if state is State.INIT:
-            if self._bus_tick is not None:
-                self._bus_tick.pause()
+            self.path.before_handshake()
             self.handshake()
             self._vent_and_record(self.machine.state)
             return
-        if self._tick_core is not None:  # sensors, gate, references, step, valves: one C call
-            events = self._tick_core(self.tick_index, REFS[state], self._last_missed, woke_ns)
-            if events:
-                self._found(events)
-        elif self._bus_tick is not None:  # decode, control, encode: one C call (service/bus_tick.py)
-            bus_tick.tick(self, state, woke_ns)
-        else:
-            bus_tick.python_tick(self, state, woke_ns)
-        self._record(self.machine.state)
+        self.path.tick(state, woke_ns)
+        self.record_row(self.machine.state)
         if check_model:  # run_one checks after it timed the tick
             self.check_model(state)
 
-    def _found(self, events: int, transport_fault: Fault | None = None,
-               firmware_fault: Fault | None = None, sequence: int | None = None) -> None:
+    def found(self, events: int, transport_fault: Fault | None = None,
+              firmware_fault: Fault | None = None, sequence: int | None = None) -> None:
         """What the C tick found: the end of a trajectory (HOLD), then the first fault in
         this order (overrun, the link, the sample, the frame, the firmware, the outputs),
         then a leak found after the send. Every check runs on every tick, so that each
@@ -240,7 +199,7 @@ class Supervisor:
 
     def check_model(self, ticked: State) -> None:
         """The model check (plausibility.py) on a new sample; a fault vents at once over a bus."""
-        link = self.tick_path.link  # `ticked`: the state the tick began in (INIT: no sample read)
+        link = self.path.link  # `ticked`: the state the tick began in (INIT: no sample read)
         if ticked is not State.INIT and self.link_open and (found := self.model_check.sample(
                 link and round(link.simulator.time_s * self.rate_hz), self.machine.state in ACTIVE,
                 self.hand, self.sent_kpa)):
@@ -259,9 +218,9 @@ class Supervisor:
             except Exception as exc:
                 log.warning("venting: %s: %s", type(exc).__name__, exc)
         self.sent_kpa[:] = 0.0
-        self._record(state)
+        self.record_row(state)
 
-    def _record(self, state: int) -> None:
+    def record_row(self, state: int) -> None:
         self.recorder.push_tick(self.t_s, state)  # one C call: the row from the step's structs
 
     # -- the loop -------------------------------------------------------------------------
@@ -275,6 +234,19 @@ class Supervisor:
             self.request_stop(signal.Signals(signum).name)
         signal.signal(signal.SIGTERM, handler)
         signal.signal(signal.SIGINT, handler)
+
+    def add_slack(self, job: Callable[[int], None], first: bool = False) -> None:
+        self.slack.insert(0 if first else len(self.slack), job)
+
+    def on_state_change(self, callback: Callable[[State], None]) -> None:
+        self.on_state.append(callback)
+
+    @property
+    def next_tick_index(self) -> int:
+        return self.schedule.index if self.schedule is not None else self.tick_index + 1
+
+    def time_hand_advance(self) -> list[int] | None:
+        return self.path.timed_advance() if isinstance(self.path, CoreTickPath) else None
 
     def run(self, duration_s: float | None = None, max_ticks: int | None = None) -> None:
         """Tick on the absolute schedule until a stop request, duration_s or max_ticks."""
@@ -299,49 +271,35 @@ class Supervisor:
             self.gc.stop()
             self.shutdown()
 
+    @contextlib.contextmanager
+    def stepping(self, reason: str) -> Iterator[None]:
+        self.gc.start()
+        try:
+            yield
+        finally:
+            self.gc.stop()
+            self.request_stop(reason)
+            self.shutdown()
+
     def run_one(self, schedule: clock.Schedule) -> None:
         """Sleep to the next deadline, tick, then the slack jobs."""
         deadline = schedule.deadline_ns
+        self.schedule = schedule
         self.tick_index = schedule.index
         self.t_s = schedule.index / self.rate_hz
         state = self.machine.state
-        if self._tick_at is not None and state is not State.INIT:
-            # the simulated hand: from the wake-up to the end of the tick, C only
-            times = self._times_ns
-            while (events := self._tick_at(deadline, self.spin_ns, self.tick_index, REFS[state],
-                                           self._last_missed, self.t_s, state, times)) < 0:
-                clock.check_sleep(times[0])  # a signal woke the sleep: nothing was done
-                if self.stop_reason is not None:
-                    return
-            woke, end = times[0], times[1]
-            if events:  # the state may change: the row is recorded here, after
-                self._found(events)
-                self._record(self.machine.state)
-                end = clock.now_ns()
-            else:  # the tick ended in C: how long until Python ran again, apart
-                self.stats.add_return(clock.now_ns() - end)
-        elif self._bus_tick is not None and state is not State.INIT:  # over can-v1: C only, too
-            if (times := bus_tick.tick_at(self, deadline, state)) is None:
-                return
-            woke, end = times
-        else:
-            woke = clock.sleep_until_ns(deadline, self.spin_ns)
-            while woke < 0:  # a signal: its handler has run; sleep on unless told to stop
-                if self.stop_reason is not None:
-                    return
-                woke = clock.sleep_until_ns(deadline, self.spin_ns)
-            self.tick(woke, check_model=False)
-            end = clock.now_ns()
-            time.sleep(0)  # the transport's writer thread sends the command before the model check
-        self._last_missed = self.stats.add(deadline, woke, end)
+        times = self._handshake_at(deadline) if state is State.INIT else self.path.tick_at(deadline, state)
+        if times is None:  # a signal asked the loop to stop
+            return
+        woke, end = times
+        self.missed_last = self.stats.add(deadline, woke, end)
         self.check_model(state)  # after the command went out, outside the tick's time
         skipped = schedule.advance(clock.now_ns())  # a deadline already gone is skipped
         if skipped:
             self.stats.skipped += skipped
             if self.state is State.RUNNING and not self.trajectory_done:
                 self.trajectory_tick += skipped
-        if self.advance_hand is not None:
-            self.advance_hand()
+        self.path.advance()
         slack_ns = schedule.deadline_ns - clock.now_ns()
         for job in self.slack:
             job(slack_ns)
@@ -349,6 +307,15 @@ class Supervisor:
         if failure is not None:  # with recording.on_failure: fault (Recorder.after_tick)
             self.fault(Fault(Cause.RECORDING_FAILED, failure.describe()))
         self.gc.maybe_collect(self.stats.ticks, schedule.deadline_ns - clock.now_ns())
+
+    def _handshake_at(self, deadline_ns: int) -> tuple[int, int] | None:
+        """INIT: sleep to the deadline, then the handshake in Python."""
+        if (woke := sleep_to(self, deadline_ns)) is None:
+            return None
+        self.tick(woke, check_model=False)
+        end = clock.now_ns()
+        time.sleep(0)  # the transport's writer thread sends the vent before the next tick
+        return woke, end
 
     def shutdown(self) -> None:
         """Vent, record the vented tick, flush and close the recording, close the link.

@@ -13,27 +13,6 @@ from typing import Any
 
 import numpy as np
 
-from rtcore.sim_link import SimLink
-
-
-@dataclass(frozen=True)
-class TickPath:
-    """How the supervisor's tick reaches the hand, chosen by the transport.
-
-    link None: the tick calls the transport's latest() and send() in Python around the
-    two C halves of the tick (a board on a bus). A SimLink: the in-process simulated
-    hand, whose whole tick — sensors, checks, step, valves — runs in one C call on it.
-    """
-
-    link: SimLink | None = None
-
-    @property
-    def in_core(self) -> bool:
-        return self.link is not None
-
-
-PYTHON_TICK = TickPath()
-
 
 @dataclass
 class SensorSample:
@@ -169,18 +148,6 @@ class Transport(ABC):
         blocks), time the hand does not live through. A board on a bus lives through it on
         its own clock whatever the host says; the simulated hand stands still."""
         del tick_index
-
-    def tick_path(self) -> TickPath:
-        """How the supervisor's tick reaches this hand: through latest() and send() in
-        Python (a board on a bus), unless the transport says otherwise."""
-        return PYTHON_TICK
-
-    def bus_tick(self, tick: Any) -> Any:
-        """The supervisor's tick over this bus in one C call, for its rtcore.tick.Tick, or
-        None (the tick calls latest() and send() in Python). A transport that returns one
-        (can-v1: transports/can_tick.py) routes its samples to it from then on."""
-        del tick
-        return None
 
     def vent(self) -> None:
         """Command every valve to 0 kPa now."""

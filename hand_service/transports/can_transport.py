@@ -26,6 +26,7 @@ from hand_service.errors import UserError
 from hand_service.transports.base import FirmwareStatus
 from hand_service.transports.can_tick import CanTick, CanTickState, CommandFrames
 from hand_service.transports.checks import LinkChecks
+from hand_service.transports.in_c import BusTickInC
 from hand_service.transports.link import Link, LinkTransport
 from hand_service.wire.can_c_codec import CCanCodec, builtin_layout
 from hand_service.wire.can_codec import CanCodec
@@ -120,7 +121,7 @@ class CanLink(Link):
             self.bus.send(frame, timeout=0.5)
 
 
-class CanTransport(LinkTransport):
+class CanTransport(LinkTransport, BusTickInC):
     kind = "can"
 
     def __init__(self, profile: Any, tick_in_c: bool | None = None, **options: Any) -> None:

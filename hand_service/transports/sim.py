@@ -16,23 +16,17 @@ import numpy as np
 
 from hand_service.config.profile import Profile
 from hand_service.simulator import Contact, hand_simulator
-from hand_service.transports.base import (
-    PYTHON_TICK,
-    FirmwareStatus,
-    SensorSample,
-    TickPath,
-    Transport,
-    TransportHealth,
-)
+from hand_service.transports.base import FirmwareStatus, SensorSample, Transport, TransportHealth
+from hand_service.transports.in_c import HandInProcess
 from rtcore.sim_link import SimLink
 
 # what crosses the wire: a class that changes any of these must say how its tick runs
 WIRE = ("open", "close", "latest", "send", "vent", "status", "on_tick", "resume_at")
 
 
-class SimTransport(Transport):
+class SimTransport(Transport, HandInProcess):
     """The link's state is an rtcore_sim_link in C (rtcore.sim_link), so that the
-    supervisor's tick can run the whole exchange in one C call: tick_path() says so
+    supervisor's tick can run the whole exchange in one C call: core_link() says so
     while `tick_in_core` is true. These methods are the same exchange, one call at a time,
     for a tick in Python.
 
@@ -59,9 +53,9 @@ class SimTransport(Transport):
                                       firmware_version="sim")
         self.link = SimLink(self.simulator)
 
-    def tick_path(self) -> TickPath:
+    def core_link(self) -> SimLink | None:
         """The whole tick in C on the link, unless this class goes through Python."""
-        return TickPath(self.link) if self.tick_in_core else PYTHON_TICK
+        return self.link if self.tick_in_core else None
 
     def open(self) -> FirmwareStatus:
         self.link.open()

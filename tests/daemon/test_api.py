@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 
 from hand_service.api.client import ApiError, HandClient
+from hand_service.app.daemon import Daemon, DaemonOptions
 from hand_service.config.profile import load_profile
 from hand_service.recording import read_recording
-from hand_service.service.daemon import Daemon, DaemonOptions
 from hand_service.transports import transport_class
 from tests.daemon.process import wait_for
 

@@ -21,10 +21,10 @@ from typing import Any
 import pytest
 
 from hand_service.api.client import ApiError, HandClient
+from hand_service.app.daemon import Daemon, DaemonOptions
 from hand_service.config.profile import Profile, load_profile
 from hand_service.config.recording import RecordingSettings
 from hand_service.errors import UserError
-from hand_service.service.daemon import Daemon, DaemonOptions
 from hand_service.service.recorder import WRITER_CHECK_S
 from hand_service.service.recorder_writer import FLUSH_INTERVAL_S, ring_columns
 from hand_service.service.recording_ring import RING_DIR_ENV

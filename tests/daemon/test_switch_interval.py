@@ -6,8 +6,8 @@ import sys
 
 import pytest
 
+from hand_service.app.daemon import Daemon, DaemonOptions
 from hand_service.config.profile import load_profile
-from hand_service.service.daemon import Daemon, DaemonOptions
 from hand_service.service.timing import SWITCH_INTERVAL_S
 from hand_service.transports import transport_class
 

@@ -14,6 +14,7 @@ from hand_service.recording import read_recording
 from hand_service.service.recorder import SHUTDOWN_STATE, Recorder
 from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
+from hand_service.service.tick_path import CoreTickPath
 from hand_service.service.trajectory import CosineSweep, Trajectory
 from hand_service.transports.sim import SimTransport
 from rtcore import MODE_POSITION, clock
@@ -24,7 +25,7 @@ class CoreRig:
         self.profile = load_profile(None)
         self.transport = SimTransport(self.profile, seed=1)
         self.sup = Supervisor(self.profile, self.transport, Recorder(self.profile.finger_names, 100.0))
-        assert self.sup._tick_core is not None  # the C path, not the Python one
+        assert isinstance(self.sup.path, CoreTickPath)  # the C path, not the Python one
         self.now_ns = 10**9
         self.period_s = 1.0 / self.sup.rate_hz
 
@@ -32,7 +33,7 @@ class CoreRig:
         for _ in range(n):
             self.sup.tick_index += 1 + skip
             self.sup.tick(self.now_ns)
-            self.sup.advance_hand()  # as run_one does in the slack
+            self.sup.path.advance()  # as run_one does in the slack
             self.now_ns += self.sup.period_ns * (1 + skip)
 
     def running(self) -> None:
@@ -67,7 +68,7 @@ def test_tracks_its_targets(core: CoreRig) -> None:
 def test_overrun_streak(core: CoreRig) -> None:
     core.running()
     for _ in range(core.profile.safety["overrun_streak"]):
-        core.sup._last_missed = True
+        core.sup.missed_last = True
         core.tick()
     core.assert_faulted("overrun_streak")
 
@@ -144,15 +145,15 @@ def test_the_scheduled_tick_records_every_row(tmp_path: Path) -> None:
             sup.fire(Event.START)
 
     sup.slack.append(drive)
-    assert sup._tick_at is not None
+    assert isinstance(sup.path, CoreTickPath)
     python_rows: list[int] = []  # the rows Python pushes: INIT, the tick with events, shutdown
-    record = sup._record
+    record = sup.record_row
 
     def counted(state: int) -> None:
         python_rows.append(state)
         record(state)
 
-    sup._record = counted  # type: ignore[method-assign]
+    sup.record_row = counted  # type: ignore[method-assign]
     path = tmp_path / "rec.csv"
     recorder.start(path, {"test": "scheduled tick"})
     sup.run(max_ticks=120)

@@ -11,9 +11,11 @@ import pytest
 
 from hand_service.bench.tick import sweep_trajectory
 from hand_service.config.profile import load_profile
+from hand_service.service.bus_tick import PythonTickPath
 from hand_service.service.recorder import Recorder
 from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
+from hand_service.service.tick_path import CoreTickPath
 from hand_service.transports import SensorSample
 from hand_service.transports.sim import SimTransport
 from rtcore import MODE_POSITION
@@ -67,7 +69,7 @@ def test_the_c_tick_and_the_python_transport_path_agree() -> None:
     profile = load_profile(None)
     core_trace, core = _run(SimTransport(profile, seed=3))
     py_trace, py = _run(PythonPathSim(profile, seed=3))
-    assert core._tick_core is not None and py._tick_core is None
+    assert isinstance(core.path, CoreTickPath) and isinstance(py.path, PythonTickPath)
     states = [row[0] for row in core_trace]
     # the run passes through every phase: the sweep, its end (HOLD), resumed, then a fault
     assert {State.RUNNING, State.HOLD, State.FAULT} <= set(states)
@@ -87,7 +89,7 @@ def test_the_c_tick_and_the_python_transport_path_agree() -> None:
 def test_only_the_plain_simulated_hand_runs_in_core(cls: type[SimTransport], in_core: bool) -> None:
     """A subclass that changes what crosses the wire keeps its Python path, so its
     overrides are never skipped."""
-    assert cls(load_profile(None)).tick_path().in_core is in_core
+    assert (cls(load_profile(None)).core_link() is not None) is in_core
 
 
 def test_a_subclass_that_changes_the_wire_must_say_how_it_ticks() -> None:

@@ -12,10 +12,10 @@ from typing import TextIO
 
 import numpy as np
 
+from hand_service.app.daemon import Daemon, print_summary
 from hand_service.config.profile import Profile
 from hand_service.recording import read_recording
-from hand_service.service.daemon import Daemon, print_summary
-from hand_service.service.states import Event, State
+from hand_service.service.states import State
 from hand_service.service.trajectory import CosineSweep, References, SmoothStep, Trajectory
 from hand_service.simulator import Contact
 
@@ -141,7 +141,7 @@ def run_demo(daemon: Daemon, record: Path | None, out: TextIO) -> int:
     daemon.options.record = record
     phases = Phases()
     traj = demo_trajectory(profile, sup.rate_hz, phases)
-    simulator = sup.transport.simulator  # type: ignore[attr-defined]  # the demo is sim-only
+    simulator = daemon.transport.simulator  # type: ignore[attr-defined]  # the demo is sim-only
     limit_s = traj.duration_s + 5.0
     n = round(limit_s * sup.rate_hz) + 2
     truth_angle = np.full((n, len(profile.fingers)), np.nan)
@@ -151,19 +151,19 @@ def run_demo(daemon: Daemon, record: Path | None, out: TextIO) -> int:
     def drive(_slack_ns: int) -> None:
         # the simulator now holds the state the next tick reads; after a skipped deadline
         # that tick's index is more than one ahead, so ask the schedule, not tick_index + 1
-        k = sup.schedule.index if sup.schedule is not None else sup.tick_index + 1
+        k = sup.next_tick_index
         if k < n:
             truth_angle[k] = simulator.outputs.angle_deg
             truth_force[k] = simulator.outputs.contact_force_n
         if sup.state is State.DISARMED and not started:
             sup.set_trajectory(traj)
-            sup.fire(Event.ARM)
-            sup.fire(Event.START)
+            sup.arm()
+            sup.start()
             started.append(sup.tick_index + 1)
-        elif started and sup.trajectory_done:
+        elif started and (playing := sup.trajectory_status()) is not None and playing.done:
             sup.request_stop("demo finished")
 
-    sup.slack.insert(0, drive)
+    sup.add_slack(drive, first=True)
     out.write(f"demo on {profile.name}: {len(profile.fingers)} fingers at {sup.rate_hz:g} Hz. "
               f"0 -> 90 deg sweep ({phases.sweep_periods} periods of {SWEEP.period_s} s) on every finger,\n"
               f"then a pinch: {' and '.join(PINCH_FINGERS)} close on objects at {OBJECT_ANGLE_DEG:g} deg "

@@ -1,9 +1,10 @@
 """The daemon: the supervisor with its control API, recording, live status line and
-systemd notifications, wired together for `hand-service run`."""
+systemd notifications, wired together for `hand-service run`. The one place above the
+service and the API that makes a supervisor (tests/test_supervisor_surface.py); everything
+else it does goes through the supervisor's surface (service/surface.py)."""
 
 from __future__ import annotations
 
-import copy
 import logging
 import signal
 import sys
@@ -12,23 +13,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-import numpy as np
-
 from hand_service.api.paths import default_record_dir, prepare_record_dir
 from hand_service.api.requests import Api
 from hand_service.api.server import ApiServer
-from hand_service.config.control import cutoff_problem
 from hand_service.config.profile import Profile
-from hand_service.config.rates import RATE_MAX_HZ, RATE_MIN_HZ
-from hand_service.errors import UserError
+from hand_service.service.factory import supervisor
 from hand_service.service.recorder import Recorder
 from hand_service.service.sdnotify import Notifier
-from hand_service.service.states import Event, State
-from hand_service.service.supervisor import Supervisor
+from hand_service.service.states import State
+from hand_service.service.surface import TickLoop
 from hand_service.service.timing import Realtime, setup_realtime, switch_interval
 from hand_service.transports import Transport
 from hand_service.version import software_version
-from rtcore import MODE_POSITION, clock
+from rtcore import clock
 
 log = logging.getLogger(__name__)
 
@@ -51,31 +48,6 @@ class DaemonOptions:
     seed: int | None = None
 
 
-def with_rate(profile: Profile, rate_hz: float | None) -> Profile:
-    """The profile at another control rate (a copy); the simulated hand follows it. The rate
-    must lie in the supported range and above twice the filter cutoff. A board
-    on a bus samples on its own clock at the rate its profile states, and the control step,
-    its filters and its safety counts must run at that rate: another is refused."""
-    if rate_hz is None or rate_hz == profile.control.rate_hz:
-        return profile
-    if not RATE_MIN_HZ <= rate_hz <= RATE_MAX_HZ:
-        raise UserError(f"--rate must be between {RATE_MIN_HZ:g} and {RATE_MAX_HZ:g} Hz, not {rate_hz:g}")
-    problem = cutoff_problem(profile.control, rate_hz)
-    if problem is not None:
-        where_set = profile.lines.get("control.filter_cutoff_hz", str(profile.path))
-        raise UserError(f"--rate {rate_hz:g} Hz: {problem} (cutoff set at {where_set})")
-    if profile.transport["kind"] != "sim":
-        raise UserError(
-            f"--rate {rate_hz:g} Hz: the firmware behind profile '{profile.name}' samples at "
-            f"{profile.control.rate_hz:g} Hz on its own clock (control.rate_hz, {profile.path}); "
-            f"the rate a firmware samples at is a property of the firmware, and the control tick "
-            f"must match it. --rate is for the simulated hand (transport sim); for a board that "
-            f"samples at another rate, set control.rate_hz in its profile")
-    changed = copy.copy(profile)
-    changed.control = profile.control.with_rate(float(rate_hz))
-    return changed
-
-
 class Daemon:
     def __init__(self, profile: Profile, transport: Transport, options: DaemonOptions,
                  out: TextIO | None = None) -> None:
@@ -83,7 +55,8 @@ class Daemon:
         self.out = out or sys.stdout
         recorder = Recorder(profile.finger_names, profile.control.rate_hz, options.recorder,
                             options.record_sync_s)
-        self.sup = Supervisor(profile, transport, recorder, spin_us=options.spin_us)
+        self.transport = transport
+        self.sup: TickLoop = supervisor(profile, transport, recorder, spin_us=options.spin_us)
         self.api = Api(self.sup, self.metadata)
         self.server = ApiServer(self.api.handle, options.socket_path, options.tcp_port)
         self.notifier = Notifier()
@@ -93,8 +66,8 @@ class Daemon:
         self._line_shown = False
         self._ready_sent = False
         self._estop_signalled = False  # SIGUSR1: ESTOP in the slack after the next tick
-        self.sup.slack.append(self._slack)
-        self.sup.on_state.append(self._state_changed)
+        self.sup.add_slack(self._slack)
+        self.sup.on_state_change(self._state_changed)
 
     def metadata(self) -> dict[str, object]:
         """Provenance for the `#` lines of every recording."""
@@ -122,7 +95,7 @@ class Daemon:
                     self.options.record_dir or default_record_dir(self.options.record))
                 log.info("requests' paths: in %s", self.api.record_dir)
             if self.options.record is not None:
-                self.sup.recorder.start(self.options.record, self.metadata())
+                self.sup.start_recording(self.options.record, self.metadata())
         except BaseException:
             self.server.close()
             raise
@@ -158,7 +131,7 @@ class Daemon:
         if self._estop_signalled:
             self._estop_signalled = False
             log.warning("SIGUSR1: emergency stop (%s -> ESTOP)", self.sup.state.name)
-            self.sup.fire(Event.ESTOP)
+            self.sup.estop()
 
     def api_budget_ns(self, slack_ns: int) -> int:
         """The API's work per poll: a share of the period, and at most half of what is left
@@ -170,7 +143,7 @@ class Daemon:
         self.api.poll()
         self.server.poll(self.api_budget_ns(slack_ns))
         self._estop_if_signalled()  # a signal during the poll: not a tick later
-        ticks = self.sup.stats.ticks
+        ticks = self.sup.ticks_run
         self.notifier.watchdog(clock.now_ns())
         if ticks % self._status_every == 0 and self.options.status_line:
             self.out.write("\r" + self.status_text() + "\x1b[K")
@@ -185,25 +158,28 @@ class Daemon:
             self.notifier.ready(f"{self.profile.name}: DISARMED")
 
     def status_text(self) -> str:
-        sup = self.sup
-        inputs, outputs = sup.hand.inputs, sup.hand.outputs
-        position = inputs.mode == MODE_POSITION
-        err = np.abs(outputs.angle_filt_deg - inputs.angle_ref_deg)[position]
-        error = f"max |err| {err.max():5.2f} deg" if err.size else "max |err|   -     "
-        recent = sup.stats.summary(last=int(sup.rate_hz))
-        recording = sup.recorder.status_text()  # rows, or FAILED and the rows lost
-        return (f"t {sup.t_s:7.2f} s {sup.state.name:<8} {error} | tick p50 "
+        status = self.sup.status()
+        err = [abs(f.angle_filt_deg - f.angle_ref_deg) for f in status.fingers.values()
+               if f.mode == "position" and f.angle_ref_deg is not None]
+        error = f"max |err| {max(err):5.2f} deg" if err else "max |err|   -     "
+        recent = self.sup.timing(last=int(self.sup.rate_hz))
+        return (f"t {status.t_s:7.2f} s {status.state.name:<8} {error} | tick p50 "
                 f"{recent.get('tick_ns_p50', 0) / 1e3:5.0f} us | jitter p99 "
-                f"{recent.get('jitter_us_p99', 0) / 1e3:5.2f} ms | misses {sup.stats.misses} | faults "
-                f"{sup.faults.total}{recording}")
+                f"{recent.get('jitter_us_p99', 0) / 1e3:5.2f} ms | misses "
+                f"{recent['deadline_misses']} | faults "
+                f"{status.faults.total}{recording_text(status.recording)}")
 
     def summary(self) -> dict[str, Any]:
-        stats = self.sup.stats.summary()
-        stats.update(state=self.sup.state.name, stop_reason=self.sup.stop_reason,
-                     faults=dict(self.sup.faults.counts), realtime=self.realtime.describe(),
-                     gc_collections=self.sup.gc.collections,
-                     gc_collect_ns_max=self.sup.gc.collect_ns_max)
-        return stats
+        return {**self.sup.summary(), "realtime": self.realtime.describe()}
+
+
+def recording_text(recording: dict[str, Any]) -> str:
+    """The recording's part of the status line: its rows, or FAILED and the rows lost."""
+    if not recording["active"]:
+        return ""
+    if recording["failure"] is None:
+        return f" | rec {recording['rows']} rows"
+    return f" | rec FAILED ({recording['failure']['reason']}): {recording['rows_lost']} rows lost"
 
 
 def print_summary(summary: dict[str, Any], out: TextIO) -> None:

@@ -1,0 +1,1 @@
+"""The wiring above the service, the control API and the view: `hand-service run`."""
