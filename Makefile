@@ -4,7 +4,8 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
-                  $(wildcard csrc/*.c csrc/*.h board/plant/pneumatics.* board/core/regulator.*)
+                  hand_service/firmware/_build.py board/Makefile \
+                  $(wildcard csrc/*.c csrc/*.h board/core/* board/plant/* board/host/* board/inprocess/*)
 
 .PHONY: run test test-thorough test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
 

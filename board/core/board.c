@@ -98,6 +98,9 @@ uint32_t board_uptime_ms(const struct board *b)
 
 uint16_t board_announced_protocol(const struct board *b)
 {
+    if (b->echo_protocol != 0u) {
+        return b->echo_protocol;
+    }
 #ifdef BOARD_TEST_IMAGE
     const int32_t changed = inject_value(&b->inject, INJECT_PROTOCOL_CHANGE,
                                          (uint16_t)(b->cfg.protocol_version + 1u));
@@ -108,10 +111,24 @@ uint16_t board_announced_protocol(const struct board *b)
     return b->cfg.protocol_version;
 }
 
+/* INJECT_BROKEN_WRONG_CRC: the CAN frame's E2E byte inverted, the serial frame's CRC from 0 */
+static void wrong_crc(const struct board *b, struct board_unit *unit)
+{
+    if (b->cfg.wire == BOARD_WIRE_CAN) {
+        unit->data[0] ^= 0xFFu;
+    } else if (unit->len >= SERIAL_V1_HEADER_BYTES + SERIAL_V1_CRC_BYTES) {
+        const uint16_t body = (uint16_t)(unit->len - 2u - SERIAL_V1_CRC_BYTES);
+        serial_v1_put_u16(unit->data + 2u + body, serial_v1_crc16_from(0u, unit->data + 2, body));
+    }
+}
+
 void board_emit(struct board *b, struct board_unit *unit)
 {
     if (b->state == BOARD_BOOTING) {
         return;
+    }
+    if (board_breaks(b, INJECT_BROKEN_WRONG_CRC)) {
+        wrong_crc(b, unit);
     }
 #ifdef BOARD_TEST_IMAGE
     if (!inject_outgoing(&b->inject, unit, b->now_us)) {
@@ -163,7 +180,9 @@ static void announce(struct board *b)
     b->rx_errors = 0u;
     b->refused = 0u;
     b->next_sample_us = b->now_us + b->cfg.sample_period_us;
-    send_version(b);
+    if (!board_breaks(b, INJECT_BROKEN_SILENT_REBOOT)) {
+        send_version(b);
+    }
     board_send_status(b);
 }
 
@@ -202,10 +221,28 @@ void board_on_bad_frame(struct board *b)
     }
 }
 
+static int all_zero(const float *pressure_kpa, uint8_t n)
+{
+    for (uint8_t i = 0; i < n; i++) {
+        if (pressure_kpa[i] != 0.0f) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 void board_on_valve_command(struct board *b, uint8_t sequence, const float *pressure_kpa, uint8_t n)
 {
     if (b->state == BOARD_BOOTING || b->state == BOARD_FAULT || b->refused || n != b->cfg.n_fingers) {
         return; /* a board at fault keeps its valves vented whatever it is told */
+    }
+    if (board_breaks(b, INJECT_BROKEN_ZERO_VENTS) && all_zero(pressure_kpa, n)
+        && (b->state == BOARD_RUNNING || b->state == BOARD_WATCHDOG_VENTED)) {
+        board_vent_valves(b); /* acknowledged and vented, but no longer running */
+        b->command_sequence = sequence;
+        b->last_command_us = b->now_us;
+        board_set_state(b, BOARD_WATCHDOG_VENTED);
+        return;
     }
 #ifdef BOARD_TEST_IMAGE
     const int ignored = inject_active(&b->inject, INJECT_VALVES_IGNORED) != 0;
@@ -226,6 +263,13 @@ void board_on_valve_command(struct board *b, uint8_t sequence, const float *pres
 void board_on_version_request(struct board *b, uint16_t protocol_version)
 {
     if (b->state == BOARD_BOOTING) {
+        return;
+    }
+    if (board_breaks(b, INJECT_BROKEN_ECHO_VERSION)) { /* says it speaks whatever it is asked */
+        board_send_status(b);
+        b->echo_protocol = protocol_version;
+        send_version(b);
+        b->echo_protocol = 0u;
         return;
     }
     b->refused = protocol_version != b->cfg.protocol_version;
@@ -255,12 +299,16 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
         memset(&b->partial, 0, sizeof b->partial);
         return;
     }
-    if (kind >= INJECT_KINDS || kind == INJECT_CAN_ERROR_FRAMES
+    if (kind >= INJECT_KINDS
+        || (kind == INJECT_CAN_ERROR_FRAMES && (b->cfg.wire != BOARD_WIRE_CAN || !b->cfg.can_error_frames))
         || (kind == INJECT_BUS_OFF && b->cfg.wire != BOARD_WIRE_CAN)
         || (kind == INJECT_SENSOR_NAN && b->cfg.wire == BOARD_WIRE_CAN)) {
         return; /* not on this link or this board (as the mock ignores what its link cannot carry) */
     }
     inject_request(&b->inject, kind, finger, duration_ms, value, b->now_us);
+    if (kind == INJECT_BUS_OFF) {
+        hal_can_error(1u); /* the driver says so, then nothing crosses */
+    }
     board_send_status(b);
     if (kind == INJECT_PROTOCOL_CHANGE) {
         send_version(b);
@@ -337,7 +385,8 @@ void board_poll(struct board *b)
         announce(b);
     }
     board_own_faults(b);
-    if (b->state == BOARD_RUNNING && !board_reached(b->last_command_us + b->cfg.watchdog_us, b->now_us)) {
+    if (b->state == BOARD_RUNNING && !board_reached(b->last_command_us + b->cfg.watchdog_us, b->now_us)
+        && !board_breaks(b, INJECT_BROKEN_NO_WATCHDOG)) {
         board_vent_valves(b);
         b->vent_count++;
         b->vent_us = b->now_us;

@@ -7,6 +7,18 @@
 
 #include "board.h"
 
+/* Does this image break `rule` (enum inject_broken) on purpose? Never in a release image. */
+static inline int board_breaks(const struct board *b, uint8_t rule)
+{
+#ifdef BOARD_TEST_IMAGE
+    return b->cfg.broken == rule;
+#else
+    (void)b;
+    (void)rule;
+    return 0;
+#endif
+}
+
 /* decoded from the wire */
 void board_on_valve_command(struct board *b, uint8_t sequence, const float *pressure_kpa, uint8_t n);
 void board_on_version_request(struct board *b, uint16_t protocol_version);

@@ -118,7 +118,11 @@ static void frame(struct board *b, uint16_t id, const uint8_t *data, uint8_t len
 #ifdef BOARD_TEST_IMAGE
     case CAN_V1_FAULT_INJECT_FRAME_ID: expected = CAN_V1_FAULT_INJECT_LENGTH; break;
 #endif
-    default: return; /* a frame for another node: a CAN bus is shared */
+    default: /* a frame for another node: a CAN bus is shared */
+        if (board_breaks(b, INJECT_BROKEN_COUNTS_RUBBISH)) {
+            board_on_bad_frame(b);
+        }
+        return;
     }
     if (len != expected || data[0] != wire_can_e2e_crc(data, len, (uint8_t)(id & 0xFFu))) {
         board_on_bad_frame(b);

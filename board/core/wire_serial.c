@@ -102,12 +102,16 @@ void wire_serial_receive(struct board *b)
     while ((got = hal_serial_read(chunk, READ_CHUNK)) > 0u) {
         for (uint16_t i = 0; i < got; i++) {
             const uint32_t crc_errors = b->decoder.crc_errors;
+            const uint32_t garbage_bytes = b->decoder.garbage_bytes;
             struct serial_v1_frame frame;
             serial_v1_feed(&b->decoder, chunk[i]);
             while (serial_v1_next(&b->decoder, &frame)) {
                 handle(b, &frame);
             }
             b->rx_errors += b->decoder.crc_errors - crc_errors;
+            if (board_breaks(b, INJECT_BROKEN_COUNTS_RUBBISH)) {
+                b->rx_errors += b->decoder.garbage_bytes - garbage_bytes;
+            }
         }
     }
 }

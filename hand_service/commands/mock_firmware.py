@@ -51,7 +51,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.commands import checks
     from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
-    from hand_service.firmware.mock import MockFirmware
+    from hand_service.firmware.board import BoardFirmware
     from hand_service.firmware.ports import open_port
 
     checks.seed(args.seed)
@@ -61,7 +61,7 @@ def main(args: argparse.Namespace) -> int:
     if args.protocol_version is not None and not 1 <= args.protocol_version <= 65535:
         raise UserError("--protocol-version must be 1 to 65535")
     port = open_port(profile, args.port)
-    firmware = MockFirmware(profile, port, args.protocol_version, firmware_version, args.seed)
+    firmware = BoardFirmware(profile, port, args.protocol_version, firmware_version, args.seed)
     signal.signal(signal.SIGTERM, lambda *_: firmware.stop_event.set())
     print(f"mock-firmware: profile {profile.name}, protocol {firmware.protocol_version}, firmware "
           f"{args.firmware_version}, {port.description}", flush=True)
