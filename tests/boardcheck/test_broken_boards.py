@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 
 from hand_service import cli
-from hand_service.firmware.board import BROKEN
 from tests.boardcheck.conftest import TEST_OPTIONS, board
 
 CASES = [
