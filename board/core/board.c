@@ -1,6 +1,5 @@
 /* The valve-board firmware core (board.h): the state machine, sampling on the board's own
- * clock, the pressure loops, the watchdog and the board's own faults. Behaviour follows the
- * host's reference (hand_service/firmware/mock.py), decision by decision:
+ * clock, the pressure loops, the watchdog and the board's own faults. Its decisions:
  *
  * - boot: valves vented; VersionInfo, then Status; counters (sample and frame sequence,
  *   rx_errors, uptime) from zero; IDLE until the first valid command.
@@ -74,100 +73,6 @@ static int config_ok(const struct board_config *c)
         && (c->wire == BOARD_WIRE_SERIAL || c->wire == BOARD_WIRE_CAN);
 }
 
-void board_vent_valves(struct board *b)
-{
-    for (uint8_t i = 0; i < BOARD_MAX_FINGERS; i++) {
-        b->command_kpa[i] = 0.0f;
-        regulator_vent(&b->regulators[i]);
-        if (i < b->cfg.n_fingers) {
-            hal_valve_pwm(i, HAL_VALVE_INLET, 0u);
-            hal_valve_pwm(i, HAL_VALVE_EXHAUST, HAL_DUTY_FULL_PERMILLE);
-        }
-    }
-}
-
-int board_reached(uint32_t now_us, uint32_t when_us)
-{
-    return (int32_t)(now_us - when_us) >= 0;
-}
-
-uint32_t board_uptime_ms(const struct board *b)
-{
-    return b->uptime_ms;
-}
-
-uint16_t board_announced_protocol(const struct board *b)
-{
-    if (b->echo_protocol != 0u) {
-        return b->echo_protocol;
-    }
-#ifdef BOARD_TEST_IMAGE
-    const int32_t changed = inject_value(&b->inject, INJECT_PROTOCOL_CHANGE,
-                                         (uint16_t)(b->cfg.protocol_version + 1u));
-    if (changed >= 0) {
-        return (uint16_t)changed;
-    }
-#endif
-    return b->cfg.protocol_version;
-}
-
-/* INJECT_BROKEN_WRONG_CRC: the CAN frame's E2E byte inverted, the serial frame's CRC from 0 */
-static void wrong_crc(const struct board *b, struct board_unit *unit)
-{
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        unit->data[0] ^= 0xFFu;
-    } else if (unit->len >= SERIAL_V1_HEADER_BYTES + SERIAL_V1_CRC_BYTES) {
-        const uint16_t body = (uint16_t)(unit->len - 2u - SERIAL_V1_CRC_BYTES);
-        serial_v1_put_u16(unit->data + 2u + body, serial_v1_crc16_from(0u, unit->data + 2, body));
-    }
-}
-
-void board_emit(struct board *b, struct board_unit *unit)
-{
-    if (b->state == BOARD_BOOTING) {
-        return;
-    }
-    if (board_breaks(b, INJECT_BROKEN_WRONG_CRC)) {
-        wrong_crc(b, unit);
-    }
-#ifdef BOARD_TEST_IMAGE
-    if (!inject_outgoing(&b->inject, unit, b->now_us)) {
-        return;
-    }
-#endif
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        hal_can_write(unit->can_id, unit->data, unit->len);
-    } else {
-        hal_serial_write(unit->data, unit->len);
-    }
-}
-
-void board_send_status(struct board *b)
-{
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        wire_can_status(b);
-    } else {
-        wire_serial_status(b);
-    }
-}
-
-static void send_version(struct board *b)
-{
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        wire_can_version(b);
-    } else {
-        wire_serial_version(b);
-    }
-}
-
-void board_set_state(struct board *b, uint8_t state)
-{
-    if (b->state != state) {
-        b->state = state;
-        board_send_status(b);
-    }
-}
-
 static void announce(struct board *b)
 {
     b->state = BOARD_IDLE;
@@ -181,7 +86,7 @@ static void announce(struct board *b)
     b->refused = 0u;
     b->next_sample_us = b->now_us + b->cfg.sample_period_us;
     if (!board_breaks(b, INJECT_BROKEN_SILENT_REBOOT)) {
-        send_version(b);
+        board_send_version(b);
     }
     board_send_status(b);
 }
@@ -214,7 +119,7 @@ int board_init(struct board *b, const struct board_config *cfg)
 
 /* -- decoded messages ------------------------------------------------------------------ */
 
-void board_on_bad_frame(struct board *b)
+static void board_on_bad_frame(struct board *b)
 {
     if (b->state != BOARD_BOOTING) {
         b->rx_errors++;
@@ -231,7 +136,7 @@ static int all_zero(const float *pressure_kpa, uint8_t n)
     return 1;
 }
 
-void board_on_valve_command(struct board *b, uint8_t sequence, const float *pressure_kpa, uint8_t n)
+static void board_on_valve_command(struct board *b, uint8_t sequence, const float *pressure_kpa, uint8_t n)
 {
     if (b->state == BOARD_BOOTING || b->state == BOARD_FAULT || b->refused || n != b->cfg.n_fingers) {
         return; /* a board at fault keeps its valves vented whatever it is told */
@@ -260,7 +165,7 @@ void board_on_valve_command(struct board *b, uint8_t sequence, const float *pres
     board_set_state(b, BOARD_RUNNING);
 }
 
-void board_on_version_request(struct board *b, uint16_t protocol_version)
+static void board_on_version_request(struct board *b, uint16_t protocol_version)
 {
     if (b->state == BOARD_BOOTING) {
         return;
@@ -268,7 +173,7 @@ void board_on_version_request(struct board *b, uint16_t protocol_version)
     if (board_breaks(b, INJECT_BROKEN_ECHO_VERSION)) { /* says it speaks whatever it is asked */
         board_send_status(b);
         b->echo_protocol = protocol_version;
-        send_version(b);
+        board_send_version(b);
         b->echo_protocol = 0u;
         return;
     }
@@ -278,10 +183,10 @@ void board_on_version_request(struct board *b, uint16_t protocol_version)
         b->state = BOARD_IDLE;
     }
     board_send_status(b);
-    send_version(b);
+    board_send_version(b);
 }
 
-void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint16_t duration_ms,
+static void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint16_t duration_ms,
                             uint16_t value)
 {
 #ifdef BOARD_TEST_IMAGE
@@ -311,7 +216,7 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
     }
     board_send_status(b);
     if (kind == INJECT_PROTOCOL_CHANGE) {
-        send_version(b);
+        board_send_version(b);
     }
 #else
     (void)kind;
@@ -322,18 +227,22 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
 #endif
 }
 
+/* what the wires hand up */
+static const struct board_rx RX = {board_on_valve_command, board_on_version_request, board_on_fault_request,
+                                   board_on_bad_frame};
+
 /* -- the main loop --------------------------------------------------------------------- */
 
 static void receive(struct board *b)
 {
     if (b->cfg.wire == BOARD_WIRE_CAN) {
 #ifdef BOARD_TEST_IMAGE
-        wire_can_receive(b, inject_active(&b->inject, INJECT_BUS_OFF) != 0);
+        wire_can_receive(b, inject_active(&b->inject, INJECT_BUS_OFF) != 0, &RX);
 #else
-        wire_can_receive(b, 0);
+        wire_can_receive(b, 0, &RX);
 #endif
     } else {
-        wire_serial_receive(b);
+        wire_serial_receive(b, &RX);
     }
 }
 

@@ -1,7 +1,7 @@
 /* Fault injection for test images only (compiled with -DBOARD_TEST_IMAGE): the host's
  * FaultRequest (serial-v1 type 0x7E, can-v1 FaultInject 0x7E0) makes the board misbehave on
- * purpose, the way hand_service/firmware/faults.py makes the Python mock misbehave, so the
- * host's detection can be tested against the real firmware. A release image has none of it:
+ * purpose (docs/firmware.md lists every kind), so the host's detection can be tested
+ * against the real firmware. A release image has none of it:
  * the request is then an unknown message, counted in rx_errors.
  *
  * struct board_unit (one outgoing frame) is used by every image.

@@ -131,11 +131,7 @@ void board_sample(struct board *b)
     }
 #endif
     if (b->state == BOARD_RUNNING || !board_breaks(b, INJECT_BROKEN_QUIET_IDLE)) {
-        if (b->cfg.wire == BOARD_WIRE_CAN) {
-            wire_can_sensor(b, flex_mv, pressure_kpa);
-        } else {
-            wire_serial_sensor(b, flex_mv, pressure_kpa);
-        }
+        board_send_sample(b, flex_mv, pressure_kpa);
     }
 #ifdef BOARD_TEST_IMAGE
     if (!inject_active(in, INJECT_SEQUENCE_STUCK) && !board_breaks(b, INJECT_BROKEN_STUCK_SEQUENCE))
