@@ -36,6 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--firmware-version", default="1.0.0", help="firmware version to report (X.Y.Z)")
     parser.add_argument("--seed", type=int, default=None, help="sensor noise seed (default: the profile's)")
     parser.add_argument("--seconds", type=float, default=None, help="stop after this long (default: never)")
+    parser.add_argument("--broken", default=None, metavar="RULE",
+                        help="break one rule of the protocol on purpose, to see board-check catch it "
+                             "(docs/firmware.md names them)")
 
 
 def _version(text: str) -> tuple[int, int, int]:
@@ -53,7 +56,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.commands import checks
     from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
-    from hand_service.firmware.board import BoardFirmware
+    from hand_service.firmware.board import BROKEN, BoardFirmware
     from hand_service.firmware.ports import open_port
 
     checks.seed(args.seed)
@@ -62,9 +65,12 @@ def main(args: argparse.Namespace) -> int:
     firmware_version = _version(args.firmware_version)
     if args.protocol_version is not None and not 1 <= args.protocol_version <= 65535:
         raise UserError("--protocol-version must be 1 to 65535")
+    if args.broken is not None and args.broken not in BROKEN:
+        raise UserError(f"--broken must be one of {', '.join(BROKEN)}, not {args.broken!r}")
     port = open_port(profile, args.port)
     try:
-        firmware = BoardFirmware(profile, port, args.protocol_version, firmware_version, args.seed)
+        firmware = BoardFirmware(profile, port, args.protocol_version, firmware_version, args.seed,
+                                 args.broken)
     except ValueError as exc:
         port.close()
         raise UserError(str(exc)) from None
