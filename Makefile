@@ -4,7 +4,8 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_profiles/__init__.py \
-                  $(wildcard csrc/*.c csrc/*.h board/plant/pneumatics.* board/core/regulator.*)
+                  hand_service/firmware/_build.py board/Makefile \
+                  $(wildcard csrc/*.c csrc/*.h board/core/* board/plant/* board/host/* board/inprocess/*)
 
 .PHONY: run test test-thorough test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
 
@@ -78,9 +79,9 @@ test-board: $(STAMP)
 	$(MAKE) -C board BUILD=build PYTHON=../$(PY) cortexm avr arduino cppcheck
 	$(PY) -m pytest -q -s -p no:cacheprovider -m qemu tests/board
 
-# board-check against the mock over SLCAN, and every broken mock variant on all three links
-# with every check run (about 2 min; make test runs the mock on serial and virtual CAN and
-# each broken variant once)
+# board-check against the C board over SLCAN, and every image that breaks a rule on purpose
+# on all three links with every check run (about 2 min; make test runs the board on serial
+# and virtual CAN and each broken image once)
 test-boardcheck: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider -m boardcheck tests/boardcheck
 

@@ -13,7 +13,7 @@ PROFILES = "hand_service.firmware_profiles"
 VIEW_STATIC = "hand_service.view.static"  # the live view's page: a data-only package
 
 setup(
-    cffi_modules=["rtcore/_build.py:ffibuilder"],
+    cffi_modules=["rtcore/_build.py:ffibuilder", "hand_service/firmware/_build.py:ffibuilder"],
     packages=[*find_packages(include=["rtcore", "rtcore.*", "hand_service", "hand_service.*"]), PROFILES,
               VIEW_STATIC],
     package_dir={PROFILES: "firmware_profiles"},

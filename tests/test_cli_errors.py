@@ -108,6 +108,8 @@ CASES = {
     "mock seconds nan": (["mock-firmware", "--profile", "serial-v1.yaml", "--seconds", "nan"],
                          "--seconds must be a positive"),
     "mock seed": (["mock-firmware", "--profile", "serial-v1.yaml", "--seed", "-1"], "--seed must be"),
+    "mock broken": (["mock-firmware", "--profile", "serial-v1.yaml", "--broken", "none"],
+                    "--broken must be one of"),
     "mock port file": (["mock-firmware", "--profile", "serial-v1.yaml", "--port", "{file}"],
                        "exists and is not a terminal"),
     "mock port not a tty": (["mock-firmware", "--profile", "serial-v1.yaml", "--port", "/dev/null"],

@@ -1,6 +1,5 @@
 /* The valve-board firmware core (board.h): the state machine, sampling on the board's own
- * clock, the pressure loops, the watchdog and the board's own faults. Behaviour follows the
- * host's reference (hand_service/firmware/mock.py), decision by decision:
+ * clock, the pressure loops, the watchdog and the board's own faults. Its decisions:
  *
  * - boot: valves vented; VersionInfo, then Status; counters (sample and frame sequence,
  *   rx_errors, uptime) from zero; IDLE until the first valid command.
@@ -74,83 +73,6 @@ static int config_ok(const struct board_config *c)
         && (c->wire == BOARD_WIRE_SERIAL || c->wire == BOARD_WIRE_CAN);
 }
 
-void board_vent_valves(struct board *b)
-{
-    for (uint8_t i = 0; i < BOARD_MAX_FINGERS; i++) {
-        b->command_kpa[i] = 0.0f;
-        regulator_vent(&b->regulators[i]);
-        if (i < b->cfg.n_fingers) {
-            hal_valve_pwm(i, HAL_VALVE_INLET, 0u);
-            hal_valve_pwm(i, HAL_VALVE_EXHAUST, HAL_DUTY_FULL_PERMILLE);
-        }
-    }
-}
-
-int board_reached(uint32_t now_us, uint32_t when_us)
-{
-    return (int32_t)(now_us - when_us) >= 0;
-}
-
-uint32_t board_uptime_ms(const struct board *b)
-{
-    return b->uptime_ms;
-}
-
-uint16_t board_announced_protocol(const struct board *b)
-{
-#ifdef BOARD_TEST_IMAGE
-    const int32_t changed = inject_value(&b->inject, INJECT_PROTOCOL_CHANGE,
-                                         (uint16_t)(b->cfg.protocol_version + 1u));
-    if (changed >= 0) {
-        return (uint16_t)changed;
-    }
-#endif
-    return b->cfg.protocol_version;
-}
-
-void board_emit(struct board *b, struct board_unit *unit)
-{
-    if (b->state == BOARD_BOOTING) {
-        return;
-    }
-#ifdef BOARD_TEST_IMAGE
-    if (!inject_outgoing(&b->inject, unit, b->now_us)) {
-        return;
-    }
-#endif
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        hal_can_write(unit->can_id, unit->data, unit->len);
-    } else {
-        hal_serial_write(unit->data, unit->len);
-    }
-}
-
-void board_send_status(struct board *b)
-{
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        wire_can_status(b);
-    } else {
-        wire_serial_status(b);
-    }
-}
-
-static void send_version(struct board *b)
-{
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        wire_can_version(b);
-    } else {
-        wire_serial_version(b);
-    }
-}
-
-void board_set_state(struct board *b, uint8_t state)
-{
-    if (b->state != state) {
-        b->state = state;
-        board_send_status(b);
-    }
-}
-
 static void announce(struct board *b)
 {
     b->state = BOARD_IDLE;
@@ -163,7 +85,9 @@ static void announce(struct board *b)
     b->rx_errors = 0u;
     b->refused = 0u;
     b->next_sample_us = b->now_us + b->cfg.sample_period_us;
-    send_version(b);
+    if (!board_breaks(b, INJECT_BROKEN_SILENT_REBOOT)) {
+        board_send_version(b);
+    }
     board_send_status(b);
 }
 
@@ -195,17 +119,35 @@ int board_init(struct board *b, const struct board_config *cfg)
 
 /* -- decoded messages ------------------------------------------------------------------ */
 
-void board_on_bad_frame(struct board *b)
+static void board_on_bad_frame(struct board *b)
 {
     if (b->state != BOARD_BOOTING) {
         b->rx_errors++;
     }
 }
 
-void board_on_valve_command(struct board *b, uint8_t sequence, const float *pressure_kpa, uint8_t n)
+static int all_zero(const float *pressure_kpa, uint8_t n)
+{
+    for (uint8_t i = 0; i < n; i++) {
+        if (pressure_kpa[i] != 0.0f) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+static void board_on_valve_command(struct board *b, uint8_t sequence, const float *pressure_kpa, uint8_t n)
 {
     if (b->state == BOARD_BOOTING || b->state == BOARD_FAULT || b->refused || n != b->cfg.n_fingers) {
         return; /* a board at fault keeps its valves vented whatever it is told */
+    }
+    if (board_breaks(b, INJECT_BROKEN_ZERO_VENTS) && all_zero(pressure_kpa, n)
+        && (b->state == BOARD_RUNNING || b->state == BOARD_WATCHDOG_VENTED)) {
+        board_vent_valves(b); /* acknowledged and vented, but no longer running */
+        b->command_sequence = sequence;
+        b->last_command_us = b->now_us;
+        board_set_state(b, BOARD_WATCHDOG_VENTED);
+        return;
     }
 #ifdef BOARD_TEST_IMAGE
     const int ignored = inject_active(&b->inject, INJECT_VALVES_IGNORED) != 0;
@@ -223,9 +165,16 @@ void board_on_valve_command(struct board *b, uint8_t sequence, const float *pres
     board_set_state(b, BOARD_RUNNING);
 }
 
-void board_on_version_request(struct board *b, uint16_t protocol_version)
+static void board_on_version_request(struct board *b, uint16_t protocol_version)
 {
     if (b->state == BOARD_BOOTING) {
+        return;
+    }
+    if (board_breaks(b, INJECT_BROKEN_ECHO_VERSION)) { /* says it speaks whatever it is asked */
+        board_send_status(b);
+        b->echo_protocol = protocol_version;
+        board_send_version(b);
+        b->echo_protocol = 0u;
         return;
     }
     b->refused = protocol_version != b->cfg.protocol_version;
@@ -234,10 +183,10 @@ void board_on_version_request(struct board *b, uint16_t protocol_version)
         b->state = BOARD_IDLE;
     }
     board_send_status(b);
-    send_version(b);
+    board_send_version(b);
 }
 
-void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint16_t duration_ms,
+static void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint16_t duration_ms,
                             uint16_t value)
 {
 #ifdef BOARD_TEST_IMAGE
@@ -255,15 +204,19 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
         memset(&b->partial, 0, sizeof b->partial);
         return;
     }
-    if (kind >= INJECT_KINDS || kind == INJECT_CAN_ERROR_FRAMES
+    if (kind >= INJECT_KINDS
+        || (kind == INJECT_CAN_ERROR_FRAMES && (b->cfg.wire != BOARD_WIRE_CAN || !b->cfg.can_error_frames))
         || (kind == INJECT_BUS_OFF && b->cfg.wire != BOARD_WIRE_CAN)
         || (kind == INJECT_SENSOR_NAN && b->cfg.wire == BOARD_WIRE_CAN)) {
         return; /* not on this link or this board (as the mock ignores what its link cannot carry) */
     }
     inject_request(&b->inject, kind, finger, duration_ms, value, b->now_us);
+    if (kind == INJECT_BUS_OFF) {
+        hal_can_error(1u); /* the driver says so, then nothing crosses */
+    }
     board_send_status(b);
     if (kind == INJECT_PROTOCOL_CHANGE) {
-        send_version(b);
+        board_send_version(b);
     }
 #else
     (void)kind;
@@ -274,18 +227,22 @@ void board_on_fault_request(struct board *b, uint8_t kind, uint8_t finger, uint1
 #endif
 }
 
+/* what the wires hand up */
+static const struct board_rx RX = {board_on_valve_command, board_on_version_request, board_on_fault_request,
+                                   board_on_bad_frame};
+
 /* -- the main loop --------------------------------------------------------------------- */
 
 static void receive(struct board *b)
 {
     if (b->cfg.wire == BOARD_WIRE_CAN) {
 #ifdef BOARD_TEST_IMAGE
-        wire_can_receive(b, inject_active(&b->inject, INJECT_BUS_OFF) != 0);
+        wire_can_receive(b, inject_active(&b->inject, INJECT_BUS_OFF) != 0, &RX);
 #else
-        wire_can_receive(b, 0);
+        wire_can_receive(b, 0, &RX);
 #endif
     } else {
-        wire_serial_receive(b);
+        wire_serial_receive(b, &RX);
     }
 }
 
@@ -337,7 +294,8 @@ void board_poll(struct board *b)
         announce(b);
     }
     board_own_faults(b);
-    if (b->state == BOARD_RUNNING && !board_reached(b->last_command_us + b->cfg.watchdog_us, b->now_us)) {
+    if (b->state == BOARD_RUNNING && !board_reached(b->last_command_us + b->cfg.watchdog_us, b->now_us)
+        && !board_breaks(b, INJECT_BROKEN_NO_WATCHDOG)) {
         board_vent_valves(b);
         b->vent_count++;
         b->vent_us = b->now_us;

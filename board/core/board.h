@@ -57,6 +57,8 @@ struct board_config {
     uint16_t pressure_fault_ticks;  /* that many inner ticks in a row outside it: a fault */
     float pressure_limit_kpa;       /* above it: vent, fault OVER_PRESSURE */
     uint32_t fault_clear_us;        /* a sensor or pressure fault clears after this long gone */
+    uint8_t can_error_frames;       /* the CAN link hands error frames to the host (hal_can_error) */
+    uint8_t broken;                 /* test images: enum inject_broken, a rule broken on purpose */
     struct regulator_config regulator;
 };
 
@@ -74,6 +76,7 @@ struct board {
     uint8_t fault_code;             /* enum board_fault (or an injected code) */
     uint8_t fault_injected;         /* the fault is the test image's FIRMWARE_FAULT */
     uint8_t refused;                /* the host asked for a protocol this board does not speak */
+    uint16_t echo_protocol;         /* INJECT_BROKEN_ECHO_VERSION: the version it answers with */
     uint8_t sequence;               /* sample counter, from 0 at boot */
     uint8_t command_sequence;       /* the newest valid command's sequence */
     uint8_t tx_frame_sequence;      /* serial-v1 frame header counter */

@@ -45,6 +45,13 @@ uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len);
 /* CAN link: queue one standard-id data frame for sending (dropped when the queue is full). */
 void hal_can_write(uint16_t id, const uint8_t *data, uint8_t len);
 
+/* CAN link: the controller reports an error on the bus to the host's CAN driver (bus_off 0:
+ * a bus error, 1: the controller went bus-off), which hands it to the host as an error frame
+ * (SocketCAN's, python-can's). Only called when the configuration says the link carries
+ * error frames (board_config.can_error_frames) or for a bus-off; a port whose link has none
+ * (SLCAN, serial) does nothing. */
+void hal_can_error(uint8_t bus_off);
+
 /* Kick the hardware watchdog (a stuck main loop resets the MCU, which boots vented). */
 void hal_watchdog_kick(void);
 

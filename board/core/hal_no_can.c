@@ -12,6 +12,11 @@ uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len)
     return 0u;
 }
 
+void hal_can_error(uint8_t bus_off)
+{
+    (void)bus_off;
+}
+
 void hal_can_write(uint16_t id, const uint8_t *data, uint8_t len)
 {
     (void)id;

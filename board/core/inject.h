@@ -1,7 +1,7 @@
 /* Fault injection for test images only (compiled with -DBOARD_TEST_IMAGE): the host's
  * FaultRequest (serial-v1 type 0x7E, can-v1 FaultInject 0x7E0) makes the board misbehave on
- * purpose, the way hand_service/firmware/faults.py makes the Python mock misbehave, so the
- * host's detection can be tested against the real firmware. A release image has none of it:
+ * purpose (docs/firmware.md lists every kind), so the host's detection can be tested
+ * against the real firmware. A release image has none of it:
  * the request is then an unknown message, counted in rx_errors.
  *
  * struct board_unit (one outgoing frame) is used by every image.
@@ -26,6 +26,23 @@ enum inject_kind {
     INJECT_PROTOCOL_CHANGE = 12, INJECT_SEQUENCE_STUCK = 13, INJECT_CAN_ERROR_FRAMES = 14,
     INJECT_BUS_OFF = 15, INJECT_CLOCK_DRIFT = 16, INJECT_SENSOR_NAN = 17
 };
+
+/* A rule of the protocol a test image breaks on purpose for as long as it runs
+ * (board_config.broken), so that the host's board-check can be shown to catch it
+ * (tests/boardcheck/; `hand-service mock-firmware --broken NAME`). */
+enum inject_broken {
+    INJECT_BROKEN_NONE = 0,
+    INJECT_BROKEN_NO_WATCHDOG = 1,    /* never vents when the commands stop */
+    INJECT_BROKEN_WRONG_CRC = 2,      /* serial-v1 with CRC-16/XMODEM (init 0); can-v1's E2E byte inverted */
+    INJECT_BROKEN_STUCK_SEQUENCE = 3, /* every sample carries the same sequence number */
+    INJECT_BROKEN_ECHO_VERSION = 4,   /* answers a VersionRequest with the protocol the host asked for */
+    INJECT_BROKEN_SILENT_REBOOT = 5,  /* does not announce itself (VersionInfo) when it boots */
+    INJECT_BROKEN_QUIET_IDLE = 6,     /* sends no samples unless RUNNING */
+    INJECT_BROKEN_COUNTS_RUBBISH = 7, /* counts rubbish bytes and other nodes' frames in rx_errors */
+    INJECT_BROKEN_ZERO_VENTS = 8      /* takes a command of 0 kPa on every finger for a vent: leaves
+                                       * RUNNING for WATCHDOG_VENTED (0 kPa is a valid setpoint) */
+};
+#define INJECT_BROKEN_RULES 9u
 
 /* One outgoing frame: serial-v1 bytes, or a CAN frame (id, up to 8 bytes). */
 struct board_unit {
@@ -54,6 +71,7 @@ struct inject {
     uint16_t head;
     uint16_t count;
     uint32_t queue_dropped;
+    uint64_t error_credit;    /* CAN_ERROR_FRAMES: error frames owed, in frames/s * us */
 };
 
 void inject_init(struct inject *in, uint32_t seed);

@@ -10,6 +10,8 @@
 #include "regulator.h"
 
 #define OPEN_CIRCUIT_MV 65535.0f
+#define DEFAULT_ERROR_FRAMES_PER_S 100u
+#define US_PER_S 1000000u
 
 /* -- faults of the board's own --------------------------------------------------------- */
 
@@ -128,13 +130,11 @@ void board_sample(struct board *b)
         }
     }
 #endif
-    if (b->cfg.wire == BOARD_WIRE_CAN) {
-        wire_can_sensor(b, flex_mv, pressure_kpa);
-    } else {
-        wire_serial_sensor(b, flex_mv, pressure_kpa);
+    if (b->state == BOARD_RUNNING || !board_breaks(b, INJECT_BROKEN_QUIET_IDLE)) {
+        board_send_sample(b, flex_mv, pressure_kpa);
     }
 #ifdef BOARD_TEST_IMAGE
-    if (!inject_active(in, INJECT_SEQUENCE_STUCK))
+    if (!inject_active(in, INJECT_SEQUENCE_STUCK) && !board_breaks(b, INJECT_BROKEN_STUCK_SEQUENCE))
 #endif
     {
         b->sequence++;
@@ -143,4 +143,17 @@ void board_sample(struct board *b)
         b->samples_since_status = 0u;
         board_send_status(b);
     }
+#ifdef BOARD_TEST_IMAGE
+    /* CAN_ERROR_FRAMES: `value` error frames a second, as the host's driver reports errors on
+     * a noisy bus (they do not pass through the link faults) */
+    const int32_t per_s = inject_value(in, INJECT_CAN_ERROR_FRAMES, DEFAULT_ERROR_FRAMES_PER_S);
+    if (per_s < 0) {
+        in->error_credit = 0u;
+        return;
+    }
+    in->error_credit += (uint64_t)per_s * b->cfg.sample_period_us;
+    for (; in->error_credit >= US_PER_S; in->error_credit -= US_PER_S) {
+        hal_can_error(0u);
+    }
+#endif
 }

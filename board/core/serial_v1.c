@@ -5,7 +5,12 @@
 
 uint16_t serial_v1_crc16(const uint8_t *data, uint16_t len)
 {
-    uint16_t crc = 0xFFFFu; /* CRC-16/CCITT-FALSE: poly 0x1021, init 0xFFFF, no reflection */
+    return serial_v1_crc16_from(0xFFFFu, data, len); /* CRC-16/CCITT-FALSE: init 0xFFFF */
+}
+
+uint16_t serial_v1_crc16_from(uint16_t init, const uint8_t *data, uint16_t len)
+{
+    uint16_t crc = init; /* poly 0x1021, no reflection */
     for (uint16_t i = 0; i < len; i++) {
         crc ^= (uint16_t)((uint16_t)data[i] << 8);
         for (uint8_t bit = 0; bit < 8u; bit++) {

@@ -46,6 +46,8 @@ struct serial_v1_frame {
 };
 
 uint16_t serial_v1_crc16(const uint8_t *data, uint16_t len);
+/* The same CRC from another initial value (0: CRC-16/XMODEM, a broken test image's). */
+uint16_t serial_v1_crc16_from(uint16_t init, const uint8_t *data, uint16_t len);
 
 /* The framed bytes into out (room for SERIAL_V1_MAX_FRAME); returns their count, 0 if the
  * payload is too long. */

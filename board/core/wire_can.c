@@ -88,11 +88,11 @@ void wire_can_version(struct board *b)
     send(b, CAN_V1_FIRMWARE_VERSION_FRAME_ID, &unit);
 }
 
-static void valve_frame(struct board *b, const uint8_t *data, uint8_t len)
+static void valve_frame(struct board *b, const uint8_t *data, uint8_t len, const struct board_rx *rx)
 {
     struct can_v1_valve_command_t msg;
     if (can_v1_valve_command_unpack(&msg, data, len) != 0 || msg.finger_index >= b->cfg.n_fingers) {
-        board_on_bad_frame(b);
+        rx->bad_frame(b);
         return;
     }
     struct board_partial_command *p = &b->partial;
@@ -105,11 +105,11 @@ static void valve_frame(struct board *b, const uint8_t *data, uint8_t len)
     p->received_mask = (uint8_t)(p->received_mask | (1u << msg.finger_index));
     if (p->received_mask == (uint8_t)((1u << b->cfg.n_fingers) - 1u)) {
         p->active = 0u;
-        board_on_valve_command(b, p->sequence, p->pressure_kpa, b->cfg.n_fingers);
+        rx->valve_command(b, p->sequence, p->pressure_kpa, b->cfg.n_fingers);
     }
 }
 
-static void frame(struct board *b, uint16_t id, const uint8_t *data, uint8_t len)
+static void frame(struct board *b, uint16_t id, const uint8_t *data, uint8_t len, const struct board_rx *rx)
 {
     uint8_t expected;
     switch (id) {
@@ -118,29 +118,33 @@ static void frame(struct board *b, uint16_t id, const uint8_t *data, uint8_t len
 #ifdef BOARD_TEST_IMAGE
     case CAN_V1_FAULT_INJECT_FRAME_ID: expected = CAN_V1_FAULT_INJECT_LENGTH; break;
 #endif
-    default: return; /* a frame for another node: a CAN bus is shared */
+    default: /* a frame for another node: a CAN bus is shared */
+        if (board_breaks(b, INJECT_BROKEN_COUNTS_RUBBISH)) {
+            rx->bad_frame(b);
+        }
+        return;
     }
     if (len != expected || data[0] != wire_can_e2e_crc(data, len, (uint8_t)(id & 0xFFu))) {
-        board_on_bad_frame(b);
+        rx->bad_frame(b);
         return;
     }
     if (id == CAN_V1_VALVE_COMMAND_FRAME_ID) {
-        valve_frame(b, data, len);
+        valve_frame(b, data, len, rx);
     } else if (id == CAN_V1_VERSION_REQUEST_FRAME_ID) {
         struct can_v1_version_request_t msg;
         (void)can_v1_version_request_unpack(&msg, data, len);
-        board_on_version_request(b, msg.protocol_version);
+        rx->version_request(b, msg.protocol_version);
     }
 #ifdef BOARD_TEST_IMAGE
     else {
         struct can_v1_fault_inject_t msg;
         (void)can_v1_fault_inject_unpack(&msg, data, len);
-        board_on_fault_request(b, msg.fault, msg.finger_index, msg.duration_ms, msg.value);
+        rx->fault_request(b, msg.fault, msg.finger_index, msg.duration_ms, msg.value);
     }
 #endif
 }
 
-void wire_can_receive(struct board *b, int bus_off)
+void wire_can_receive(struct board *b, int bus_off, const struct board_rx *rx)
 {
     uint16_t id;
     uint8_t data[8];
@@ -149,7 +153,7 @@ void wire_can_receive(struct board *b, int bus_off)
         /* bus-off (a test image's BUS_OFF): nothing arrives but the debug port, which is
          * not on the bus */
         if (!bus_off || id == CAN_V1_FAULT_INJECT_FRAME_ID) {
-            frame(b, id, data, len);
+            frame(b, id, data, len, rx);
         }
     }
 }

@@ -66,48 +66,52 @@ void wire_serial_version(struct board *b)
     send_frame(b, SERIAL_V1_VERSION_INFO, payload, 6u);
 }
 
-static void handle(struct board *b, const struct serial_v1_frame *f)
+static void handle(struct board *b, const struct serial_v1_frame *f, const struct board_rx *rx)
 {
     const uint8_t *p = f->payload;
     if (f->type == SERIAL_V1_VALVE_COMMAND) {
         /* a valid command: every finger of this hand, each a finite f32 */
         if (f->length < 2u || p[1] != b->cfg.n_fingers || f->length != 2u + 4u * p[1]) {
-            board_on_bad_frame(b);
+            rx->bad_frame(b);
             return;
         }
         float pressure_kpa[BOARD_MAX_FINGERS];
         for (uint8_t i = 0; i < p[1]; i++) {
             pressure_kpa[i] = serial_v1_get_f32(p + 2 + 4 * i);
             if (!isfinite(pressure_kpa[i])) {
-                board_on_bad_frame(b);
+                rx->bad_frame(b);
                 return;
             }
         }
-        board_on_valve_command(b, p[0], pressure_kpa, p[1]);
+        rx->valve_command(b, p[0], pressure_kpa, p[1]);
     } else if (f->type == SERIAL_V1_VERSION_REQUEST && f->length == 2u) {
-        board_on_version_request(b, serial_v1_get_u16(p));
+        rx->version_request(b, serial_v1_get_u16(p));
 #ifdef BOARD_TEST_IMAGE
     } else if (f->type == SERIAL_V1_FAULT_REQUEST && f->length == 6u) {
-        board_on_fault_request(b, p[0], p[1], serial_v1_get_u16(p + 2), serial_v1_get_u16(p + 4));
+        rx->fault_request(b, p[0], p[1], serial_v1_get_u16(p + 2), serial_v1_get_u16(p + 4));
 #endif
     } else {
-        board_on_bad_frame(b); /* an unknown type, or a known one of the wrong length */
+        rx->bad_frame(b); /* an unknown type, or a known one of the wrong length */
     }
 }
 
-void wire_serial_receive(struct board *b)
+void wire_serial_receive(struct board *b, const struct board_rx *rx)
 {
     uint8_t chunk[READ_CHUNK];
     uint16_t got;
     while ((got = hal_serial_read(chunk, READ_CHUNK)) > 0u) {
         for (uint16_t i = 0; i < got; i++) {
             const uint32_t crc_errors = b->decoder.crc_errors;
+            const uint32_t garbage_bytes = b->decoder.garbage_bytes;
             struct serial_v1_frame frame;
             serial_v1_feed(&b->decoder, chunk[i]);
             while (serial_v1_next(&b->decoder, &frame)) {
-                handle(b, &frame);
+                handle(b, &frame, rx);
             }
             b->rx_errors += b->decoder.crc_errors - crc_errors;
+            if (board_breaks(b, INJECT_BROKEN_COUNTS_RUBBISH)) {
+                b->rx_errors += b->decoder.garbage_bytes - garbage_bytes;
+            }
         }
     }
 }

@@ -1,4 +1,4 @@
-/* The HAL of the host build (core/hal.h) over the pty and the plant. */
+/* The HAL of the host build (core/hal.h): the clock and the pty; the plant is hal_plant.c's. */
 #include <errno.h>
 #include <string.h>
 #include <time.h>
@@ -29,46 +29,6 @@ double host_monotonic_s(void)
 uint32_t hal_time_us(void)
 {
     return (uint32_t)host_now_us();
-}
-
-uint16_t hal_adc_read(uint8_t channel)
-{
-    return plant_adc(&host.plant, channel);
-}
-
-void hal_valve_pwm(uint8_t chamber, uint8_t valve, uint16_t duty_permille)
-{
-    if (chamber < PLANT_MAX_FINGERS && valve < 2u) {
-        host.duty_pending[chamber][valve] = duty_permille > 1000u ? 1000u : duty_permille;
-        if (duty_permille == 0u || duty_permille >= 1000u) {
-            /* held shut or open (a vent): a timer output forced at once, not at the period's end */
-            host.duty_latched[chamber][valve] = host.duty_pending[chamber][valve];
-        }
-    }
-}
-
-void host_advance_plant(void)
-{
-    const uint64_t now_us = host_now_us();
-    const uint32_t period_us = host.pwm_period_us;
-    int open[PLANT_MAX_FINGERS][2];
-    if (now_us - host.plant_time_us > 200000u) {
-        host.plant_time_us = now_us - 200000u; /* a stalled process: the plant catches up 0.2 s at most */
-    }
-    while (host.plant_time_us + HOST_PLANT_STEP_US <= now_us) {
-        const uint64_t t_us = host.plant_time_us;
-        const uint32_t phase_us = (uint32_t)(t_us % period_us);
-        if (phase_us < HOST_PLANT_STEP_US) { /* a new PWM period: the shadow registers load */
-            memcpy(host.duty_latched, host.duty_pending, sizeof host.duty_latched);
-        }
-        for (int i = 0; i < host.plant.n_fingers; i++) {
-            for (int v = 0; v < 2; v++) {
-                open[i][v] = (uint64_t)phase_us * 1000u < (uint64_t)host.duty_latched[i][v] * period_us;
-            }
-        }
-        plant_step(&host.plant, (const int(*)[2])open, HOST_PLANT_STEP_US * 1e-6);
-        host.plant_time_us += HOST_PLANT_STEP_US;
-    }
 }
 
 void host_pump_input(void)
@@ -131,6 +91,11 @@ uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len)
 void hal_can_write(uint16_t id, const uint8_t *data, uint8_t len)
 {
     host_slcan_send(id, data, len);
+}
+
+void hal_can_error(uint8_t bus_off)
+{
+    (void)bus_off; /* the Lawicel SLCAN protocol has no error frame */
 }
 
 void hal_watchdog_kick(void)

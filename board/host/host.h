@@ -6,10 +6,10 @@
 #include <stdint.h>
 
 #include "finger.h"
+#include "hal_plant.h"
 #include "plant.h"
 
 #define HOST_DEFAULT_FINGERS 5
-#define HOST_PLANT_STEP_US 50u
 #define HOST_RX_BYTES 8192u
 #define HOST_CAN_QUEUE 256u
 
@@ -35,11 +35,7 @@ struct host_world {
     uint32_t can_head, can_count;
     uint64_t dropped_bytes;
     uint64_t t0_ns;                /* CLOCK_MONOTONIC at start */
-    uint32_t pwm_period_us;
-    uint16_t duty_pending[PLANT_MAX_FINGERS][2];
-    uint16_t duty_latched[PLANT_MAX_FINGERS][2];
-    uint64_t plant_time_us;        /* the plant has been advanced to here */
-    struct plant plant;
+    struct hal_plant plant;        /* hal_plant_current points here */
 };
 
 extern struct host_world host;
@@ -49,9 +45,6 @@ double host_monotonic_s(void);
 
 /* Read what the pty has (serial bytes into rx, or SLCAN lines into CAN frames). */
 void host_pump_input(void);
-
-/* Advance the plant to now, each valve opened and shut by its PWM. */
-void host_advance_plant(void);
 
 /* pty.c */
 int host_pty_open(const char *link_path, char *device, uint32_t device_len);

@@ -147,10 +147,10 @@ int main(int argc, char **argv)
         return 2;
     }
     host.slcan = cfg.wire == BOARD_WIRE_CAN;
-    host.pwm_period_us = cfg.regulator.pwm_period_us;
     host.t0_ns = 0u;
     host.t0_ns = (uint64_t)(host_monotonic_s() * 1e9);
-    plant_init(&host.plant, host_default_hand, n_fingers, (uint32_t)seed);
+    hal_plant_init(&host.plant, cfg.regulator.pwm_period_us, host_default_hand, n_fingers, (uint32_t)seed, 0u);
+    hal_plant_current = &host.plant;
 
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
@@ -182,7 +182,7 @@ int main(int argc, char **argv)
         const int timeout_ms = until_tick_us <= 0 ? 0 : (until_tick_us + 999) / 1000;
         (void)poll(&pfd, 1, timeout_ms);
         host_pump_input();
-        host_advance_plant();
+        hal_plant_advance(&host.plant, host_now_us());
         board_poll(&b);
         if (b.vent_count != vents_logged) {
             vents_logged = b.vent_count;

@@ -69,15 +69,20 @@ void run_for_us(uint32_t us)
 
 void boot(uint8_t wire)
 {
+    struct board_config cfg = board_config_defaults();
+    cfg.wire = wire;
+    boot_with(&cfg);
+}
+
+void boot_with(const struct board_config *cfg)
+{
     fake_reset();
     fake.time_us = 0xFFFF0000u; /* the clock wraps during the tests */
     for (uint8_t i = 0; i < 5; i++) {
         set_pressure(i, 0.0f);
         fake.adc_counts[2 * i + 1] = 2000;
     }
-    struct board_config cfg = board_config_defaults();
-    cfg.wire = wire;
-    CHECK(board_init(&b, &cfg) == 0);
+    CHECK(board_init(&b, cfg) == 0);
     board_poll(&b);
 }
 

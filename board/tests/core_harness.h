@@ -39,6 +39,7 @@ void set_pressure(uint8_t i, float kpa);
 void run_for_us(uint32_t us);
 /* a fresh fake HAL, the clock just before it wraps, and the board booted on `wire` */
 void boot(uint8_t wire);
+void boot_with(const struct board_config *cfg);
 void send_command(uint8_t sequence, float kpa, uint8_t n);
 void send_simple(uint8_t type, const uint8_t *payload, uint8_t length);
 

@@ -88,6 +88,11 @@ void hal_can_write(uint16_t id, const uint8_t *data, uint8_t len)
     }
 }
 
+void hal_can_error(uint8_t bus_off)
+{
+    fake.can_errors[bus_off ? 1 : 0]++;
+}
+
 void hal_watchdog_kick(void)
 {
     fake.kicks++;

@@ -26,6 +26,7 @@ struct fake_hal {
     uint32_t can_in_len, can_in_pos;
     struct fake_frame can_out[FAKE_FRAMES];
     uint32_t can_out_len;
+    uint32_t can_errors[2];   /* hal_can_error: bus errors, bus-offs */
     uint32_t kicks;
 };
 

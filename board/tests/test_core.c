@@ -277,6 +277,43 @@ static void test_can_wire(void)
     CHECK(b.rx_errors == 1);
 }
 
+static void can_fault(uint8_t kind, uint16_t value)
+{
+    struct can_v1_fault_inject_t msg;
+    uint8_t data[8];
+    can_v1_fault_inject_init(&msg);
+    msg.fault = kind;
+    msg.finger_index = INJECT_ALL_FINGERS;
+    msg.value = value;
+    const int len = can_v1_fault_inject_pack(data, &msg, sizeof data);
+    data[0] = wire_can_e2e_crc(data, (uint8_t)len, (uint8_t)(CAN_V1_FAULT_INJECT_FRAME_ID & 0xFFu));
+    fake_can_input(CAN_V1_FAULT_INJECT_FRAME_ID, data, (uint8_t)len);
+}
+
+static void test_can_error_frames_and_bus_off(void)
+{
+    boot(BOARD_WIRE_CAN); /* a link without error frames (SLCAN): the request is ignored */
+    can_fault(INJECT_CAN_ERROR_FRAMES, 200u);
+    run_for_us(100000u);
+    CHECK(fake.can_errors[0] == 0u && inject_current(&b.inject) == 0u);
+    struct board_config cfg = board_config_defaults();
+    cfg.wire = BOARD_WIRE_CAN;
+    cfg.can_error_frames = 1u;
+    boot_with(&cfg);
+    can_fault(INJECT_CAN_ERROR_FRAMES, 200u);
+    run_for_us(1000000u);
+    CHECK(fake.can_errors[0] >= 198u && fake.can_errors[0] <= 202u);
+    can_fault(INJECT_CLEAR, 0u);
+    run_for_us(1000u);
+    const uint32_t errors = fake.can_errors[0];
+    can_fault(INJECT_BUS_OFF, 0u);
+    run_for_us(1000u);
+    CHECK(fake.can_errors[0] == errors && fake.can_errors[1] == 1u);
+    fake.can_out_len = 0;
+    run_for_us(50000u);
+    CHECK(fake.can_out_len == 0u); /* bus-off: nothing crosses */
+}
+
 static void test_clock_drift_moves_every_time_the_board_keeps(void)
 {
     boot(BOARD_WIRE_SERIAL);
@@ -321,6 +358,7 @@ int main(void)
     test_over_pressure_and_sensor_faults();
     test_injected_faults();
     test_can_wire();
+    test_can_error_frames_and_bus_off();
     test_clock_drift_moves_every_time_the_board_keeps();
     test_bad_config_stays_vented();
     if (failures) {

@@ -229,7 +229,7 @@ def open_port(profile: Any, port: str | None) -> FirmwarePort:
     if settings["interface"] == "virtual":
         raise UserError(f"{profile.path}: python-can's virtual bus lives inside one process, so the "
                         "mock cannot join it from another; use can-v1-slcan.yaml, or run the mock in "
-                        "a thread (hand_service.firmware.run_in_thread)")
+                        "a thread (hand_service.firmware.board.run_in_thread)")
     if settings["interface"] == "slcan":
         return SlcanAdapterPort(_pty(port or settings["channel"]))
     channel = port or settings["channel"]

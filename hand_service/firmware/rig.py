@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from hand_service.config.profile import PROFILE_DIR, Profile, load_profile
-from hand_service.firmware.mock import MockThread, run_in_thread
+from hand_service.firmware.board import BoardThread, run_in_thread
 from hand_service.transports import transport_class
 from hand_service.transports.link import LinkTransport
 
@@ -45,7 +45,7 @@ class Rig:
         else:
             self.channel = str(Path(workdir) / f"{name}.pty")
         self.option = "port" if self.profile.transport["kind"] == "serial" else "channel"
-        self.mock: MockThread | None = None
+        self.mock: BoardThread | None = None
         self.process: subprocess.Popen[str] | None = None
         self.lines: list[str] = []
         self._lines_lock = threading.Lock()

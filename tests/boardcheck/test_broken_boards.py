@@ -1,5 +1,5 @@
 """board-check fails, with a line that says what is wrong, against boards that each break
-one rule (hand_service/firmware/broken.py). The checks that cannot see the broken rule
+one rule (board/core/inject.h, enum inject_broken). The checks that cannot see the broken rule
 are left out with --only, to keep each test short."""
 
 from __future__ import annotations
@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 
 from hand_service import cli
-from hand_service.firmware.broken import VARIANTS
 from tests.boardcheck.conftest import TEST_OPTIONS, board
 
 CASES = [
@@ -39,7 +38,7 @@ CASES = [
 def test_a_broken_board_fails_with_a_clear_line(variant: str, link: str, only: str | None, check: str,
                                                 words: str, tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    with board(link, tmp_path, VARIANTS[variant]) as target:
+    with board(link, tmp_path, variant) as target:
         status = cli.main(["board-check", *target, *TEST_OPTIONS, *(["--only", only] if only else [])])
     out = capsys.readouterr().out
     assert status == 1, out

@@ -194,8 +194,9 @@ class MatrixHost:
 
         def watch() -> None:
             if truth is not None:
-                angles.append(float(truth.sim.outputs.angle_deg.max()))
-                vented = truth.command_kpa.max() == 0.0
+                view = truth.view()
+                angles.append(float(view.angle_deg.max()))
+                vented = view.command_kpa.max() == 0.0
                 board[0] = (board[0] or time.monotonic()) if vented else None
             else:
                 angles.append(float(sup.hand.outputs.angle_deg.max()))

@@ -90,7 +90,7 @@ def test_reading_a_profile_imports_no_scipy_signal() -> None:
     import sys
 
     code = ("import sys; from hand_service.config.profile import load_profile; "
-            "import hand_service.firmware.mock; load_profile(None).hand_config(); "
+            "import hand_service.firmware.board; load_profile(None).hand_config(); "
             "print(sorted(m for m in sys.modules if m.startswith(('scipy.signal', 'scipy.stats'))))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]", out
