@@ -8,6 +8,7 @@
  *                   rtcore_pid.c)
  *   rtcore_pneumatic.h  the simulator's pneumatic valve mode (rtcore_pneumatic.c over the
  *                   board's board/plant/pneumatics.c and board/core/regulator.c)
+ *   rtcore_exact.h  the exact linear finger's propagators and their cache (rtcore_exact.c)
  *   rtcore_sim_plant.h  the simulated finger's dynamics, the one finger simulator, alone
  *                   for a caller that drives the chamber (rtcore_sim_plant.c,
  *                   rtcore_sim_step_size.c, rtcore_sim_span.c, rtcore_exact.c)
@@ -37,6 +38,7 @@
 
 #include "rtcore_step.h"
 #include "rtcore_pneumatic.h"
+#include "rtcore_exact.h"
 #include "rtcore_sim_plant.h"
 #include "rtcore_sim.h"
 #include "rtcore_clock.h"

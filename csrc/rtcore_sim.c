@@ -88,7 +88,7 @@ static void place(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, double
                   double velocity_deg_per_s, double chamber_kpa)
 {
     int32_t k;
-    (void)rtcore_sim_motion_start(f, &s->motion, angle_deg, velocity_deg_per_s, chamber_kpa);
+    (void)rtcore_sim_motion_start(f, &s->motion, 0, angle_deg, velocity_deg_per_s, chamber_kpa);
     rtcore_pneumatic_reset(&s->pneumatic, chamber_kpa);
     for (k = 0; k < RTCORE_SIM_HISTORY; ++k) {
         s->command_kpa[k] = chamber_kpa;

@@ -464,8 +464,8 @@ int32_t rtcore_sim_dynamics_valid(const rtcore_sim_finger *f)
     return RTCORE_OK;
 }
 
-int32_t rtcore_sim_motion_start(const rtcore_sim_finger *f, rtcore_sim_motion *s, double angle_deg,
-                                double velocity_deg_per_s, double chamber_kpa)
+int32_t rtcore_sim_motion_start(const rtcore_sim_finger *f, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
+                                double angle_deg, double velocity_deg_per_s, double chamber_kpa)
 {
     sim_plant plant;
     int32_t err;
@@ -485,33 +485,41 @@ int32_t rtcore_sim_motion_start(const rtcore_sim_finger *f, rtcore_sim_motion *s
     s->chamber_kpa = chamber_kpa;
     s->hysteresis_z = 0.0;
     s->max_step_s = rtcore_sim_parameter_step_s(&plant);
+    if (cache != 0) {
+        cache->count = 0;
+        cache->next = 0;
+    }
     return RTCORE_OK;
 }
 
-void rtcore_sim_motion_advance(const rtcore_sim_finger *f, rtcore_sim_motion *s, double input_kpa,
-                               double external_torque_nm, double duration_s)
+void rtcore_sim_motion_advance(const rtcore_sim_finger *f, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
+                               double input_kpa, double external_torque_nm, double duration_s)
 {
-    rtcore_propagator_cache cache;
+    rtcore_propagator_cache own;
     sim_plant plant;
     if (f == 0 || s == 0 || !isfinite(input_kpa) || !isfinite(external_torque_nm) || !(duration_s > 0.0)
         || !isfinite(duration_s)) {
         return;
     }
-    cache.count = 0;
-    cache.next = 0;
+    if (cache == 0) {
+        own.count = 0;
+        own.next = 0;
+        cache = &own;
+    }
     rtcore_sim_plant_for(f, &plant);
-    rtcore_sim_integrate_held(&plant, s, &cache, input_kpa, external_torque_nm, duration_s, duration_s, 0);
+    rtcore_sim_integrate_held(&plant, s, cache, input_kpa, external_torque_nm, duration_s, duration_s, 0);
 }
 
 void rtcore_sim_motion_advance_many(const rtcore_sim_finger *fingers, rtcore_sim_motion *motions,
-                                    const double *input_kpa, const double *external_torque_nm, int32_t count,
-                                    double duration_s)
+                                    rtcore_propagator_cache *caches, const double *input_kpa,
+                                    const double *external_torque_nm, int32_t count, double duration_s)
 {
     int32_t i;
     if (fingers == 0 || motions == 0 || input_kpa == 0 || external_torque_nm == 0) {
         return;
     }
     for (i = 0; i < count; ++i) {
-        rtcore_sim_motion_advance(&fingers[i], &motions[i], input_kpa[i], external_torque_nm[i], duration_s);
+        rtcore_sim_motion_advance(&fingers[i], &motions[i], caches != 0 ? &caches[i] : 0, input_kpa[i],
+                                  external_torque_nm[i], duration_s);
     }
 }

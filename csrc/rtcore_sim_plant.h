@@ -17,6 +17,7 @@
 
 #include <stdint.h>
 
+#include "rtcore_exact.h"
 #include "rtcore_pneumatic.h"
 #include "rtcore_step.h"
 
@@ -65,20 +66,26 @@ typedef struct {
  * pneumatic mode and the sensor are the simulated hand's (rtcore_sim_configure). */
 int32_t rtcore_sim_dynamics_valid(const rtcore_sim_finger *finger);
 /* The finger at angle_deg, velocity_deg_per_s, its chamber at chamber_kpa, the loop at its
- * middle; RTCORE_OK, or the error of rtcore_sim_dynamics_valid or of a non-finite state
- * (RTCORE_ERR_MODEL), the motion then untouched. */
-int32_t rtcore_sim_motion_start(const rtcore_sim_finger *finger, rtcore_sim_motion *motion, double angle_deg,
-                                double velocity_deg_per_s, double chamber_kpa);
+ * middle, the propagators' cache emptied (cache may be NULL); RTCORE_OK, or the error of
+ * rtcore_sim_dynamics_valid or of a non-finite state (RTCORE_ERR_MODEL), nothing then
+ * touched. */
+int32_t rtcore_sim_motion_start(const rtcore_sim_finger *finger, rtcore_sim_motion *motion,
+                                rtcore_propagator_cache *cache, double angle_deg, double velocity_deg_per_s,
+                                double chamber_kpa);
 /* Advance duration_s with the valve's input held at input_kpa (the chamber itself when the
  * finger's valve_lag_tau_s is 0) and an external torque held at external_torque_nm (a
- * contact computed by the caller; positive bends the finger). A finger that diverges stays
+ * contact computed by the caller; positive bends the finger). cache: this finger's own,
+ * kept between calls since rtcore_sim_motion_start (steps of one length then cost one
+ * propagator), or NULL (each call computes its own). A finger that diverges stays
  * non-finite; a non-finite input or torque, or a duration not above 0, changes nothing. */
-void rtcore_sim_motion_advance(const rtcore_sim_finger *finger, rtcore_sim_motion *motion, double input_kpa,
-                               double external_torque_nm, double duration_s);
-/* rtcore_sim_motion_advance for count fingers at once, each with its own input and torque. */
+void rtcore_sim_motion_advance(const rtcore_sim_finger *finger, rtcore_sim_motion *motion,
+                               rtcore_propagator_cache *cache, double input_kpa, double external_torque_nm,
+                               double duration_s);
+/* rtcore_sim_motion_advance for count fingers at once, each with its own input, torque
+ * and cache (caches may be NULL). */
 void rtcore_sim_motion_advance_many(const rtcore_sim_finger *fingers, rtcore_sim_motion *motions,
-                                    const double *input_kpa, const double *external_torque_nm, int32_t count,
-                                    double duration_s);
+                                    rtcore_propagator_cache *caches, const double *input_kpa,
+                                    const double *external_torque_nm, int32_t count, double duration_s);
 /* END CDEF */
 
 #ifdef __cplusplus

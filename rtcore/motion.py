@@ -32,11 +32,10 @@ class FingerMotions:
         self.n_fingers = len(fingers)
         self._fingers = ffi.new("rtcore_sim_finger[]", self.n_fingers)
         self._motions = ffi.new("rtcore_sim_motion[]", self.n_fingers)
+        self._caches = ffi.new("rtcore_propagator_cache[]", self.n_fingers)  # each finger's, kept
         for i, finger in enumerate(fingers):
             _fill(self._fingers[i], finger)
-            code = lib.rtcore_sim_motion_start(self._fingers + i, self._motions + i, 0.0, 0.0, 0.0)
-            if code != lib.RTCORE_OK:
-                raise ConfigError(error_message(code, i))
+            self.start(i, 0.0)
         dtype = np.dtype({"names": list(MOTION_FIELDS), "formats": [np.float64] * len(MOTION_FIELDS),
                           "offsets": [ffi.offsetof("rtcore_sim_motion", name) for name in MOTION_FIELDS],
                           "itemsize": ffi.sizeof("rtcore_sim_motion")})
@@ -52,8 +51,8 @@ class FingerMotions:
     def start(self, finger: int, angle_deg: float, velocity_deg_per_s: float = 0.0,
               chamber_kpa: float = 0.0) -> None:
         """Place one finger (its hysteresis loop at its middle)."""
-        code = lib.rtcore_sim_motion_start(self._fingers + finger, self._motions + finger, angle_deg,
-                                           velocity_deg_per_s, chamber_kpa)
+        code = lib.rtcore_sim_motion_start(self._fingers + finger, self._motions + finger,
+                                           self._caches + finger, angle_deg, velocity_deg_per_s, chamber_kpa)
         if code != lib.RTCORE_OK:
             raise ConfigError(error_message(code, finger))
 
@@ -63,5 +62,5 @@ class FingerMotions:
         bends the finger)."""
         self._input[:] = np.ravel(input_kpa)
         self._torque[:] = np.ravel(external_torque_nm)
-        lib.rtcore_sim_motion_advance_many(self._fingers, self._motions, self._input_ptr, self._torque_ptr,
-                                           self.n_fingers, duration_s)
+        lib.rtcore_sim_motion_advance_many(self._fingers, self._motions, self._caches, self._input_ptr,
+                                           self._torque_ptr, self.n_fingers, duration_s)

@@ -150,7 +150,11 @@ int main(int argc, char **argv)
     host.pwm_period_us = cfg.regulator.pwm_period_us;
     host.t0_ns = 0u;
     host.t0_ns = (uint64_t)(host_monotonic_s() * 1e9);
-    plant_init(&host.plant, host_default_hand, n_fingers, (uint32_t)seed);
+    if (plant_init(&host.plant, host_default_hand, n_fingers, (uint32_t)seed) != 0) {
+        fprintf(stderr, "board-host: the default hand's fingers cannot be simulated\n");
+        unlink(port);
+        return 2;
+    }
 
     struct sigaction sa;
     memset(&sa, 0, sizeof sa);
