@@ -56,6 +56,11 @@ class FingerMotions:
         if code != lib.RTCORE_OK:
             raise ConfigError(error_message(code, finger))
 
+    def move_contact(self, finger: int, angle_deg: float) -> None:
+        """Move one finger's object (its SimFinger's contact, a spring-damper at the force
+        point) to angle_deg: a wall that comes down on the finger."""
+        self._fingers[finger].contact_angle_deg = angle_deg
+
     def advance(self, input_kpa: np.ndarray, external_torque_nm: np.ndarray, duration_s: float) -> None:
         """Every finger duration_s on: its valve's input held at input_kpa[i] (the chamber
         itself for a finger without a valve lag) and external_torque_nm[i] held (positive
