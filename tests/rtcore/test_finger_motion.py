@@ -91,3 +91,14 @@ def test_a_finger_the_dynamics_cannot_run_is_refused() -> None:
     motions = FingerMotions([SimFinger(PAPER)])
     with pytest.raises(ConfigError):
         motions.start(0, angle_deg=math.nan)
+
+
+def test_a_moved_contact_stops_the_finger_where_it_now_stands() -> None:
+    finger = SimFinger(PAPER, contact_angle_deg=40.0, contact_stiffness_n_per_m=20000.0,
+                       contact_damping_ns_per_m=5.0)
+    motions = FingerMotions([finger])
+    for wall_deg in (40.0, 20.0):
+        motions.move_contact(0, wall_deg)
+        for _ in range(300):  # 3 s at 100 kPa: free, the finger would bend to 119 deg
+            motions.advance(np.array([100.0]), np.array([0.0]), 0.01)
+        assert wall_deg < math.degrees(motions.angle_rad[0]) < wall_deg + 2.0
