@@ -8,8 +8,12 @@
  *                   rtcore_pid.c)
  *   rtcore_pneumatic.h  the simulator's pneumatic valve mode (rtcore_pneumatic.c over the
  *                   board's board/plant/pneumatics.c and board/core/regulator.c)
- *   rtcore_sim.h    the simulated hand and its in-process link (rtcore_sim*.c,
- *                   rtcore_sim_link.c)
+ *   rtcore_exact.h  the exact linear finger's propagators and their cache (rtcore_exact.c)
+ *   rtcore_sim_plant.h  the simulated finger's dynamics, the one finger simulator, alone
+ *                   for a caller that drives the chamber (rtcore_sim_plant.c,
+ *                   rtcore_sim_step_size.c, rtcore_sim_span.c, rtcore_exact.c)
+ *   rtcore_sim.h    the simulated hand on top: valve, sensors, and its in-process link
+ *                   (rtcore_sim.c, rtcore_sim_advance.c, rtcore_sim_link.c)
  *   rtcore_clock.h  the supervisor's clock and deadline schedule (rtcore_clock.c)
  *   rtcore_ring.h   the recording ring (rtcore_ring.c)
  *   rtcore_gate.h   the safety gate (rtcore_gate.c)
@@ -34,6 +38,8 @@
 
 #include "rtcore_step.h"
 #include "rtcore_pneumatic.h"
+#include "rtcore_exact.h"
+#include "rtcore_sim_plant.h"
 #include "rtcore_sim.h"
 #include "rtcore_clock.h"
 #include "rtcore_ring.h"

@@ -1,13 +1,20 @@
 /* The exact part of the simulator: the linear finger A·θ'' + B·θ' + k·θ = u(t) over a
  * step h, its transition e^(L·h) and its responses to a held and a quadratic torque, in
  * closed form for every damping (under-, critically and over-damped, B/A in the tens of
- * thousands per second), and a small cache of them. Internal to the simulator (rtcore_sim*.c); not part
- * of the cffi interface. */
+ * thousands per second), and a small cache of them. The functions are internal to the
+ * simulator (rtcore_sim*.c); the cache's types are in the cffi interface (the block between
+ * the CDEF markers, read by rtcore/_build.py), as a caller of rtcore_sim_plant.h keeps one
+ * per finger between calls. */
 #ifndef RTCORE_EXACT_H
 #define RTCORE_EXACT_H
 
 #include <stdint.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* BEGIN CDEF */
 #define RTCORE_PROPAGATOR_CACHE 4
 
 /* The linear plant and what its propagators need. */
@@ -40,6 +47,7 @@ typedef struct {
     int32_t count;
     int32_t next;
 } rtcore_propagator_cache;
+/* END CDEF */
 
 /* Roots of A·λ² + B·λ + k (A > 0, B >= 0, k of either sign) as (re, im) pairs. */
 void rtcore_exact_eigenvalues(double inertia, double damping, double stiffness, double lambda_per_s[4]);
@@ -57,5 +65,9 @@ void rtcore_exact_quadratic(const rtcore_propagator *pr, double *angle_rad, doub
 /* the state after a step under the torque u held */
 void rtcore_exact_held(const rtcore_propagator *pr, double angle_rad, double velocity_rad_per_s, double u,
                        double *angle_out_rad, double *velocity_out_rad_per_s);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

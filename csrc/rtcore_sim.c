@@ -1,15 +1,17 @@
 /* The simulated hand: PRBM dynamics with the shared torque model (its linear part exact,
- * dry friction's slope linearised into it step by step, the rest by ETDRK4), the valve (lag behind a dead time, integrated exactly), an optional
- * object, and the flex sensor. This unit: the random numbers, the configuration and the
- * public functions of rtcore_sim.h; the finger's dynamics are in rtcore_sim_plant.c, their
- * step sizes in rtcore_sim_step_size.c, a sample period's valve in rtcore_sim_advance.c, and
- * what they share in rtcore_sim_internal.h. */
+ * dry friction's slope linearised into it step by step, the rest by ETDRK4), the valve (lag
+ * behind a dead time, integrated exactly), an optional object, and the flex sensor. This
+ * unit: the random numbers, the configuration and the public functions of rtcore_sim.h. It
+ * calls down: a sample period's valve in rtcore_sim_advance.c (rtcore_sim_advance.h), the
+ * finger's dynamics in rtcore_sim_plant.c (rtcore_sim_plant.h), their step sizes in
+ * rtcore_sim_step_size.c, what those share in rtcore_sim_internal.h. */
 #include <math.h>
 #include <string.h>
 
 #include "rtcore_exact.h"
 #include "rtcore_internal.h"
 #include "rtcore_sim.h"
+#include "rtcore_sim_advance.h"
 #include "rtcore_sim_internal.h"
 
 /* ---- random numbers: xorshift64* and Box-Muller, state in the caller's struct ------- */
@@ -49,15 +51,9 @@ static double next_gaussian(rtcore_sim *sim)
 
 static int32_t validate_sim_finger(const rtcore_sim_finger *f)
 {
-    const rtcore_prbm *m = &f->prbm;
-    if (!(isfinite(m->inertia_kgm2) && m->inertia_kgm2 > 0.0) || !(isfinite(m->damping_nms_per_rad)
-        && m->damping_nms_per_rad >= 0.0) || !(isfinite(m->stiffness_nm_per_rad)
-        && m->stiffness_nm_per_rad > 0.0) || !(isfinite(m->pressure_gain_nm_per_kpa)
-        && m->pressure_gain_nm_per_kpa >= 0.0) || !(isfinite(m->lever_arm_m) && m->lever_arm_m >= 0.0)) {
-        return RTCORE_ERR_MODEL;
-    }
-    if (!rtcore_effects_valid(&m->effects)) {
-        return RTCORE_ERR_EFFECTS;
+    const int32_t err = rtcore_sim_dynamics_valid(f);
+    if (err != RTCORE_OK) {
+        return err;
     }
     if (!rtcore_pneumatic_valid(&f->pneumatic)) {
         return RTCORE_ERR_MODEL;
@@ -65,21 +61,6 @@ static int32_t validate_sim_finger(const rtcore_sim_finger *f)
     if (!isfinite(f->supply_min_kpa) || !isfinite(f->supply_max_kpa)
         || f->supply_min_kpa > f->supply_max_kpa) {
         return RTCORE_ERR_PRESSURE_LIMITS;
-    }
-    if (!isfinite(f->contact_angle_deg) || !(isfinite(f->contact_stiffness_n_per_m)
-        && f->contact_stiffness_n_per_m >= 0.0) || !(isfinite(f->contact_damping_ns_per_m)
-        && f->contact_damping_ns_per_m >= 0.0)) {
-        return RTCORE_ERR_MODEL;
-    }
-    if (!(isfinite(f->hysteresis_torque_nm) && f->hysteresis_torque_nm >= 0.0)
-        || (f->hysteresis_torque_nm > 0.0
-            && !(isfinite(f->hysteresis_travel_deg) && f->hysteresis_travel_deg > 0.0))) {
-        return RTCORE_ERR_MODEL;
-    }
-    /* a lever arm of 0 is a free finger with no force point: it can meet no object */
-    if ((f->contact_stiffness_n_per_m > 0.0 || f->contact_damping_ns_per_m > 0.0)
-        && !(m->lever_arm_m > 0.0)) {
-        return RTCORE_ERR_MODEL;
     }
     if (!isfinite(f->sensor_gain_deg_per_mv) || f->sensor_gain_deg_per_mv == 0.0
         || !isfinite(f->sensor_offset_deg) || !(isfinite(f->sensor_noise_deg) && f->sensor_noise_deg >= 0.0)
@@ -93,9 +74,6 @@ static int32_t validate_sim_finger(const rtcore_sim_finger *f)
 static int32_t prepare_state(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, double dt_s)
 {
     const double delay = f->prbm.effects.dead_time_s / dt_s;
-    sim_plant plant;
-    rtcore_sim_plant_for(f, &plant);
-    s->max_step_s = rtcore_sim_parameter_step_s(&plant);
     s->delay_samples = (int32_t)floor(delay);
     s->delay_fraction = delay - floor(delay);
     if (s->delay_samples + 2 >= RTCORE_SIM_HISTORY) {
@@ -104,14 +82,13 @@ static int32_t prepare_state(const rtcore_sim_finger *f, rtcore_sim_finger_state
     return RTCORE_OK;
 }
 
-static void place(rtcore_sim_finger_state *s, double angle_rad, double velocity_rad_per_s,
-                  double chamber_kpa)
+/* the finger at rest or where it was placed, its dead time's history full of chamber_kpa
+ * (the finger was validated: rtcore_sim_motion_start accepts it) */
+static void place(const rtcore_sim_finger *f, rtcore_sim_finger_state *s, double angle_deg,
+                  double velocity_deg_per_s, double chamber_kpa)
 {
     int32_t k;
-    s->angle_rad = angle_rad;
-    s->velocity_rad_per_s = velocity_rad_per_s;
-    s->chamber_kpa = chamber_kpa;
-    s->hysteresis_z = 0.0;
+    (void)rtcore_sim_motion_start(f, &s->motion, 0, angle_deg, velocity_deg_per_s, chamber_kpa);
     rtcore_pneumatic_reset(&s->pneumatic, chamber_kpa);
     for (k = 0; k < RTCORE_SIM_HISTORY; ++k) {
         s->command_kpa[k] = chamber_kpa;
@@ -154,7 +131,7 @@ int32_t rtcore_sim_configure(rtcore_sim *sim, const rtcore_sim_config *config)
     sim->rng_has_spare = 0;
     sim->rng_spare = 0.0;
     for (i = 0; i < config->n_fingers; ++i) {
-        place(&sim->finger[i], 0.0, 0.0, 0.0);
+        place(&config->finger[i], &sim->finger[i], 0.0, 0.0, 0.0);
         sim->finger[i].contact_force_n = 0.0;
     }
     sim->configured = 1;
@@ -170,9 +147,9 @@ void rtcore_sim_set_state(rtcore_sim *sim, int32_t finger, double angle_deg, dou
         return;
     }
     s = &sim->finger[finger];
-    place(s, angle_deg * RTCORE_RAD_PER_DEG, velocity_deg_per_s * RTCORE_RAD_PER_DEG, chamber_kpa);
-    s->contact_force_n = rtcore_sim_contact_force_n(&sim->config.finger[finger], s->angle_rad,
-                                                    s->velocity_rad_per_s);
+    place(&sim->config.finger[finger], s, angle_deg, velocity_deg_per_s, chamber_kpa);
+    s->contact_force_n = rtcore_sim_contact_force_n(&sim->config.finger[finger], s->motion.angle_rad,
+                                                    s->motion.velocity_rad_per_s);
 }
 
 void rtcore_sim_sample(rtcore_sim *sim, rtcore_sim_outputs *out)
@@ -184,17 +161,17 @@ void rtcore_sim_sample(rtcore_sim *sim, rtcore_sim_outputs *out)
     for (i = 0; i < sim->config.n_fingers; ++i) {
         const rtcore_sim_finger *f = &sim->config.finger[i];
         const rtcore_sim_finger_state *s = &sim->finger[i];
-        const double angle_deg = s->angle_rad * RTCORE_DEG_PER_RAD;
+        const double angle_deg = s->motion.angle_rad * RTCORE_DEG_PER_RAD;
         double mv = (angle_deg + f->sensor_noise_deg * next_gaussian(sim) - f->sensor_offset_deg)
                     / f->sensor_gain_deg_per_mv;
         if (f->adc_step_mv > 0.0) {
             mv = f->adc_step_mv * floor(mv / f->adc_step_mv + 0.5);
         }
         out->sensor_mv[i] = mv;
-        out->pressure_meas_kpa[i] = s->chamber_kpa + f->pressure_noise_kpa * next_gaussian(sim);
+        out->pressure_meas_kpa[i] = s->motion.chamber_kpa + f->pressure_noise_kpa * next_gaussian(sim);
         out->angle_deg[i] = angle_deg;
-        out->velocity_deg_per_s[i] = s->velocity_rad_per_s * RTCORE_DEG_PER_RAD;
-        out->chamber_pressure_kpa[i] = s->chamber_kpa;
+        out->velocity_deg_per_s[i] = s->motion.velocity_rad_per_s * RTCORE_DEG_PER_RAD;
+        out->chamber_pressure_kpa[i] = s->motion.chamber_kpa;
         out->contact_force_n[i] = s->contact_force_n;
     }
 }
@@ -251,7 +228,7 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
     if (err != RTCORE_OK) {
         return err;
     }
-    place(&s, angle0_deg * RTCORE_RAD_PER_DEG, velocity0_deg_per_s * RTCORE_RAD_PER_DEG, chamber0_kpa);
+    place(finger, &s, angle0_deg, velocity0_deg_per_s, chamber0_kpa);
     angle_out_deg[0] = angle0_deg;
     if (chamber_out_kpa != 0) {
         chamber_out_kpa[0] = chamber0_kpa;
@@ -276,9 +253,9 @@ int32_t rtcore_sim_run(const rtcore_sim_finger *finger, double sample_rate_hz, i
             continue;
         }
         rtcore_sim_advance_sample(&plant, &s, &cache, pressure_cmd_kpa[k], dt_s, substeps > 0 ? substeps : 1);
-        angle_out_deg[k + 1] = s.angle_rad * RTCORE_DEG_PER_RAD;
+        angle_out_deg[k + 1] = s.motion.angle_rad * RTCORE_DEG_PER_RAD;
         if (chamber_out_kpa != 0) {
-            chamber_out_kpa[k + 1] = s.chamber_kpa;
+            chamber_out_kpa[k + 1] = s.motion.chamber_kpa;
         }
         k += 1;
     }

@@ -23,6 +23,7 @@
 #include <stdint.h>
 
 #include "rtcore_pneumatic.h"
+#include "rtcore_sim_plant.h"
 #include "rtcore_step.h"
 
 #ifdef __cplusplus
@@ -34,30 +35,6 @@ extern "C" {
 #define RTCORE_ERR_SIM_HISTORY -13
 
 typedef struct {
-    rtcore_prbm prbm; /* the truth: the controller's PRBM struct (rtcore_step.h) */
-    /* the valve regulates within what the supply allows */
-    double supply_min_kpa;
-    double supply_max_kpa;
-    /* an object touched past contact_angle_deg; stiffness 0 means no object */
-    double contact_angle_deg;
-    double contact_stiffness_n_per_m;
-    double contact_damping_ns_per_m;
-    /* a rate-independent loop (hysteresis in the material; outside the controller's model):
-     * the torque -hysteresis_torque_nm*z, z in [-1, 1] turning toward the direction of
-     * travel, e-fold every hysteresis_travel_deg moved (Dahl's form); torque 0 means none */
-    double hysteresis_torque_nm;
-    double hysteresis_travel_deg;
-    /* the sensor: mv = (angle_deg + noise - offset) / gain, quantised to adc_step_mv */
-    double sensor_gain_deg_per_mv;
-    double sensor_offset_deg;
-    double sensor_noise_deg;
-    double adc_step_mv;
-    double pressure_noise_kpa;
-    /* the valve: first-order lag + dead time (the effects'), or pneumatic (rtcore_pneumatic.h) */
-    rtcore_pneumatic_config pneumatic;
-} rtcore_sim_finger;
-
-typedef struct {
     int32_t n_fingers;
     double sample_rate_hz;
     int32_t substeps;
@@ -66,19 +43,13 @@ typedef struct {
 } rtcore_sim_config;
 
 typedef struct {
-    double angle_rad;
-    double velocity_rad_per_s;
-    double chamber_kpa;
+    rtcore_sim_motion motion; /* the finger's dynamics (rtcore_sim_plant.h) */
     double contact_force_n;
-    double hysteresis_z; /* the loop's state, in [-1, 1] */
     /* commands of the last samples, newest at head, for the dead time */
     double command_kpa[RTCORE_SIM_HISTORY];
     int32_t head;
     int32_t delay_samples;
     double delay_fraction;
-    /* longest step the finger's parameters allow (infinite for the plain linear finger);
-     * a settled finger and one that dry friction holds step longer (rtcore_sim_plant.c) */
-    double max_step_s;
     rtcore_pneumatic_state pneumatic; /* the pneumatic valve mode's chamber and regulator */
 } rtcore_sim_finger_state;
 

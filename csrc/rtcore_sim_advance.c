@@ -1,34 +1,11 @@
-/* One sample period of a simulated finger: the valve's dead time and lag (held segments,
- * cut where the chamber crosses the dead zone's threshold) or the pneumatic valve model,
- * driving the finger's integration (rtcore_sim_plant.c). */
+/* One sample period of a simulated finger (rtcore_sim_advance.h): the valve's dead time
+ * (held segments, which the finger's dynamics integrate with the valve's lag:
+ * rtcore_sim_plant.c) or the pneumatic valve model. */
 #include <math.h>
 
 #include "rtcore_internal.h"
+#include "rtcore_sim_advance.h"
 #include "rtcore_sim_internal.h"
-
-/* A held segment, split where the chamber crosses the dead zone's threshold, so that the
- * torque is smooth within each part. */
-static void integrate_held(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                           double input_kpa, double duration_s, double request_cap_s, sim_span *span)
-{
-    const double tau_s = p->finger->prbm.effects.valve_lag_tau_s;
-    const double deadzone_kpa = p->finger->prbm.effects.pressure_deadzone_kpa;
-    const double start_kpa = s->chamber_kpa;
-    if (tau_s > 0.0 && deadzone_kpa > 0.0
-        && ((start_kpa < deadzone_kpa && input_kpa > deadzone_kpa)
-            || (start_kpa > deadzone_kpa && input_kpa < deadzone_kpa))) {
-        const double cross_s = tau_s * log((start_kpa - input_kpa) / (deadzone_kpa - input_kpa));
-        if (cross_s > 0.0 && cross_s < duration_s) {
-            rtcore_sim_integrate_segment(p, s, cache, input_kpa, cross_s, request_cap_s, span);
-            if (span != 0) {
-                span->t0_s = cross_s;
-            }
-            rtcore_sim_integrate_segment(p, s, cache, input_kpa, duration_s - cross_s, request_cap_s, span);
-            return;
-        }
-    }
-    rtcore_sim_integrate_segment(p, s, cache, input_kpa, duration_s, request_cap_s, span);
-}
 
 /* The valve regulates within its supply; a garbled (NaN) command vents to the floor. */
 static double saturate(const rtcore_sim_finger *f, double command_kpa)
@@ -67,19 +44,19 @@ static void advance_pneumatic(const rtcore_sim_finger *f, rtcore_sim_finger_stat
     rtcore_sim_plant_for(&held, &plant);
     for (k = 0; k < pieces; ++k) {
         const double mean_kpa = rtcore_pneumatic_advance(&f->pneumatic, f->prbm.pressure_gain_nm_per_kpa,
-                                                         &s->pneumatic, command_kpa, s->angle_rad,
-                                                         s->velocity_rad_per_s, dt_s / (double)pieces);
-        rtcore_sim_integrate_segment(&plant, s, cache, mean_kpa, dt_s / (double)pieces, step_cap_s, 0);
+                                                         &s->pneumatic, command_kpa, s->motion.angle_rad,
+                                                         s->motion.velocity_rad_per_s, dt_s / (double)pieces);
+        rtcore_sim_integrate_held(&plant, &s->motion, cache, mean_kpa, 0.0, dt_s / (double)pieces, step_cap_s, 0);
     }
-    s->chamber_kpa = s->pneumatic.chamber_kpa;
-    s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
+    s->motion.chamber_kpa = s->pneumatic.chamber_kpa;
+    s->contact_force_n = rtcore_sim_contact_force_n(f, s->motion.angle_rad, s->motion.velocity_rad_per_s);
 }
 
 /* One sample period after pushing command_kpa: the dead time puts at most one breakpoint
  * inside the period, where the older command gives way to the newer one. The step is at
  * most dt/substeps (what the caller asks for) and what the finger's parameters allow
  * (more, up to dt/substeps, once the finger has settled, rtcore_sim_settled_step_s, or
- * while dry friction holds it: rtcore_sim_integrate_segment).
+ * while dry friction holds it: rtcore_sim_plant.c).
  * `plant` is rtcore_sim_plant_for(f): it depends on the finger alone, so a run over many
  * samples derives it once (rtcore_sim_run). */
 void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
@@ -94,12 +71,15 @@ void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *
     push_command(f, s, command_kpa);
     if (s->delay_fraction > 0.0) {
         const double first_s = s->delay_fraction * dt_s;
-        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples + 1), first_s, step_cap_s, 0);
-        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s - first_s, step_cap_s, 0);
+        rtcore_sim_integrate_held(plant, &s->motion, cache, delayed_command(s, s->delay_samples + 1), 0.0, first_s,
+                                  step_cap_s, 0);
+        rtcore_sim_integrate_held(plant, &s->motion, cache, delayed_command(s, s->delay_samples), 0.0, dt_s - first_s,
+                                  step_cap_s, 0);
     } else {
-        integrate_held(plant, s, cache, delayed_command(s, s->delay_samples), dt_s, step_cap_s, 0);
+        rtcore_sim_integrate_held(plant, &s->motion, cache, delayed_command(s, s->delay_samples), 0.0, dt_s,
+                                  step_cap_s, 0);
     }
-    s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
+    s->contact_force_n = rtcore_sim_contact_force_n(f, s->motion.angle_rad, s->motion.velocity_rad_per_s);
 }
 
 /* The command held over sample i from now (the valve's input after the dead time): the
@@ -143,7 +123,7 @@ void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s,
 {
     const rtcore_sim_finger *f = plant->finger;
     const double tau_s = f->prbm.effects.valve_lag_tau_s;
-    const double chamber0_kpa = s->chamber_kpa;
+    const double chamber0_kpa = s->motion.chamber_kpa;
     int32_t i;
     for (i = 0; i < count; ++i) {
         push_command(f, s, command_kpa[i]);
@@ -151,10 +131,10 @@ void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s,
     span->count = count;
     span->next = 1;
     span->t0_s = 0.0;
-    integrate_held(plant, s, cache, held_kpa, (double)count * span->dt_s, rtcore_sim_span_cap_s(plant, span->dt_s),
-                   span);
+    rtcore_sim_integrate_held(plant, &s->motion, cache, held_kpa, 0.0, (double)count * span->dt_s,
+                              rtcore_sim_span_cap_s(plant, span->dt_s), span);
     for (i = span->next; i <= count; ++i) { /* none but after a divergence: the state it left */
-        span->angle_out_deg[i - 1] = s->angle_rad * RTCORE_DEG_PER_RAD;
+        span->angle_out_deg[i - 1] = s->motion.angle_rad * RTCORE_DEG_PER_RAD;
     }
     if (chamber_out_kpa != 0) {
         for (i = 1; i <= count; ++i) {
@@ -162,5 +142,5 @@ void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s,
             chamber_out_kpa[i - 1] = tau_s > 0.0 ? rtcore_sim_chamber_at(chamber0_kpa, held_kpa, tau_s, t_s) : held_kpa;
         }
     }
-    s->contact_force_n = rtcore_sim_contact_force_n(f, s->angle_rad, s->velocity_rad_per_s);
+    s->contact_force_n = rtcore_sim_contact_force_n(f, s->motion.angle_rad, s->motion.velocity_rad_per_s);
 }

@@ -1,9 +1,9 @@
-/* What the simulator's units share: csrc/rtcore_sim.c (the random numbers, the configuration
- * and the public functions of rtcore_sim.h), rtcore_sim_plant.c (the finger's dynamics and
- * their integration over a held segment), rtcore_sim_step_size.c (the step sizes) and
- * rtcore_sim_advance.c (one sample period: the valve). Not part of the API: nothing here is
- * in the cffi cdef. Names keep the rtcore_sim_ prefix because they have external linkage
- * inside the extension module. */
+/* What the finger's dynamics (csrc/rtcore_sim_plant.c, rtcore_sim_plant.h) share with the
+ * units below them, rtcore_sim_step_size.c (the step sizes) and rtcore_sim_span.c (a run of
+ * samples as one segment), and offer the valve above them (rtcore_sim_advance.c, its own
+ * rtcore_sim_advance.h) and the simulated hand (rtcore_sim.c). Not part of the API: nothing
+ * here is in the cffi cdef. Names keep the rtcore_sim_ prefix because they have external
+ * linkage inside the extension module. */
 #ifndef RTCORE_SIM_INTERNAL_H
 #define RTCORE_SIM_INTERNAL_H
 
@@ -11,7 +11,7 @@
 #include <stdint.h>
 
 #include "rtcore_exact.h"
-#include "rtcore_sim.h"
+#include "rtcore_sim_plant.h"
 
 /* Step sizes, as fractions of the time scales they resolve:
  * - the motion's own, 1/|λ_slow| over-damped or 1/ω_n under-damped, when g is not zero;
@@ -22,12 +22,12 @@
  * - 1/(the shift by g's stiffness-like slopes);
  * - dry friction's slope, taken into the exact part at each step's start, by how fast
  *   the velocity can leave the band where that slope still holds (rtcore_sim_damping_step_s);
- * - the valve lag τ (LAG_STEP_FRACTION·τ at first, see rtcore_sim_integrate_segment). */
+ * - the valve lag τ (LAG_STEP_FRACTION·τ at first, see integrate_segment in rtcore_sim_plant.c). */
 static const double MOTION_STEP_FRACTION = 0.25;
 static const double DAMPING_STEP_FRACTION = 1.0;
 static const double STIFFNESS_STEP_FRACTION = 0.25;
 static const double LAG_STEP_FRACTION = 0.0625;
-/* of the creep's bound, B + c0's own (rtcore_sim_integrate_segment) */
+/* of the creep's bound, B + c0's own (integrate_segment) */
 static const double CREEP_STEP_SHARE = 0.25;
 /* a state-dependent slope (quadratic damping, cubic stiffness) shortens the step at most
  * this much, and no held segment takes more than 2^20 steps, so a run that diverges ends */
@@ -65,7 +65,7 @@ double rtcore_sim_damping_step_s(const sim_plant *local, double velocity_rad_per
 double rtcore_sim_parameter_step_s(const sim_plant *p);
 double rtcore_sim_state_step_s(const sim_plant *p, double angle_rad, double accel_torque_nm);
 double rtcore_sim_settle_range_rad_for(const sim_plant *p);
-double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_finger_state *s, double cap_s,
+double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_motion *s, double cap_s,
                                  double request_cap_s, double range_rad, double drive_nm, double drift_nm);
 
 /* A run of samples under one held input, integrated as one segment whose steps may span
@@ -92,19 +92,13 @@ void rtcore_sim_span_emit(sim_span *out, const rtcore_exact_plant *linear, doubl
 int32_t rtcore_sim_span_eligible(const sim_plant *p);
 double rtcore_sim_span_cap_s(const sim_plant *p, double dt_s);
 
-/* rtcore_sim_plant.c */
+/* rtcore_sim_plant.c: a held valve input over duration_s, cut where the chamber crosses the
+ * dead zone's threshold (steps of at most request_cap_s and what the dynamics allow; over a
+ * span of samples when span is not NULL) */
 double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s);
 void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p);
-void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                                  double input_kpa, double duration_s, double request_cap_s, sim_span *span);
-
-/* rtcore_sim_advance.c */
-void rtcore_sim_advance_sample(const sim_plant *plant, rtcore_sim_finger_state *s,
-                               rtcore_propagator_cache *cache, double command_kpa, double dt_s, int32_t substeps);
-int32_t rtcore_sim_held_samples(const rtcore_sim_finger *f, const rtcore_sim_finger_state *s, const double *command_kpa,
-                                int32_t available, double *held_kpa);
-void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                             sim_span *span, const double *command_kpa, int32_t count, double held_kpa,
-                             double *chamber_out_kpa);
+void rtcore_sim_integrate_held(const sim_plant *p, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
+                               double input_kpa, double external_torque_nm, double duration_s, double request_cap_s,
+                               sim_span *span);
 
 #endif /* RTCORE_SIM_INTERNAL_H */

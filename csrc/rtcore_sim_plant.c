@@ -1,5 +1,5 @@
-/* The simulated finger's dynamics: the torques beyond its linear part (the effects, the
- * object), its local linear plant, one ETDRK4 step, the kinks that cut a step, and the
+/* The simulated finger's dynamics (rtcore_sim_plant.h): the torques beyond its linear part
+ * (the effects, the object), its local linear plant, one ETDRK4 step, the kinks that cut a step, and the
  * integration of a segment under a held valve input (the step sizes it takes:
  * rtcore_sim_step_size.c). */
 #include <math.h>
@@ -18,7 +18,7 @@
  * last stage is the exact response to a quadratic torque too. The plain linear finger
  * without a valve lag is exact at any step; with effects the step resolves what the
  * explicit g needs (rtcore_sim_parameter_step_s, rtcore_sim_state_step_s), with a lag
- * the chamber's exponential (rtcore_sim_integrate_segment). */
+ * the chamber's exponential (integrate_segment). */
 
 /* The object's normal force at the force point while touching: the spring-damper,
  * pushing only (>= 0), continued across the surface so that a step keeps one formula. */
@@ -46,7 +46,7 @@ double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, 
  * Dahl's dz/dθ = (sign(dθ) − z)/d solved over the travel, so a step that does not turn
  * integrates it exactly (a turn inside a step is resolved by the step's bound on the loop's
  * slope, rtcore_sim_plant_for). */
-static double loop_z(const rtcore_sim_finger *f, const rtcore_sim_finger_state *from, double angle_rad)
+static double loop_z(const rtcore_sim_finger *f, const rtcore_sim_motion *from, double angle_rad)
 {
     const double travel_rad = angle_rad - from->angle_rad;
     const double toward = travel_rad > 0.0 ? 1.0 : -1.0;
@@ -61,7 +61,7 @@ static double loop_z(const rtcore_sim_finger *f, const rtcore_sim_finger_state *
  * step that reaches it ends there and the next one starts touching), and the loop's as it
  * has moved from `from`, the state at the step's start. rtcore_model_torque_nm (shared
  * with the controller) includes the plain k·θ, which the linear part takes. */
-static double nonlinear_torque_nm(const rtcore_sim_finger *f, const rtcore_sim_finger_state *from, double angle_rad,
+static double nonlinear_torque_nm(const rtcore_sim_finger *f, const rtcore_sim_motion *from, double angle_rad,
                                   double velocity_rad_per_s, int32_t touching)
 {
     const rtcore_prbm *m = &f->prbm;
@@ -116,7 +116,7 @@ static void with_damping(const sim_plant *base, double extra_nms_per_rad, sim_pl
  * Matthews 2002): stages a and b from x and c from a over h/2, each with the total torque
  * held (at x, at a, and 2·(at b) − (at x)), then the exact response to the quadratic
  * through the torque at x, the mean of those at a and b, and at c. */
-static void step(const sim_plant *p, const rtcore_sim_finger_state *from, rtcore_propagator_cache *cache,
+static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propagator_cache *cache,
                  double *angle_rad, double *velocity_rad_per_s, double h, double p_start, double p_mid, double p_end,
                  double g_start, int32_t touching, double linearized_nms_per_rad, double torque_nm[3])
 {
@@ -196,7 +196,7 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
  * now and at the segment's end (rtcore_sim_state_step_s); at least floor_s. With `en_route`
  * (a later step inside a span) the torque out of balance without the damper's share too: an
  * over-damped finger on its way has its drive balanced by B·θ' far from where it goes. */
-static double state_cap_s(const sim_plant *p, const rtcore_sim_finger_state *s, double torque_now_nm,
+static double state_cap_s(const sim_plant *p, const rtcore_sim_motion *s, double torque_now_nm,
                           double torque_last_nm, double step_cap_s, double floor_s, int32_t en_route)
 {
     const rtcore_sim_finger *f = p->finger;
@@ -210,12 +210,13 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_finger_state *s, 
     return fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm), floor_s));
 }
 
-/* Integrate over duration_s with the valve input held at input_kpa, in steps of at most
+/* Integrate over duration_s with the valve input held at input_kpa and the external torque
+ * at external_torque_nm (both in the drive u), in steps of at most
  * step_cap_s (longer for a settled finger, or one that dry friction holds: up to
  * request_cap_s), and of what rtcore_sim_state_step_s allows for the state at the start (the input is
  * held, so what the segment will reach is known there). The chamber follows its exact
- * solution, on one side of the dead zone's threshold throughout (integrate_held splits
- * there). While its torque moves the step is at most LAG_STEP_FRACTION·τ·(S/|p − u|)^(1/3),
+ * solution, on one side of the dead zone's threshold throughout (rtcore_sim_integrate_held
+ * splits there). While its torque moves the step is at most LAG_STEP_FRACTION·τ·(S/|p − u|)^(1/3),
  * S the supply's span and p − u what the chamber still lacks of its input: what the
  * quadratic misses of the exponential, ∝ |p − u|·(h/τ)³, stays as small as in the first
  * step of a full-span change (τ/16), so a change costs about 3/LAG_STEP_FRACTION = 48
@@ -226,8 +227,9 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_finger_state *s, 
  * last step ends the segment exactly and a kink cuts a step where it lies, so the steps
  * and the result move continuously with every parameter. Over a span of samples (span not
  * NULL: rtcore_sim_span.c) the steps fit the samples and the angle at each is written. */
-void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s, rtcore_propagator_cache *cache,
-                                  double input_kpa, double duration_s, double request_cap_s, sim_span *span)
+static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
+                              double input_kpa, double external_torque_nm, double duration_s, double request_cap_s,
+                              sim_span *span)
 {
     const rtcore_sim_finger *f = p->finger;
     const double tau_s = f->prbm.effects.valve_lag_tau_s;
@@ -243,8 +245,8 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
     const double unit_s = span != 0 ? fmin(duration_s, span->dt_s) : duration_s;
     const double min_step_s = unit_s * MIN_STEP_PER_SEGMENT;
     const double lag_span_kpa = fmax(f->supply_max_kpa - f->supply_min_kpa, 1.0);
-    const double torque_last = pressure_torque_nm(f, end_kpa);
-    double torque_start = pressure_torque_nm(f, start_kpa);
+    const double torque_last = pressure_torque_nm(f, end_kpa) + external_torque_nm;
+    double torque_start = pressure_torque_nm(f, start_kpa) + external_torque_nm;
     const double step_cap_s = fmin(request_cap_s, s->max_step_s);
     const double state_floor_s = (span != 0 ? fmin(step_cap_s, span->dt_s) : step_cap_s) / STATE_STEP_SHRINK;
     const double settle_range_rad = rtcore_sim_settle_range_rad_for(p);
@@ -331,7 +333,7 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
              * hold every step to what the chamber does in the first */
             const double drift_nm = moving ? pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s,
                                                                               fmin(t_s + h, duration_s)))
-                                                 - torque_start
+                                                 + external_torque_nm - torque_start
                                            : 0.0;
             h = fmin(h, rtcore_sim_damping_step_s(&local, s->velocity_rad_per_s,
                                                   rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0), net_nm,
@@ -353,11 +355,12 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
             double torque_nm[3];
             int32_t surface = 0;
             if (moving) {
-                torque_mid = pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h));
+                torque_mid = pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h))
+                             + external_torque_nm;
                 if (!last) {
                     chamber_end_kpa = rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + h);
                 }
-                torque_end = last ? torque_last : pressure_torque_nm(f, chamber_end_kpa);
+                torque_end = last ? torque_last : pressure_torque_nm(f, chamber_end_kpa) + external_torque_nm;
             }
             step(&local, s, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
                  touching, slope0, torque_nm);
@@ -398,4 +401,125 @@ void rtcore_sim_integrate_segment(const sim_plant *p, rtcore_sim_finger_state *s
         }
     }
     s->chamber_kpa = end_kpa;
+}
+
+void rtcore_sim_integrate_held(const sim_plant *p, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
+                               double input_kpa, double external_torque_nm, double duration_s, double request_cap_s,
+                               sim_span *span)
+{
+    /* split where the chamber crosses the dead zone's threshold, so that the torque is
+     * smooth within each part */
+    const double tau_s = p->finger->prbm.effects.valve_lag_tau_s;
+    const double deadzone_kpa = p->finger->prbm.effects.pressure_deadzone_kpa;
+    const double start_kpa = s->chamber_kpa;
+    if (tau_s > 0.0 && deadzone_kpa > 0.0
+        && ((start_kpa < deadzone_kpa && input_kpa > deadzone_kpa)
+            || (start_kpa > deadzone_kpa && input_kpa < deadzone_kpa))) {
+        const double cross_s = tau_s * log((start_kpa - input_kpa) / (deadzone_kpa - input_kpa));
+        if (cross_s > 0.0 && cross_s < duration_s) {
+            integrate_segment(p, s, cache, input_kpa, external_torque_nm, cross_s, request_cap_s, span);
+            if (span != 0) {
+                span->t0_s = cross_s;
+            }
+            integrate_segment(p, s, cache, input_kpa, external_torque_nm, duration_s - cross_s, request_cap_s, span);
+            return;
+        }
+    }
+    integrate_segment(p, s, cache, input_kpa, external_torque_nm, duration_s, request_cap_s, span);
+}
+
+/* ---- one finger alone (rtcore_sim_plant.h) ------------------------------------------ */
+
+int32_t rtcore_sim_dynamics_valid(const rtcore_sim_finger *f)
+{
+    const rtcore_prbm *m;
+    if (f == 0) {
+        return RTCORE_ERR_NULL;
+    }
+    m = &f->prbm;
+    if (!(isfinite(m->inertia_kgm2) && m->inertia_kgm2 > 0.0) || !(isfinite(m->damping_nms_per_rad)
+        && m->damping_nms_per_rad >= 0.0) || !(isfinite(m->stiffness_nm_per_rad)
+        && m->stiffness_nm_per_rad > 0.0) || !(isfinite(m->pressure_gain_nm_per_kpa)
+        && m->pressure_gain_nm_per_kpa >= 0.0) || !(isfinite(m->lever_arm_m) && m->lever_arm_m >= 0.0)) {
+        return RTCORE_ERR_MODEL;
+    }
+    if (!rtcore_effects_valid(&m->effects)) {
+        return RTCORE_ERR_EFFECTS;
+    }
+    if (!isfinite(f->contact_angle_deg) || !(isfinite(f->contact_stiffness_n_per_m)
+        && f->contact_stiffness_n_per_m >= 0.0) || !(isfinite(f->contact_damping_ns_per_m)
+        && f->contact_damping_ns_per_m >= 0.0)) {
+        return RTCORE_ERR_MODEL;
+    }
+    if (!(isfinite(f->hysteresis_torque_nm) && f->hysteresis_torque_nm >= 0.0)
+        || (f->hysteresis_torque_nm > 0.0
+            && !(isfinite(f->hysteresis_travel_deg) && f->hysteresis_travel_deg > 0.0))) {
+        return RTCORE_ERR_MODEL;
+    }
+    /* a lever arm of 0 is a free finger with no force point: it can meet no object */
+    if ((f->contact_stiffness_n_per_m > 0.0 || f->contact_damping_ns_per_m > 0.0)
+        && !(m->lever_arm_m > 0.0)) {
+        return RTCORE_ERR_MODEL;
+    }
+    return RTCORE_OK;
+}
+
+int32_t rtcore_sim_motion_start(const rtcore_sim_finger *f, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
+                                double angle_deg, double velocity_deg_per_s, double chamber_kpa)
+{
+    sim_plant plant;
+    int32_t err;
+    if (s == 0) {
+        return RTCORE_ERR_NULL;
+    }
+    err = rtcore_sim_dynamics_valid(f);
+    if (err != RTCORE_OK) {
+        return err;
+    }
+    if (!isfinite(angle_deg) || !isfinite(velocity_deg_per_s) || !isfinite(chamber_kpa)) {
+        return RTCORE_ERR_MODEL;
+    }
+    rtcore_sim_plant_for(f, &plant);
+    s->angle_rad = angle_deg * RTCORE_RAD_PER_DEG;
+    s->velocity_rad_per_s = velocity_deg_per_s * RTCORE_RAD_PER_DEG;
+    s->chamber_kpa = chamber_kpa;
+    s->hysteresis_z = 0.0;
+    s->max_step_s = rtcore_sim_parameter_step_s(&plant);
+    if (cache != 0) {
+        cache->count = 0;
+        cache->next = 0;
+    }
+    return RTCORE_OK;
+}
+
+void rtcore_sim_motion_advance(const rtcore_sim_finger *f, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
+                               double input_kpa, double external_torque_nm, double duration_s)
+{
+    rtcore_propagator_cache own;
+    sim_plant plant;
+    if (f == 0 || s == 0 || !isfinite(input_kpa) || !isfinite(external_torque_nm) || !(duration_s > 0.0)
+        || !isfinite(duration_s)) {
+        return;
+    }
+    if (cache == 0) {
+        own.count = 0;
+        own.next = 0;
+        cache = &own;
+    }
+    rtcore_sim_plant_for(f, &plant);
+    rtcore_sim_integrate_held(&plant, s, cache, input_kpa, external_torque_nm, duration_s, duration_s, 0);
+}
+
+void rtcore_sim_motion_advance_many(const rtcore_sim_finger *fingers, rtcore_sim_motion *motions,
+                                    rtcore_propagator_cache *caches, const double *input_kpa,
+                                    const double *external_torque_nm, int32_t count, double duration_s)
+{
+    int32_t i;
+    if (fingers == 0 || motions == 0 || input_kpa == 0 || external_torque_nm == 0) {
+        return;
+    }
+    for (i = 0; i < count; ++i) {
+        rtcore_sim_motion_advance(&fingers[i], &motions[i], caches != 0 ? &caches[i] : 0, input_kpa[i],
+                                  external_torque_nm[i], duration_s);
+    }
 }

@@ -29,7 +29,7 @@ int32_t rtcore_sim_span_eligible(const sim_plant *p)
 
 /* The longest step over a span: the motion's time scale (1/|λ_slow| over-damped, 1/ω_n
  * under-damped), at least a sample period and at most RTCORE_SPAN_SAMPLES of them. Within
- * it the simulator's own bounds still apply (rtcore_sim_integrate_segment): a moving finger
+ * it the simulator's own bounds still apply (rtcore_sim_plant.c's integrate_segment): a moving finger
  * with effects steps a quarter of it, a settled one grows to it. */
 double rtcore_sim_span_cap_s(const sim_plant *p, double dt_s)
 {

@@ -181,7 +181,7 @@ double rtcore_sim_state_step_s(const sim_plant *p, double angle_rad, double acce
  * k and B (rtcore_sim_settle_range_rad_for returns 0 otherwise: no growth), so that a long step
  * stays stable; the state-dependent slopes (drag, cubic stiffness) at the state now. Not
  * with dry friction: a finger held by it creeps, far from settled, with nothing out of
- * balance (its steps follow the creep's time scale, B + c0's, in rtcore_sim_integrate_segment,
+ * balance (its steps follow the creep's time scale, B + c0's, in rtcore_sim_plant.c's integrate_segment,
  * and rtcore_sim_damping_step_s bounds them). */
 static const double SETTLED_SLOPE_SHARE = 0.5;
 
@@ -197,7 +197,7 @@ double rtcore_sim_settle_range_rad_for(const sim_plant *p)
            / p->linear.stiffness_nm_per_rad;
 }
 
-double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_finger_state *s, double cap_s,
+double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_motion *s, double cap_s,
                                  double request_cap_s, double range_rad, double drive_nm, double drift_nm)
 {
     const rtcore_effects *e = &p->finger->prbm.effects;

@@ -25,9 +25,9 @@ from cantools.database.can.c_source import generate
 ROOT = Path(__file__).resolve().parent.parent
 CSRC = ROOT / "csrc"
 HEADER = CSRC / "rtcore.h"  # the umbrella: includes every header of HEADERS, no CDEF block
-HEADERS = tuple(CSRC / name for name in ("rtcore_step.h", "rtcore_pneumatic.h", "rtcore_sim.h",
-                                         "rtcore_clock.h", "rtcore_ring.h", "rtcore_gate.h", "rtcore_tick.h",
-                                         "rtcore_can.h"))
+HEADERS = tuple(CSRC / name for name in ("rtcore_step.h", "rtcore_pneumatic.h", "rtcore_exact.h",
+                                         "rtcore_sim_plant.h", "rtcore_sim.h", "rtcore_clock.h",
+                                         "rtcore_ring.h", "rtcore_gate.h", "rtcore_tick.h", "rtcore_can.h"))
 SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_config.c", "rtcore_step.c",
            "rtcore_sim.c", "rtcore_sim_plant.c", "rtcore_sim_step_size.c", "rtcore_sim_advance.c",
            "rtcore_sim_span.c", "rtcore_exact.c", "rtcore_sim_link.c", "rtcore_gate.c", "rtcore_tick.c",

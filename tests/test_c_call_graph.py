@@ -1,132 +1,188 @@
-"""The C units of board/ call down only: the graph of which .c file calls a function
-another defines, built from the source, has no loop (as tests/test_import_graph.py holds
-the Python packages to).
+"""The call graph between the C units of csrc/ and board/, built from the source, has no
+cycle: each unit calls down only, as the import graph of the Python packages has no loop
+(tests/test_import_graph.py).
 
-A function several files define (the HAL of core/hal.h, which each port writes; `main`)
-is a seam, not an edge: the core calls the contract, not a port. A call through a
-function pointer (core/board_internal.h's struct board_rx, which hands the wires'
-decoded messages up to board.c) is no edge either: that is how a lower unit reaches
-an upper one without depending on it.
+A unit is a source file. Unit A depends on unit B when A names a function that B defines
+with external linkage (a call, or its address taken), or one that header B defines inline.
+A name that several units define is a link-time alternative (the HAL's implementations:
+host, Cortex-M, AVR, the tests' fake; the programs' `main`): a build links one of them, so a
+call to it depends on the contract in the header, not on any of them. The graph is read
+with a small tokenizer (comments, strings and preprocessor lines dropped, fields after `.`
+and `->` ignored), so it needs neither a compiler nor the cross toolchains.
 """
 
 from __future__ import annotations
 
 import re
+from collections import defaultdict
 from pathlib import Path
 
+import pytest
+
+from tests.test_import_graph import find_cycle
+
 ROOT = Path(__file__).resolve().parents[1]
-TREES = ("board",)
-SKIP_DIRS = ("build",)
-KEYWORDS = {"if", "for", "while", "switch", "return", "sizeof", "defined"}
-COMMENT = re.compile(r"/\*.*?\*/|//[^\n]*", re.S)
-STRING = re.compile(r'"(?:\\.|[^"\\])*"|\'(?:\\.|[^\'\\])*\'')
-DIRECTIVE = re.compile(r"^\s*#.*?(?<!\\)$", re.M | re.S)
-TOKEN = re.compile(r"[A-Za-z_]\w*|[{}();]")
+DIRECTORIES = ("csrc", "board")
+
+COMMENT_OR_LITERAL = re.compile(r'/\*.*?\*/|//[^\n]*|"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\'', re.S)
+PREPROCESSOR = re.compile(r"^[ \t]*#(?:[^\n]*\\\n)*[^\n]*", re.M)
+TOKEN = re.compile(r"[A-Za-z_]\w*|->|[{}();,.\[\]=]")
+KEYWORDS = frozenset(("if", "for", "while", "switch", "return", "sizeof", "do", "else", "case", "goto",
+                      "break", "continue"))
 
 
-def c_files(tree: Path) -> list[Path]:
-    return sorted(p for p in tree.rglob("*.c") if not set(p.relative_to(tree).parts) & set(SKIP_DIRS))
+def tokens_of(text: str) -> list[str]:
+    """The identifiers and the punctuation that shapes C declarations, without comments,
+    string and character literals or preprocessor lines."""
+    text = COMMENT_OR_LITERAL.sub(" ", text)
+    return TOKEN.findall(PREPROCESSOR.sub(" ", text))
 
 
-def functions(text: str) -> tuple[dict[str, bool], set[str]]:
-    """The functions a C source defines (name -> static?) and the names it calls."""
-    text = DIRECTIVE.sub("", STRING.sub('""', COMMENT.sub(" ", text)))
+def scan(tokens: list[str], header: bool) -> tuple[dict[str, bool], set[str]]:
+    """The functions a file defines (name -> external linkage) and the identifiers it
+    names (fields excluded): inside function bodies, and in a source file's file-scope
+    declarations and initialisers too (a table of function pointers, a prototype it relies
+    on). A header's prototypes are its contract, not calls; a struct's members are names of
+    its own."""
     defined: dict[str, bool] = {}
-    called: set[str] = set()
-    tokens = TOKEN.findall(text)
+    named: set[str] = set()
     depth = 0
-    statement: list[str] = []  # the tokens at file scope since the last ; or }
-    for i, token in enumerate(tokens):
+    counted = not header  # whether names here count: file scope, then per block
+    statement: list[str] = []  # the file-scope tokens since the last ; or }
+    for index, token in enumerate(tokens):
         if token == "{":
-            if depth == 0 and statement[-1:] == [")"]:
-                name = _declared_name(statement)
+            if depth == 0:
+                name = defined_function(statement)
                 if name is not None:
-                    defined[name] = "static" in statement
+                    defined[name] = "static" not in statement
+                counted = name is not None or ("=" in statement and not header)
             depth += 1
-            statement = []
         elif token == "}":
             depth -= 1
-            statement = []
+            if depth == 0:
+                statement = []
+                counted = not header
         elif token == ";" and depth == 0:
             statement = []
         elif depth == 0:
             statement.append(token)
-        elif i + 1 < len(tokens) and tokens[i + 1] == "(" and token not in KEYWORDS:
-            called.add(token)
-    return defined, called
+        field = index > 0 and tokens[index - 1] in (".", "->")
+        if counted and not field and (token[0].isalpha() or token[0] == "_") and token not in KEYWORDS:
+            named.add(token)
+    return defined, named
 
 
-def _declared_name(statement: list[str]) -> str | None:
-    """`int f(int x)`: f, the identifier before the first ( at file scope."""
-    if "(" not in statement:
+def defined_function(statement: list[str]) -> str | None:
+    """The name of the function a file-scope statement opens with its `{` (`type name(...)`),
+    or None (a struct, an initialiser, an enum)."""
+    if not statement or statement[-1] != ")" or "=" in statement:
         return None
-    at = statement.index("(")
-    return statement[at - 1] if at > 0 and statement[at - 1] not in KEYWORDS else None
+    depth = 0
+    for position in range(len(statement) - 1, -1, -1):
+        depth += {")": 1, "(": -1}.get(statement[position], 0)
+        if depth == 0:
+            name = statement[position - 1] if position > 0 else ""
+            return name if re.fullmatch(r"[A-Za-z_]\w*", name) and name not in KEYWORDS else None
+    return None
 
 
-def call_graph(sources: dict[str, str]) -> dict[str, set[str]]:
-    """File -> the files whose functions it calls (seams and static functions left out)."""
-    parsed = {name: functions(text) for name, text in sources.items()}
-    owners: dict[str, list[str]] = {}
-    for name, (defined, _) in parsed.items():
-        for function, static in defined.items():
-            if not static:
-                owners.setdefault(function, []).append(name)
-    graph: dict[str, set[str]] = {name: set() for name in sources}
-    for name, (defined, called) in parsed.items():
-        for function in called - set(defined):
-            where = owners.get(function, [])
-            if len(where) == 1:
-                graph[name].add(where[0])
+def c_units(directories: tuple[str, ...] = DIRECTORIES) -> dict[str, str]:
+    """Path relative to the repository -> text, for every .c and .h file of the directories
+    (board's build output excluded)."""
+    units: dict[str, str] = {}
+    for directory in directories:
+        for path in sorted((ROOT / directory).rglob("*")):
+            relative = path.relative_to(ROOT)
+            if path.suffix in (".c", ".h", ".ino") and "build" not in relative.parts:
+                units[relative.as_posix()] = path.read_text()
+    return units
+
+
+def call_graph(units: dict[str, str]) -> dict[str, set[str]]:
+    """Unit -> the units it depends on (the module docstring says how)."""
+    scanned = {unit: scan(tokens_of(text), unit.endswith(".h")) for unit, text in units.items()}
+    definers: dict[str, set[str]] = defaultdict(set)
+    for unit, (defined, _) in scanned.items():
+        for name, external in defined.items():
+            # a header's functions are inline: visible to every unit that includes it
+            if external or unit.endswith(".h"):
+                definers[name].add(unit)
+    graph: dict[str, set[str]] = {}
+    for unit, (defined, named) in scanned.items():
+        graph[unit] = set()
+        for name in named - set(defined):
+            owners = definers.get(name, set())
+            if len(owners) == 1 and unit not in owners:
+                graph[unit] |= owners
     return graph
 
 
-def loops(graph: dict[str, set[str]]) -> list[list[str]]:
-    """The strongly connected groups of more than one file (Tarjan), each sorted."""
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    found: list[list[str]] = []
-
-    def visit(node: str) -> None:
-        index[node] = low[node] = len(index)
-        stack.append(node)
-        for other in graph[node]:
-            if other not in index:
-                visit(other)
-                low[node] = min(low[node], low[other])
-            elif other in stack:
-                low[node] = min(low[node], index[other])
-        if low[node] == index[node]:
-            group = []
-            while True:
-                member = stack.pop()
-                group.append(member)
-                if member == node:
-                    break
-            if len(group) > 1:
-                found.append(sorted(group))
-
-    for node in sorted(graph):
-        if node not in index:
-            visit(node)
-    return found
+def test_graph_sees_calls_and_taken_addresses() -> None:
+    units = {
+        "d/a.c": "/* b_run() */ #include \"b.h\"\nint a_run(void) { return b_run(1); }\n",
+        "d/b.c": "static int helper(int x) { return x; }\nint b_run(int x) { return helper(x) + c_go(); }\n",
+        "d/c.c": "typedef int (*fn)(void);\nstatic const fn table[] = {a_run};\n"
+                 "int c_go(void) { return 0; }\n",
+        "d/d.c": "struct s { int (*b_run)(int); };\n"
+                 "int d_go(struct s *p) { return p->b_run(0) + helper(1); }\n",
+        "d/hal_x.c": "void hal_tick(void) { a_run(); }\n",
+        "d/hal_y.c": "void hal_tick(void) { }\n",
+        "d/e.c": "void e_go(void) { hal_tick(); }\n",
+        "d/f.h": "int a_run(void);\nstatic inline int f_twice(int x) { return b_run(x) * 2; }\n",
+        "d/g.c": "int g_go(void) { return f_twice(1); }\n",
+    }
+    graph = call_graph(units)
+    assert graph["d/a.c"] == {"d/b.c"}  # the comment's and the include's b_run do not count
+    assert graph["d/b.c"] == {"d/c.c"}
+    assert graph["d/c.c"] == {"d/a.c"}  # a function's address in a table counts
+    assert graph["d/d.c"] == set()  # a field named as a function, another unit's static
+    assert graph["d/e.c"] == set()  # the HAL's alternatives: the contract, not an implementation
+    assert graph["d/f.h"] == {"d/b.c"} and graph["d/g.c"] == {"d/f.h"}  # inline, not prototypes
+    assert find_cycle(graph) == ["d/a.c", "d/b.c", "d/c.c", "d/a.c"]
 
 
-def test_the_checker_finds_a_loop_and_passes_a_seam() -> None:
-    sources = {"a.c": "static int h(void) { return 1; }\nvoid a(void) { b(); h(); }",
-               "b.c": "#include \"x.h\"\nint b(int x)\n{\n    if (x) { c(); }\n    return 0;\n}",
-               "c.c": "void c(void) { a(); hal_x(); }",
-               "port1.c": "void hal_x(void) { a(); }", "port2.c": "void hal_x(void) {}"}
-    graph = call_graph(sources)
-    assert graph["a.c"] == {"b.c"} and graph["c.c"] == {"a.c"} and graph["port1.c"] == {"a.c"}
-    assert loops(graph) == [["a.c", "b.c", "c.c"]]
+def test_graph_covers_the_known_units() -> None:
+    graph = call_graph(c_units())
+    assert "csrc/rtcore_exact.c" in graph["csrc/rtcore_sim_plant.c"]
+    assert "board/core/regulator.c" in graph["board/core/measure.c"]
 
 
-def test_no_c_unit_calls_up() -> None:
-    for tree in TREES:
-        root = ROOT / tree
-        sources = {str(p.relative_to(ROOT)): p.read_text() for p in c_files(root)}
-        graph = call_graph(sources)
-        assert sum(map(len, graph.values())) > len(sources) // 2, "the checker sees no calls"
-        assert loops(graph) == [], f"C units of {tree}/ that call each other: {loops(graph)}"
+def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
+    seen: set[str] = set()
+    todo = [start]
+    while todo:
+        for target in graph[todo.pop()] - seen:
+            seen.add(target)
+            todo.append(target)
+    return seen
+
+
+def cycles_through(graph: dict[str, set[str]], directory: str) -> list[list[str]]:
+    """One cycle for each loop of units (a strongly connected component) that holds a unit
+    of `directory`: a loop through another directory's units counts for this one too."""
+    reach = {unit: reachable(graph, unit) for unit in graph}
+    cycles: list[list[str]] = []
+    seen: set[str] = set()
+    for unit in sorted(graph):
+        if unit in seen or unit not in reach[unit]:
+            continue
+        loop = {other for other in reach[unit] if unit in reach[other]}
+        seen |= loop
+        if any(member.startswith(directory + "/") for member in loop):
+            cycles.append(find_cycle({member: graph[member] & loop for member in loop}) or [])
+    return cycles
+
+
+def test_cycles_are_found_per_directory() -> None:
+    graph = {"x/a.c": {"x/b.c"}, "x/b.c": {"y/c.c"}, "y/c.c": {"x/a.c"}, "y/d.c": {"y/e.c"}, "y/e.c": set()}
+    assert cycles_through(graph, "x") == [["x/a.c", "x/b.c", "y/c.c", "x/a.c"]]
+    assert cycles_through(graph, "y") == cycles_through(graph, "x")
+    assert cycles_through({"y/d.c": {"y/e.c"}, "y/e.c": set()}, "y") == []
+
+
+@pytest.mark.parametrize("directory", ["csrc", "board"])
+def test_no_call_cycle_between_c_units(directory: str) -> None:
+    graph = call_graph(c_units())
+    assert any(unit.startswith(directory + "/") for unit in graph), f"no C units under {directory}/"
+    cycles = cycles_through(graph, directory)
+    assert cycles == [], "call cycles between C units:\n" + "\n".join(" -> ".join(cycle) for cycle in cycles)

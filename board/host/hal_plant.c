@@ -7,13 +7,13 @@
 
 struct hal_plant *hal_plant_current;
 
-void hal_plant_init(struct hal_plant *p, uint32_t pwm_period_us, const struct finger_params *fingers,
-                    int n_fingers, uint32_t seed, uint64_t now_us)
+int hal_plant_init(struct hal_plant *p, uint32_t pwm_period_us, const struct finger_params *fingers,
+                   int n_fingers, uint32_t seed, uint64_t now_us)
 {
     memset(p, 0, sizeof *p);
     p->pwm_period_us = pwm_period_us > 0u ? pwm_period_us : 1u;
     p->time_us = now_us;
-    plant_init(&p->plant, fingers, n_fingers, seed);
+    return plant_init(&p->plant, fingers, n_fingers, seed);
 }
 
 uint16_t hal_adc_read(uint8_t channel)

@@ -24,8 +24,9 @@ struct hal_plant {
 /* the plant hal_adc_read and hal_valve_pwm act on */
 extern struct hal_plant *hal_plant_current;
 
-void hal_plant_init(struct hal_plant *p, uint32_t pwm_period_us, const struct finger_params *fingers,
-                    int n_fingers, uint32_t seed, uint64_t now_us);
+/* 0, or -1 for a finger the simulator cannot run (plant_init) */
+int hal_plant_init(struct hal_plant *p, uint32_t pwm_period_us, const struct finger_params *fingers,
+                   int n_fingers, uint32_t seed, uint64_t now_us);
 
 /* Advance the plant to now_us, each valve opened and shut by its PWM. */
 void hal_plant_advance(struct hal_plant *p, uint64_t now_us);

@@ -149,7 +149,12 @@ int main(int argc, char **argv)
     host.slcan = cfg.wire == BOARD_WIRE_CAN;
     host.t0_ns = 0u;
     host.t0_ns = (uint64_t)(host_monotonic_s() * 1e9);
-    hal_plant_init(&host.plant, cfg.regulator.pwm_period_us, host_default_hand, n_fingers, (uint32_t)seed, 0u);
+    if (hal_plant_init(&host.plant, cfg.regulator.pwm_period_us, host_default_hand, n_fingers, (uint32_t)seed,
+                       0u) != 0) {
+        fprintf(stderr, "board-host: the default hand's fingers cannot be simulated\n");
+        unlink(port);
+        return 2;
+    }
     hal_plant_current = &host.plant;
 
     struct sigaction sa;

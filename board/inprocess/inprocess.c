@@ -135,8 +135,8 @@ int inprocess_init(struct inprocess *ip, const struct inprocess_config *cfg, uin
     c.can_error_frames = cfg->can_error_frames;
     c.broken = cfg->broken < INJECT_BROKEN_RULES ? cfg->broken : INJECT_BROKEN_NONE;
     const int n = cfg->n_fingers >= 1u && cfg->n_fingers <= HOST_DEFAULT_FINGERS ? cfg->n_fingers : 1;
-    hal_plant_init(&ip->plant, c.regulator.pwm_period_us, host_default_hand, n, cfg->seed, 0u);
-    if (cfg->n_fingers < 1u || cfg->n_fingers > HOST_DEFAULT_FINGERS) {
+    const int plant_status = hal_plant_init(&ip->plant, c.regulator.pwm_period_us, host_default_hand, n, cfg->seed, 0u);
+    if (plant_status != 0 || cfg->n_fingers < 1u || cfg->n_fingers > HOST_DEFAULT_FINGERS) {
         return -1;
     }
     return board_init(&ip->board, &c);

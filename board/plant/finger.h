@@ -1,14 +1,17 @@
 /* One finger as the project models it: the pseudo-rigid-body model of docs/physics.md
- * section 1 (csrc/rtcore_sim_plant.c's plant without the effects),
+ * section 1 without the effects,
  *
  *     A * theta'' + B * theta' + k * theta = N * p
  *
  * A = (7/12) * m * gamma^3 * l^2 (the paper's inertia from mass and geometry), p the chamber
- * pressure in kPa. Integrated semi-implicitly (velocity first), which is stable and accurate
- * at the plant's 50 us steps (omega_n * dt < 0.01 for every shipped finger).
+ * pressure in kPa. The board's description of it (the profile's numbers); the equation is
+ * stepped by the project's one finger simulator, csrc/rtcore_sim_plant.h, exactly at any
+ * step (plant.c).
  */
 #ifndef BOARD_FINGER_H
 #define BOARD_FINGER_H
+
+#include "rtcore_sim_plant.h"
 
 struct finger_params {
     double mass_kg;
@@ -21,13 +24,11 @@ struct finger_params {
     double sensor_offset_deg;
 };
 
-struct finger_state {
-    double angle_rad;
-    double velocity_rad_per_s;
-};
-
 double finger_inertia_kgm2(const struct finger_params *f);
 
-void finger_step(const struct finger_params *f, struct finger_state *s, double pressure_kpa, double dt_s);
+/* The finger for the simulator's dynamics: its PRBM without effects, no object, no loop,
+ * the chamber driven directly (no valve lag: the board's pneumatics give the pressure), its
+ * supply 0..supply_kpa. */
+void finger_dynamics(const struct finger_params *f, double supply_kpa, rtcore_sim_finger *out);
 
 #endif

@@ -49,27 +49,33 @@ struct plant_sensor_params plant_default_sensors(void)
     return s;
 }
 
-void plant_init(struct plant *p, const struct finger_params *fingers, int n_fingers, uint32_t seed)
+int plant_init(struct plant *p, const struct finger_params *fingers, int n_fingers, uint32_t seed)
 {
     memset(p, 0, sizeof *p);
-    p->n_fingers = n_fingers < 0 ? 0 : (n_fingers > PLANT_MAX_FINGERS ? PLANT_MAX_FINGERS : n_fingers);
-    for (int i = 0; i < p->n_fingers; i++) {
+    p->sensors = plant_default_sensors();
+    p->rng = seed ? seed : 1u;
+    n_fingers = n_fingers < 0 ? 0 : (n_fingers > PLANT_MAX_FINGERS ? PLANT_MAX_FINGERS : n_fingers);
+    for (int i = 0; i < n_fingers; i++) {
         p->fingers[i] = fingers[i];
         p->pneumatics[i] = plant_default_pneumatics(fingers[i].pressure_gain_nm_per_kpa);
         pneumatics_init(&p->chamber[i]);
+        finger_dynamics(&fingers[i], p->pneumatics[i].supply_kpa, &p->dynamics[i]);
+        if (rtcore_sim_motion_start(&p->dynamics[i], &p->motion[i], &p->propagators[i], 0.0, 0.0, 0.0) != RTCORE_OK) {
+            return -1;
+        }
     }
-    p->sensors = plant_default_sensors();
-    p->rng = seed ? seed : 1u;
+    p->n_fingers = n_fingers;
+    return 0;
 }
 
 void plant_step(struct plant *p, const int valves_open[][2], double dt_s)
 {
     for (int i = 0; i < p->n_fingers; i++) {
-        struct finger_state *f = &p->finger_state[i];
+        rtcore_sim_motion *f = &p->motion[i];
         struct pneumatics_state *c = &p->chamber[i];
         pneumatics_step(&p->pneumatics[i], c, valves_open[i][0], valves_open[i][1], f->angle_rad,
                         f->velocity_rad_per_s, dt_s);
-        finger_step(&p->fingers[i], f, c->pressure_kpa, dt_s);
+        rtcore_sim_motion_advance(&p->dynamics[i], f, &p->propagators[i], c->pressure_kpa, 0.0, dt_s);
     }
 }
 
@@ -103,7 +109,7 @@ uint16_t plant_adc(struct plant *p, uint8_t channel)
         mv = s->pressure_offset_mv + s->pressure_sensitivity_mv_per_kpa * kpa;
     } else {
         const struct finger_params *f = &p->fingers[i];
-        const double angle_deg = p->finger_state[i].angle_rad * DEG_PER_RAD + s->angle_noise_deg * gaussian(p);
+        const double angle_deg = p->motion[i].angle_rad * DEG_PER_RAD + s->angle_noise_deg * gaussian(p);
         mv = (angle_deg - f->sensor_offset_deg) / f->sensor_gain_deg_per_mv;
     }
     const double counts = floor(mv * (double)s->adc_max_counts / s->adc_ref_mv + 0.5);

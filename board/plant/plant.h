@@ -8,6 +8,10 @@
  * finger's calibration line (mV = (angle_deg - offset_deg) / gain_deg_per_mv) with 0.3 deg
  * of noise: the shipped profile's simulation noise (firmware_profiles/sim.yaml).
  * The ADC: 12 bits over 5 V, clipped to its range.
+ *
+ * Each finger is stepped by the project's finger simulator (csrc/rtcore_sim_plant.h), its
+ * chamber's pressure held over the step; the host build and the Cortex-M image link its
+ * units (board/Makefile SIM_SRC).
  */
 #ifndef BOARD_PLANT_H
 #define BOARD_PLANT_H
@@ -33,7 +37,9 @@ struct plant {
     struct finger_params fingers[PLANT_MAX_FINGERS];
     struct pneumatics_params pneumatics[PLANT_MAX_FINGERS];
     struct plant_sensor_params sensors;
-    struct finger_state finger_state[PLANT_MAX_FINGERS];
+    rtcore_sim_finger dynamics[PLANT_MAX_FINGERS]; /* finger_dynamics(fingers[i]) */
+    rtcore_sim_motion motion[PLANT_MAX_FINGERS];
+    rtcore_propagator_cache propagators[PLANT_MAX_FINGERS]; /* each finger's, kept between steps */
     struct pneumatics_state chamber[PLANT_MAX_FINGERS];
     uint32_t rng;
 };
@@ -43,8 +49,10 @@ struct plant {
 struct pneumatics_params plant_default_pneumatics(double pressure_gain_nm_per_kpa);
 struct plant_sensor_params plant_default_sensors(void);
 
-/* Fingers from `fingers`, the default pneumatics and sensors; at rest, vented. */
-void plant_init(struct plant *p, const struct finger_params *fingers, int n_fingers, uint32_t seed);
+/* Fingers from `fingers`, the default pneumatics and sensors; at rest, vented. 0, or -1 for
+ * a finger the simulator cannot run (a mass, length or stiffness not above 0, a non-finite
+ * number): the plant then has no fingers. */
+int plant_init(struct plant *p, const struct finger_params *fingers, int n_fingers, uint32_t seed);
 
 /* valves_open[i][0]: chamber i's inlet open (commanded), [i][1] its exhaust. */
 void plant_step(struct plant *p, const int valves_open[][2], double dt_s);

@@ -1,5 +1,5 @@
 /* The plant's C tests (make -C board test-core): ISO 6358 flow, valve delays, the chamber's
- * fill and vent, and the finger's static gain. */
+ * fill and vent, the finger's static gain and its steps (the simulator's, csrc/rtcore_sim_plant.h). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -101,11 +101,38 @@ static void test_closed_chamber_compresses_as_it_grows(void)
 static void test_finger_static_gain(void)
 {
     const struct finger_params f = {0.05, 0.095, 0.85, 0.57, 0.0031, 8.9535e-3, 0.1, -50.0};
-    struct finger_state s = {0.0, 0.0};
+    rtcore_sim_finger dynamics;
+    rtcore_sim_motion s;
+    rtcore_propagator_cache cache;
+    finger_dynamics(&f, 350.0, &dynamics);
+    CHECK(rtcore_sim_motion_start(&dynamics, &s, &cache, 0.0, 0.0, 0.0) == RTCORE_OK);
     for (int i = 0; i < 200000; i++) { /* 10 s: the oscillation dies out */
-        finger_step(&f, &s, 50.0, 50e-6);
+        rtcore_sim_motion_advance(&dynamics, &s, &cache, 50.0, 0.0, 50e-6);
     }
     CHECK(fabs(s.angle_rad - 8.9535e-3 * 50.0 / 0.57) < 1e-4);
+}
+
+/* The plant's steps are the simulator's exact ones: 200 of 50 us under a held pressure land
+ * where one of 10 ms does, and a finger the simulator refuses leaves the plant empty. */
+static void test_plant_steps_the_finger_exactly(void)
+{
+    const struct finger_params f = {0.05, 0.095, 0.85, 0.57, 0.0031, 8.9535e-3, 0.1, -50.0};
+    static struct plant p;
+    const int shut[1][2] = {{0, 0}};
+    rtcore_sim_motion one;
+    CHECK(plant_init(&p, &f, 1, 7u) == 0 && p.n_fingers == 1);
+    /* both valves shut and a chamber that does not grow as the finger bends: 80 kPa held */
+    p.chamber[0].pressure_kpa = 80.0;
+    p.pneumatics[0].volume_per_rad_m3 = 0.0;
+    one = p.motion[0];
+    for (int i = 0; i < 200; i++) {
+        plant_step(&p, shut, 50e-6);
+    }
+    rtcore_sim_motion_advance(&p.dynamics[0], &one, 0, 80.0, 0.0, 0.01);
+    CHECK(fabs(p.chamber[0].pressure_kpa - 80.0) < 1e-9);
+    CHECK(fabs(p.motion[0].angle_rad - one.angle_rad) < 1e-12 && one.angle_rad > 0.01);
+    const struct finger_params massless = {0.0, 0.095, 0.85, 0.57, 0.0031, 8.9535e-3, 0.1, -50.0};
+    CHECK(plant_init(&p, &massless, 1, 7u) == -1 && p.n_fingers == 0);
 }
 
 static void test_plant_sensors(void)
@@ -132,6 +159,7 @@ int main(void)
     test_valve_delay_and_fill();
     test_closed_chamber_compresses_as_it_grows();
     test_finger_static_gain();
+    test_plant_steps_the_finger_exactly();
     test_plant_sensors();
     if (failures) {
         fprintf(stderr, "test-plant: %d check(s) failed\n", failures);

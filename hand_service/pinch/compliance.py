@@ -1,7 +1,9 @@
 """Impedance mode in closed loop: its compliance under a slow push, and its stability.
 
-One finger of a profile, the truth's PRBM with its valve lag and dead time, in closed
-loop with the C step in impedance mode about an angle reference. The controller's
+One finger of a profile, the truth's PRBM with its valve lag and dead time (the finger and
+the lag stepped by rtcore's finger simulator, rtcore.motion, the wall's force held over
+each substep as an external torque), in closed loop with the C step in impedance mode
+about an angle reference. The controller's
 finger model is the truth's, or a lab's measured one (`controller`, as the pinch run
 uses: hand_service.identification.measured_hand), so the force estimate is not exact by
 construction.
@@ -29,8 +31,11 @@ import numpy as np
 import rtcore
 from hand_service.config.effects import effect_value
 from hand_service.config.profile import Profile
+from rtcore.motion import FingerMotions
+from rtcore.sim import SimFinger
 
 WALL_STIFFNESS_N_PER_M = 5000.0
+NO_TORQUE_NM = np.zeros(1)  # the wall is the simulator's contact, not an external torque
 SUBSTEPS = 10
 ONSET_DEG = 5.0
 ONSET_FORCE_N = 0.25
@@ -76,7 +81,8 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
                 wall_deg: Callable[[float], float | None], seed: int = 1,
                 controller: Profile | None = None) -> Loop:
     """The truth's finger under the C step in impedance mode, the controller's model from
-    `controller` (default: the truth's); wall_deg(t) is where the wall stands (None: no wall)."""
+    `controller` (default: the truth's); wall_deg(t) is where the wall stands, held over each
+    tick (None at t = 0: no wall in this run). The wall is the simulator's contact."""
     f = truth.finger(finger)
     config = (controller or truth).finger(finger).rtcore_config(truth.control)
     hand = rtcore.Hand(rtcore.HandConfig([config], sample_rate_hz=truth.control.rate_hz))
@@ -93,29 +99,31 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
     hand.inputs.impedance_stiffness_n_per_deg[0] = stiffness_n_per_deg
     hand.inputs.impedance_damping_n_s_per_deg[0] = damping_n_s_per_deg
     ticks = round(duration_s * rate_hz)
-    angle = velocity = chamber = 0.0
+    # the plain PRBM and the lag; the dead time is the pipe's
+    prbm = dataclasses.replace(m.prbm("the impedance loop"), effects=rtcore.Effects(valve_lag_tau_s=tau_s))
+    walled = wall_deg(0.0) is not None
+    motion = FingerMotions([SimFinger(prbm, contact_angle_deg=wall_deg(0.0) or 0.0,
+                                      contact_stiffness_n_per_m=WALL_STIFFNESS_N_PER_M if walled else 0.0)])
+    angle = chamber = 0.0
     out = Loop(np.zeros(ticks), np.zeros(ticks), np.zeros(ticks))
     for tick in range(ticks):
         t_s = tick / rate_hz
-        wall = wall_deg(t_s)
-        wall_rad = None if wall is None else np.radians(wall)
+        wall = wall_deg(t_s) if walled else None
+        if wall is not None:
+            motion.move_contact(0, wall)
         hand.inputs.angle_ref_deg[0] = reference_deg(t_s)
         angle_deg = np.degrees(angle) + noise_deg * rng.standard_normal()
         hand.inputs.sensor_mv[0] = (angle_deg - f.sensor_offset_deg) / f.sensor_gain_deg_per_mv
         hand.inputs.pressure_meas_kpa[0] = chamber + noise_kpa * rng.standard_normal()
         hand.step()
         command = float(hand.outputs.pressure_cmd_kpa[0])
-        force = 0.0
         for k in range(SUBSTEPS):
             pipe[(tick * SUBSTEPS + k) % pipe.size] = command
             delayed = pipe[(tick * SUBSTEPS + k - delay) % pipe.size]
-            chamber += (delayed - chamber) * (1.0 - np.exp(-dt_s / tau_s))
-            force = 0.0 if wall_rad is None else max(WALL_STIFFNESS_N_PER_M * m.lever_arm_m
-                                                     * (angle - wall_rad), 0.0)
-            torque = (m.pressure_gain_nm_per_kpa * chamber - m.stiffness_nm_per_rad * angle
-                      - m.damping_nms_per_rad * velocity - m.lever_arm_m * force)
-            velocity += dt_s * torque / m.inertia_kgm2
-            angle += dt_s * velocity
+            motion.advance(np.array([delayed]), NO_TORQUE_NM, dt_s)
+        angle, chamber = float(motion.angle_rad[0]), float(motion.chamber_kpa[0])
+        depth_m = 0.0 if wall is None else m.lever_arm_m * (angle - np.radians(wall))
+        force = max(WALL_STIFFNESS_N_PER_M * depth_m, 0.0)
         out.angle_deg[tick], out.force_n[tick], out.chamber_kpa[tick] = np.degrees(angle), force, chamber
     return out
 

@@ -2,7 +2,10 @@
 
 Each trial is two fingers (thumb and one other) closing on an object placed between
 their tips. Per finger the PRBM of docs/physics.md with the truth's valve lag and dead
-time: A th'' + B th' + k th = N p - r F. The tip moves along the pinch axis by r th.
+time: A th'' + B th' + k th = N p - r F. The tip moves along the pinch axis by r th. The
+fingers and their valves' lag are stepped by rtcore's finger simulator (rtcore.motion,
+csrc/rtcore_sim_plant.h), the pads' force r F held over each substep as an external
+torque; the dead time, the contacts and the object are here.
 
 Contacts: a normal spring and damper per pad (N = k_c d + c_c d', never pulling) and
 Coulomb friction with stick and slip on the object's three free motions in the grip:
@@ -23,6 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.pinch.objects import GRAVITY_M_PER_S2, PinchObject, Placements
+from rtcore import Effects, Prbm
+from rtcore.motion import FingerMotions
+from rtcore.sim import SimFinger
 
 PAD_STIFFNESS_N_PER_M = 2500.0  # silicone pad, Hertz secant at 1 N (docs/replicate.md)
 PAD_DAMPING_NS_PER_M = 10.0  # about 0.3 of critical against the finger's tip mass
@@ -47,6 +53,16 @@ class FingerArrays:
     valve_tau_s: np.ndarray
     dead_time_s: np.ndarray
     length_m: np.ndarray
+
+    def sim_fingers(self) -> list[SimFinger]:
+        """Every finger for rtcore's simulator, trial by trial (row-major over (n, 2)):
+        its PRBM and valve lag; the dead time is the plant's own."""
+        columns = zip(self.inertia_kgm2.ravel(), self.damping_nms_per_rad.ravel(),
+                      self.stiffness_nm_per_rad.ravel(), self.gain_nm_per_kpa.ravel(),
+                      self.lever_arm_m.ravel(), self.valve_tau_s.ravel(), strict=True)
+        return [SimFinger(Prbm(float(a), float(b), float(k), float(gain), float(lever),
+                               Effects(valve_lag_tau_s=float(tau))))
+                for a, b, k, gain, lever, tau in columns]
 
     @property
     def twist_stiffness_nm_per_rad(self) -> np.ndarray:
@@ -100,10 +116,11 @@ class PinchPlant:
         self.f, self.o, self.dt_s = fingers, obj, dt_s
         n = obj.mass_kg.shape[0]
         self.gap_m = gap_m
-        self.angle_rad = np.zeros((n, 2))
-        self.velocity_rad_per_s = np.zeros((n, 2))
-        self.chamber_kpa = np.zeros((n, 2))
-        self.valve_alpha = 1.0 - np.exp(-dt_s / fingers.valve_tau_s)
+        self._motions = FingerMotions(fingers.sim_fingers())
+        # views of the simulator's state, shape (n, 2): writing them places the fingers
+        self.angle_rad = self._motions.angle_rad.reshape(n, 2)
+        self.velocity_rad_per_s = self._motions.velocity_rad_per_s.reshape(n, 2)
+        self.chamber_kpa = self._motions.chamber_kpa.reshape(n, 2)
         self.delay_steps = np.rint(fingers.dead_time_s / dt_s).astype(int)
         depth = int(self.delay_steps.max()) + 1
         self._pipe = np.zeros((depth, n, 2))
@@ -166,17 +183,13 @@ class PinchPlant:
         trials = np.arange(command_kpa.shape[0])[:, None]
         delayed = self._pipe[(self._pipe_at - self.delay_steps) % depth, trials, np.arange(2)[None, :]]
         self._pipe_at = (self._pipe_at + 1) % depth
-        self.chamber_kpa += (delayed - self.chamber_kpa) * self.valve_alpha
         depth_m, rate_m_per_s = self._overlaps()
         normal = np.where(depth_m > 0.0,
                           np.maximum(PAD_STIFFNESS_N_PER_M * depth_m
                                      + PAD_DAMPING_NS_PER_M * rate_m_per_s, 0.0),
                           0.0)
         self.normal_n = normal
-        torque = (f.gain_nm_per_kpa * self.chamber_kpa - f.stiffness_nm_per_rad * self.angle_rad
-                  - f.damping_nms_per_rad * self.velocity_rad_per_s - f.lever_arm_m * normal)
-        self.velocity_rad_per_s += dt * torque / f.inertia_kgm2
-        self.angle_rad += dt * self.velocity_rad_per_s
+        self._motions.advance(delayed, -f.lever_arm_m * normal, dt)
         self.peak_normal_n = np.maximum(self.peak_normal_n, normal.max(axis=1))
         going = self.outcome == HELD
         self.outcome[going & (self.peak_normal_n > self.o.break_force_n)] = BROKEN

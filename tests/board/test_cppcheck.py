@@ -57,6 +57,7 @@ def test_cppcheck_is_clean_on_the_whole_board(tmp_path: Path, generated: Path) -
 def test_cppcheck_finds_a_bug_seeded_into_each_part(tmp_path: Path, part: str, generated: Path) -> None:
     board = tmp_path / "board"
     shutil.copytree(REPO / "board", board, ignore=shutil.ignore_patterns("build"))
+    shutil.copytree(REPO / "csrc", tmp_path / "csrc")  # the plant's finger simulator (board/Makefile SIM_SRC)
     seeded = board / part
     seeded.write_text(seeded.read_text() + SEED)
     result = run_cppcheck(board, tmp_path / "build", generated)
