@@ -241,6 +241,6 @@ void inprocess_view(const struct inprocess *ip, struct inprocess_view *view)
     view->vent_at_us = ip->vent_at_us;
     for (int i = 0; i < ip->plant.plant.n_fingers && i < 8; i++) {
         view->command_kpa[i] = ip->board.command_kpa[i];
-        view->angle_deg[i] = ip->plant.plant.finger_state[i].angle_rad * RAD_TO_DEG;
+        view->angle_deg[i] = ip->plant.plant.motion[i].angle_rad * RAD_TO_DEG;
     }
 }
