@@ -43,7 +43,7 @@ MISTAKES = [
     ("valve_lag: {tau_s: 0.03}", "valve_lag: {tau_s: -1}", r"valve_lag.tau_s = -1 is out of range"),
     ("valve_lag: {tau_s: 0.03}", "valve_leak: {tau_s: 0.03}", r"unknown key 'valve_leak'.*valve_lag"),
     ("angle_min_deg: -60", "angle_min_deg: 300", r"angle_min_deg must be below"),
-    ("  seed: 1", "  seed: 1\n  seed: 2", r"key 'seed' appears twice"),
+    ("  seed: 1", "  seed: 1\n  seed: 2", r'found duplicate key "seed"'),
     ("    pressure_max_kpa: 250\n", "", r"missing required key 'hand.thumb.pressure_max_kpa'"),
     ("    damping_nms_per_rad: 0.0031", "    damping_nms_per_rad: .nan", r"must be finite"),
     ("transport:\n  kind: sim", "transport: [sim]", r"transport must be a mapping"),
