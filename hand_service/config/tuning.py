@@ -38,7 +38,7 @@ class Gains:
 
 def sos_response(sos: np.ndarray, z: np.ndarray) -> np.ndarray:
     """The second-order sections' response at z (scipy's sosfreqz, without importing
-    scipy.signal: every process that reads a profile would pay its ~1 s import)."""
+    scipy.signal, whose import every process that reads a profile would pay)."""
     zi = 1.0 / z
     response = np.ones_like(z)
     for b0, b1, b2, a0, a1, a2 in sos:
