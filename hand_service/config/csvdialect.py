@@ -33,10 +33,13 @@ class CsvDialect:
 
     def cells(self, line: str) -> list[str]:
         """A line's cells, stripped, with a decimal comma made a point."""
-        cells = [c.strip() for c in line.split(self.separator)]
-        if self.decimal_comma:
-            cells = [c.replace(",", ".") if _DECIMAL_COMMA.match(c) else c for c in cells]
-        return cells
+        return self.numbers([c.strip() for c in line.split(self.separator)])
+
+    def numbers(self, cells: list[str]) -> list[str]:
+        """Cells (split by a csv reader, say) with a decimal comma made a point."""
+        if not self.decimal_comma:
+            return cells
+        return [c.replace(",", ".") if _DECIMAL_COMMA.match(c.strip()) else c for c in cells]
 
     def metadata(self, line: str) -> str:
         """A `#` line without the empty cells a spreadsheet pads it with."""

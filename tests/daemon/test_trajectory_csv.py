@@ -37,6 +37,25 @@ def test_position_then_force_then_vent(tmp_path: Path) -> None:
     assert np.all(traj.mode[:, others] == NOT_DRIVEN)
 
 
+SPREADSHEET_IDS = ["excel-de", "sep-line"]
+
+
+@pytest.mark.parametrize("excel", [b"\xef\xbb\xbft;angle_ref_deg_index;force_ref_n_index\r\n0;0;\r\n1;90;\r\n"
+                                   b"1,5;;1,0\r\n2;;1,0\r\n2,5;;\r\n3;;\r\n",
+                                   b"sep=;\n# a pinch;;\nt;angle_ref_deg_index;force_ref_n_index\n"
+                                   b"0;0;\n1;90;\n1.5;;1.0\n2;;1.0\n2.5;;\n3;;\n"], ids=SPREADSHEET_IDS)
+def test_a_spreadsheet_trajectory_reads_as_the_comma_one(tmp_path: Path, excel: bytes) -> None:
+    """`;` between fields, decimal commas, a byte-order mark, Excel's `sep=` line."""
+    comma = read_trajectory(write(tmp_path, "t,angle_ref_deg_index,force_ref_n_index\n"
+                                            "0,0,\n1,90,\n1.5,,1.0\n2,,1.0\n2.5,,\n3,,\n"), PROFILE, 100.0)
+    path = tmp_path / "excel.csv"
+    path.write_bytes(excel)
+    got = read_trajectory(path, PROFILE, 100.0)
+    np.testing.assert_array_equal(got.mode, comma.mode)
+    np.testing.assert_array_equal(got.angle_deg, comma.angle_deg)
+    np.testing.assert_array_equal(got.force_n, comma.force_n)
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("t,angle_ref_deg_pinky\n0,0\n1,1\n", "finger 'pinky' is not in the profile"),
     ("t,angle_deg_index\n0,0\n1,1\n", "unknown column"),
