@@ -10,7 +10,7 @@ loop from the PI output to the filtered angle,
 
 find where its phase reaches −180°, and choose kp so that the loop gain there is
 1/GAIN_MARGIN; ki = ω_i·kp. The linear model predicts the simulator's critical gains to
-three digits for every default finger (tests/model/test_tuning.py checks the margin in
+three digits for every default finger (tests/config/test_tuning.py checks the margin in
 closed loop).
 """
 

@@ -22,8 +22,8 @@ from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
 from hand_service.service.trajectory_csv import read_trajectory
 from hand_service.transports.sim import SimTransport
-from tests.daemon.conftest import Rig
 from tests.fuzz.conftest import MODEL_TEXT, PROFILE_TEXT, RECORDING_TEXT
+from tests.service.conftest import Rig
 
 
 def refused(call: object, *pieces: str) -> str:

@@ -19,7 +19,7 @@ from hand_service.identification.calibration import (
     valve_response_kpa,
 )
 from hand_service.recording import read_recording, write_recording
-from tests.tools.conftest import with_effect
+from tests.identification.conftest import with_effect
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ import pytest
 
 from hand_service.cli import main
 from hand_service.recording import read_recording
-from tests.daemon.process import DaemonProcess, wait_for
+from tests.service.process import DaemonProcess, wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "docs" / "examples" / "python" / "control_hand.py"

@@ -16,7 +16,7 @@ from hand_service.config.profile import PROFILE_DIR, Profile, load_profile
 from hand_service.identification import trials
 from hand_service.identification.calibration import fit_valve
 from hand_service.recording import read_recording
-from tests.model.test_pneumatic_valve import write_pneumatic_profile
+from tests.rtcore.test_pneumatic_valve import write_pneumatic_profile
 
 STEP_KPA = 60.0
 

@@ -15,7 +15,7 @@ from hand_service.service.safety import Cause
 from hand_service.service.states import Event, State
 from hand_service.transports.base import LinkProblem
 from rtcore import MODE_PRESSURE
-from tests.daemon.conftest import Rig
+from tests.service.conftest import Rig
 
 
 def test_running_without_faults_tracks(rig: Rig) -> None:
@@ -147,7 +147,7 @@ def test_pressure_over_limit_even_if_the_core_is_wrong(rig: Rig) -> None:
 def test_leak() -> None:
     """The chamber stops holding pressure (the measured pressure falls away from the
     command). Only the measured pressure is changed here, not the angle the finger keeps,
-    which the model check finds implausible first (tests/daemon/test_plausibility.py): it
+    which the model check finds implausible first (tests/service/test_plausibility.py): it
     is held off, so that the leak check is what this test sees."""
     profile = load_profile(None)
     rig = Rig(dataclasses.replace(profile, safety={**profile.safety, "model_mismatch_ms": 10_000.0}))

@@ -17,7 +17,7 @@ from hand_service.config.profile import load_profile
 from hand_service.errors import UserError
 from hand_service.service.recorder import Recorder
 from hand_service.service.recorder_writer import Drainer, ring_columns
-from tests.daemon.process import wait_for
+from tests.service.process import wait_for
 
 
 @pytest.fixture

@@ -19,7 +19,7 @@ from hand_service.config.profile import load_profile
 from hand_service.recording import read_recording
 from hand_service.service.daemon import Daemon, DaemonOptions
 from hand_service.transports import transport_class
-from tests.daemon.process import wait_for
+from tests.service.process import wait_for
 
 
 class Running:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from tests.daemon.process import DaemonProcess, wait_for
+from tests.service.process import DaemonProcess, wait_for
 
 # every column of the daemon's recording per finger, with the unit docs/formats.md §1.3 gives it
 DAEMON_UNITS = {"angle_ref_deg": "deg", "pressure_kpa": "kPa", "pressure_meas_kpa": "kPa",

@@ -11,7 +11,7 @@ from hand_service.api.requests import Api
 from hand_service.cli import main
 from hand_service.service.states import State
 from rtcore import MODE_IMPEDANCE
-from tests.daemon.conftest import Rig
+from tests.service.conftest import Rig
 
 HELD_DEG = 30.0  # an object keeps the index finger here
 TARGET_DEG = 40.0

@@ -14,8 +14,8 @@ from hand_service.service.recorder import Recorder
 from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
 from hand_service.service.trajectory_csv import read_trajectory
-from tests.daemon.conftest import Rig
-from tests.daemon.fakes import FaultyTransport
+from tests.service.conftest import Rig
+from tests.service.fakes import FaultyTransport
 
 INDEX = 1  # sim.yaml: thumb index middle ring little
 

@@ -107,8 +107,8 @@ def test_replicate_refuses_a_truth_without_noise_or_valve(tmp_path: Path) -> Non
         rep.replicate(rep.Options.quick_run(profile=fast))
 
 
-# the command end to end (its tables, JSON and figures, in its own process): tests/tools/
-# test_progress.py's test_replicate_says_its_wall_time, which runs it once for both
+# the command end to end (its tables, JSON and figures, in its own process):
+# tests/commands/test_progress.py's test_replicate_says_its_wall_time, which runs it once for both
 
 
 @pytest.mark.slow

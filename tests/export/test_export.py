@@ -20,7 +20,7 @@ from scipy.io import loadmat
 from hand_service.cli import main
 from hand_service.export.mcap_log import start_ns
 from hand_service.recording import write_recording
-from tests.tools.daemon_recording import DAEMON_UNITS, record_daemon
+from tests.export.daemon_recording import DAEMON_UNITS, record_daemon
 
 FINGERS = ("thumb", "index", "middle", "ring", "little")
 

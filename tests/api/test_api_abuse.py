@@ -51,7 +51,7 @@ import pytest
 
 from hand_service.api.client import HandClient
 from hand_service.recording import read_recording
-from tests.daemon.process import DaemonProcess, wait_for
+from tests.service.process import DaemonProcess, wait_for
 
 ROOT = Path(__file__).resolve().parents[2]
 RATE_HZ = 100.0
@@ -325,7 +325,7 @@ def test_no_client_stalls_the_tick_and_estop_is_served(daemon: Deployed) -> None
             first = _tick_at(hand, clocks)
             misses_before = first["timing"]["deadline_misses"]
             for kind in JOBS:  # the non-reader and the flood get slots before the idle ones fill the cap
-                processes.append(_start("import sys; from tests.daemon.test_api_abuse import abuse; "
+                processes.append(_start("import sys; from tests.api.test_api_abuse import abuse; "
                                         "abuse(sys.argv[1], sys.argv[2], float(sys.argv[3]))",
                                         kind, str(daemon.socket), str(ABUSE_S)))
                 stdout = processes[-1].stdout

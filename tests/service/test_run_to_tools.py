@@ -15,7 +15,7 @@ import pytest
 
 from hand_service.cli import main
 from hand_service.config.profile import DEFAULT_PROFILE, load_profile
-from tests.daemon.process import DaemonProcess, wait_for
+from tests.service.process import DaemonProcess, wait_for
 
 TRAJECTORY = """\
 t,angle_ref_deg_middle

@@ -21,8 +21,8 @@ from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
 from hand_service.simulator import Contact
 from rtcore import MODE_FORCE, MODE_POSITION, MODE_PRESSURE
-from tests.daemon.conftest import Rig, SpyRecorder
-from tests.daemon.fakes import FaultyTransport
+from tests.service.conftest import Rig, SpyRecorder
+from tests.service.fakes import FaultyTransport
 
 INDEX = 1
 SWEEP_TICKS = 300  # four periods of the 0.75 s cosine

@@ -18,7 +18,7 @@ from hand_service.identification.calibration import fit_valve
 from hand_service.recording import read_recording
 from hand_service.replicate.tracking import TrackingRun, track
 from hand_service.simulator import hand_simulator
-from tests.model.test_pneumatic_valve import write_pneumatic_profile
+from tests.rtcore.test_pneumatic_valve import write_pneumatic_profile
 
 PAPER_FF_PID_RMSE_DEG = 2.37  # the paper's Table 2
 SEED = 7

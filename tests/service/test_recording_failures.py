@@ -30,7 +30,7 @@ from hand_service.service.recorder_writer import FLUSH_INTERVAL_S, ring_columns
 from hand_service.service.recording_ring import RING_DIR_ENV
 from hand_service.transports import transport_class
 from rtcore.ring import Ring
-from tests.daemon.process import wait_for
+from tests.service.process import wait_for
 
 RATE_HZ = 100.0
 # nominal: the writer publishes a failed write's errno at once and the tick after reads

@@ -16,7 +16,7 @@ import pytest
 
 from hand_service.config.profile import load_profile
 from hand_service.recording import read_recording
-from tests.daemon.process import DaemonProcess
+from tests.service.process import DaemonProcess
 
 FINGERS = load_profile(None).finger_names
 

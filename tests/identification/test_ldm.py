@@ -14,7 +14,7 @@ from hand_service.errors import UserError
 from hand_service.identification import ldm, trials
 from hand_service.identification.identify import IdentifyResult, identify_recordings
 from hand_service.recording import read_recording, write_recording
-from tests.tools.conftest import with_effect
+from tests.identification.conftest import with_effect
 
 
 def _errors_pct(result, finger) -> tuple[float, float, float, float]:

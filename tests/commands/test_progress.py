@@ -77,7 +77,7 @@ def test_replicate_says_its_wall_time(tmp_path: Path) -> None:
     figures), not the simulations' alone: at least 60 % of what the test measured from
     outside, and no more than it. The same run is the command's end-to-end test: its
     tables on stdout, its JSON and its figures."""
-    from tests.tools.test_replicate import check_json
+    from tests.replicate.test_replicate import check_json
 
     out, stderr, seen_s = run(["replicate", "--quick", "--json", "r.json", "--plots", "plots"], tmp_path,
                               "replicate")

@@ -12,7 +12,7 @@ import pytest
 from hand_service.api.requests import Api
 from hand_service.recording import read_recording
 from hand_service.service.states import State
-from tests.daemon.conftest import Rig
+from tests.service.conftest import Rig
 
 HELD_DEG = 30.0  # an object behind the index finger keeps it from straightening
 TARGET_N = -1.0  # press back on it with 1 N less than the finger's spring would

@@ -7,7 +7,7 @@ from hand_service.config.profile import Profile, load_profile
 from hand_service.service.recorder import Recorder
 from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
-from tests.daemon.fakes import FaultyTransport
+from tests.service.fakes import FaultyTransport
 
 
 class SpyRecorder(Recorder):

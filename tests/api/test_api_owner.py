@@ -30,7 +30,7 @@ import pytest
 from hand_service.api.client import ApiError, HandClient
 from hand_service.cli import main
 from hand_service.recording import read_recording
-from tests.daemon.process import DaemonProcess, wait_for
+from tests.service.process import DaemonProcess, wait_for
 
 NOBODY = 65534
 RATE_HZ = 100.0

@@ -17,7 +17,7 @@ from hand_service.service.supervisor import Supervisor
 from hand_service.transports import SensorSample
 from hand_service.transports.sim import SimTransport
 from rtcore import MODE_POSITION
-from tests.daemon.fakes import FaultyTransport
+from tests.service.fakes import FaultyTransport
 
 
 class PythonPathSim(SimTransport):

@@ -10,7 +10,7 @@ from dataclasses import replace
 from hand_service.service.safety import Cause
 from hand_service.service.states import Event, State
 from hand_service.transports.base import FirmwareStatus
-from tests.daemon.conftest import Rig
+from tests.service.conftest import Rig
 
 
 def test_a_vent_while_running_is_a_fault(rig: Rig) -> None:
