@@ -18,13 +18,15 @@ $(STAMP): $(INSTALL_INPUTS)
 run: $(STAMP)
 	$(VENV)/bin/hand-service run --demo
 
-# The tests that keep time (daemon, HIL, CLI, bench) run at normal priority; the CPU-bound
-# ones (diagnose, tools, model, rtcore, wire, packaging, fuzz, the board's C build) beside them at nice 19, in the time
-# the first leave idle waiting on real time, so they cannot delay a deadline. The CPU-bound
-# ones run in two pytest-xdist workers: one process alone left a core idle while the timed
-# tests waited (374 s beside them, 293 s in two workers, on a 2-core machine).
+# The tests that keep time (service, api, transports, HIL, CLI, bench) run at normal priority;
+# the CPU-bound ones (diagnose, identification, replicate, export, commands, config, rtcore,
+# wire, packaging, the recording reader, fuzz, the board's C build) beside them at nice 19, in
+# the time the first leave idle waiting on real time, so they cannot delay a deadline. The
+# CPU-bound ones run in two pytest-xdist workers: one process alone left a core idle while
+# the timed tests waited.
 # `make test DURATIONS=--durations=25` lists the CPU-bound group's slowest.
-CPU_TESTS := tests/diagnose tests/tools tests/model tests/rtcore tests/pinch tests/wire tests/packaging \
+CPU_TESTS := tests/diagnose tests/identification tests/replicate tests/export tests/commands tests/config \
+             tests/rtcore tests/pinch tests/wire tests/packaging tests/test_recording.py tests/test_excel_csv.py \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py tests/board/test_board_build.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
 SELECT := -m "not slow and not thorough and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu"

@@ -45,16 +45,14 @@ static double slope_step_s(const sim_plant *p, double damping_slope, double stif
  * B + c0), and only what the slope changes within the step, c(ω) − c0, is left explicit
  * (a Rosenbrock-type linearisation). The step keeps that change within
  * FRICTION_SLOPE_SHARE of the exact damping B + c0 over the velocities it can reach: a
- * quarter. Half of B + c0 saved 29 % of the steps but let a weak friction (c0 < B) on an
+ * quarter. A larger share takes fewer steps but lets a weak friction (c0 < B) on an
  * over-damped finger let go from rest carry a span's first step far past the knee with the
- * slope of rest, 1.3 deg off at the first sample (tests/rtcore/test_sim_spans.py); the
- * whole of it, 0.21 of the range. Every step also moves the velocity by no more than
- * KNEE_REACH·ω_s inside the knee, |ω| < KNEE_SPAN·ω_s (from outside, to its edge or that
- * far in): where all of c0 is within the share (c0 < B/3) the slope bounds no reach at all,
- * and without this bound a span missed a fine step by 1.1-1.3 % of the range.
- * Air drag's slope, 2·c2·|θ'|, keeps to a quarter too:
- * at half, an over-damped finger's drag misses the fine reference by more than its
- * tolerance. */
+ * slope of rest (tests/rtcore/test_sim_spans.py). Every step also moves the velocity by no
+ * more than KNEE_REACH·ω_s inside the knee, |ω| < KNEE_SPAN·ω_s (from outside, to its edge
+ * or that far in): where all of c0 is within the share (c0 < B/3) the slope bounds no reach
+ * at all, and without this bound a span misses the fine reference.
+ * Air drag's slope, 2·c2·|θ'|, keeps to a quarter too: at half, an over-damped finger's
+ * drag misses the fine reference by more than its tolerance. */
 static const double FRICTION_SLOPE_SHARE = 0.25;
 static const double DRAG_SLOPE_SHARE = 0.25;
 /* The knee: |ω| < KNEE_SPAN·ω_s (sech² above 0.07 of its peak), crossed KNEE_REACH·ω_s a step */

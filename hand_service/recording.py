@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hand_service.config.csvdialect import DECIMAL_COMMA_ADVICE, detect_dialect, split_decimal_commas
 from hand_service.config.textfile import cell_text, read_text
 from hand_service.errors import UserError, where
 from hand_service.export.units import unit_of
@@ -121,21 +122,33 @@ class CsvLines:
     rows: list[list[str]]  # every data row's cells, stripped
     row_lines: list[int]  # each row's line number in the file
 
+    def check_fields(self, path: Path) -> None:
+        """Every row has as many fields as the header, or the first that does not is a
+        UserError (naming decimal commas that split a comma-separated row)."""
+        fields = len(self.header or ())
+        for cells, number in zip(self.rows, self.row_lines, strict=True):
+            if len(cells) != fields:
+                cause = f": {DECIMAL_COMMA_ADVICE}" if split_decimal_commas(cells, fields) else ""
+                raise UserError(f"{where(path, number)}: {len(cells)} fields where the header has "
+                                f"{fields}{cause}")
+
 
 def split_lines(path: Path) -> CsvLines:
     """The `#` metadata, the header and the data rows of a recording (docs/formats.md §1.1):
     comments anywhere, blank lines skipped, a truncated last line dropped with a warning.
     The one reader of the CSV's lines, for read_recording and export alike."""
     text = read_text(path)  # UTF-8, a byte-order mark dropped, CRLF and CR line ends made LF
+    lines = text.split("\n")
+    dialect = detect_dialect(lines)  # `;` and decimal commas from a spreadsheet, too
     out = CsvLines(None, 0, {}, [], [])
-    for number, raw in enumerate(text.split("\n"), start=1):
+    for number, raw in enumerate(lines, start=1):
         line = raw.strip()
-        if not line:
+        if not line or (number == 1 and dialect.sep_line):
             continue
         if line.startswith("#"):
-            _parse_metadata(line, out.metadata)
+            _parse_metadata(dialect.metadata(line), out.metadata)
             continue
-        cells = [c.strip() for c in line.split(",")]
+        cells = dialect.cells(line)
         if out.header is None:
             out.header, out.header_line = cells, number
             continue
@@ -179,9 +192,7 @@ def read_recording(path: str | Path, finger: str | None = None, required: tuple[
             if f"{name}_" in ",".join(header) and finger is None:
                 hint = " (per-finger columns found: pick one with --finger)"
             raise UserError(f"{where(path, header_line)}: missing required column '{name}'{hint}")
-    for cells, number in zip(rows, row_lines, strict=True):
-        if len(cells) != len(header):
-            raise UserError(f"{where(path, number)}: {len(cells)} fields where the header has {len(header)}")
+    lines.check_fields(path)
 
     columns: dict[str, np.ndarray] = {}
     text_columns: dict[str, list[str]] = {}

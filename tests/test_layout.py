@@ -34,3 +34,15 @@ def test_no_module_is_too_long() -> None:
 
 def test_the_readme_is_short() -> None:
     assert len((ROOT / "README.md").read_text().splitlines()) <= MAX_README_LINES
+
+
+# suites that cut across packages, or test what lies outside hand_service (board/: the C firmware)
+CROSS_CUTTING_TESTS = {"board", "hil", "fuzz", "browser", "packaging"}
+
+
+def test_tests_mirror_the_packages() -> None:
+    """tests/<name>/ tests hand_service/<name>/ (or rtcore/): a reader finds a package's tests
+    by its name."""
+    packages = {p.parent.name for p in (ROOT / "hand_service").glob("*/__init__.py")} | {"rtcore"}
+    folders = {p.name for p in (ROOT / "tests").iterdir() if p.is_dir() and (p / "__init__.py").exists()}
+    assert folders - packages - CROSS_CUTTING_TESTS == set()

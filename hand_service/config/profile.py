@@ -335,7 +335,7 @@ def load_model(path: str | Path, finger: str | None = None) -> FingerModel:
         return load_profile(path).finger(finger).model
     model, _ = model_from_mapping(data, path)
     if finger is not None and model.finger is not None and model.finger != finger:
-        raise UserError(f"{path}: this model is for finger '{model.finger}', not '{finger}'")
+        raise UserError(f"{path}: this model is for finger {show(model.finger)}, not {show(finger)}")
     if model.finger is None and finger is not None:
         model.finger = finger
     return model

@@ -10,7 +10,7 @@ loop from the PI output to the filtered angle,
 
 find where its phase reaches −180°, and choose kp so that the loop gain there is
 1/GAIN_MARGIN; ki = ω_i·kp. The linear model predicts the simulator's critical gains to
-three digits for every default finger (tests/model/test_tuning.py checks the margin in
+three digits for every default finger (tests/config/test_tuning.py checks the margin in
 closed loop).
 """
 
@@ -38,7 +38,7 @@ class Gains:
 
 def sos_response(sos: np.ndarray, z: np.ndarray) -> np.ndarray:
     """The second-order sections' response at z (scipy's sosfreqz, without importing
-    scipy.signal: every process that reads a profile would pay its ~1 s import)."""
+    scipy.signal, whose import every process that reads a profile would pay)."""
     zi = 1.0 / z
     response = np.ones_like(z)
     for b0, b1, b2, a0, a1, a2 in sos:

@@ -98,6 +98,7 @@ def _rows(path: Path) -> tuple[list[str], int, list[list[str]], list[int], dict[
     lines = split_lines(path)  # the recording reader's own splitting (comments, a truncated last line)
     if lines.header is None:
         raise UserError(f"{path}: no header line: not a recording (docs/formats.md §1)")
+    lines.check_fields(path)
     return lines.header, lines.header_line, lines.rows, lines.row_lines, lines.metadata
 
 
@@ -116,9 +117,6 @@ def read_table(path: str | Path) -> Table:
     if TIME_COLUMN not in seen:
         raise UserError(f"{where(path, header_line)}: no '{TIME_COLUMN}' column: export takes a recording "
                         f"with a time column (docs/formats.md §1.5)")
-    for cells, number in zip(rows, row_lines, strict=True):
-        if len(cells) != len(header):
-            raise UserError(f"{where(path, number)}: {len(cells)} fields where the header has {len(header)}")
     if not rows:
         raise UserError(f"{path}: no rows after the header")
     fingers = fingers_in(header)

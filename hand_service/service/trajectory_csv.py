@@ -24,6 +24,7 @@ from typing import TextIO
 
 import numpy as np
 
+from hand_service.config.csvdialect import detect_dialect
 from hand_service.config.profile import Profile
 from hand_service.config.textfile import cell_text, printable
 from hand_service.errors import UserError, where
@@ -111,8 +112,11 @@ def read_trajectory(path: str | Path, profile: Profile, rate_hz: float | None = 
     header: list[str] | None = None
     try:
         with _open_regular(path) as f:
-            for line, row in enumerate(csv.reader(f), start=1):
-                if not row or row[0].lstrip().startswith("#"):
+            dialect = detect_dialect(f.read(1 << 16).splitlines())  # a spreadsheet's `;`, decimal commas
+            f.seek(0)
+            for line, cells in enumerate(csv.reader(f, delimiter=dialect.separator), start=1):
+                row = dialect.numbers(cells)
+                if not row or row[0].lstrip().startswith("#") or (line == 1 and dialect.sep_line):
                     continue
                 if header is None:
                     header = [c.strip() for c in row]

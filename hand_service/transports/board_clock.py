@@ -16,8 +16,8 @@ adds to the difference, so the line is the one below every window's smallest dif
 that comes closest to them (Moon, Skelly and Towsley's linear-programming skew estimate:
 the edge of their lower convex hull over their mean time). A window whose every status
 came late (a loaded machine: a mock firmware, or the host's reader, behind for a whole
-second) lies above that line and does not tilt it: the slope from the first window to the
-last read 27 ms late over 5 s as 5 375 ppm, a false clock_drift in CI.
+second) lies above that line and does not tilt it, where the slope from the first window to
+the last would read a late last window as a drift.
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ AGE_WINDOW_S = 2.0  # the smallest host-board difference over this long is the o
 DRIFT_WINDOW_S = 1.0  # the drift is the slope of the smallest differences of such windows
 DRIFT_WINDOWS = 6  # ... from the oldest of this many to the newest (the newest may be partial)
 # Judged only over at least this long: on a loaded machine a mock firmware (or a board's
-# USB link) can be late for a whole window, ~8 ms, which over 1-2 s read as 7700 ppm
-# (a false clock_drift in `bench` under load); over 3 s the same is under 3000 ppm.
+# USB link) can be late for a whole window, and a few ms late over a span of 1-2 s reads as
+# thousands of ppm; the longer span divides that delay by its length.
 DRIFT_MIN_SPAN_S = 3.0
 
 

@@ -1,6 +1,6 @@
 """`bench` reports its progress through the project's progress wrapper: with stderr a file
 (a log, CI) plain lines and never a `\\r` (--quiet, which silences them, is the wrapper's,
-tested in tests/tools/test_progress.py)."""
+tested in tests/commands/test_progress.py)."""
 
 from __future__ import annotations
 

@@ -24,7 +24,7 @@ from hand_service.view.ring_tap import RingGone, RingTap
 from hand_service.view.stream import NOT_RECORDING
 from rtcore.config import MODE_FORCE, MODE_POSITION
 from tests.browser.viewproc import DeployedDaemon, LinkedView, ViewProcess, gone, started_daemon, wait_state
-from tests.daemon.process import wait_for
+from tests.service.process import wait_for
 
 FINGERS = ["thumb", "index", "middle", "ring", "little"]
 

@@ -16,7 +16,7 @@ from typing import Any
 
 from hand_service.api.access import read_token, token_path
 from hand_service.api.client import ApiError, HandClient
-from tests.daemon.process import DaemonProcess
+from tests.service.process import DaemonProcess
 
 CHROMIUM = "/usr/bin/chromium"  # Debian's; Playwright downloads no browser of its own
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -16,9 +16,9 @@ from hypothesis import strategies as st
 from hand_service.api import requests as api_requests
 from hand_service.api.requests import Api
 from hand_service.api.server import ApiServer, Deferred, encode_reply
-from tests.daemon.conftest import Rig
 from tests.fuzz.conftest import TRAJECTORY_TEXT, fuzz_tests
 from tests.fuzz.strategies import json_values, raw_bytes
+from tests.service.conftest import Rig
 
 TRAJECTORY = "/fuzz-dir/trajectory.csv"  # replaced by the real folder when the Api is built
 BASE = [

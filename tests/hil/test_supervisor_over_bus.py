@@ -21,7 +21,7 @@ from hand_service.recording import read_recording
 from hand_service.service.states import Event, State
 from hand_service.service.supervisor import Supervisor
 from rtcore import MODE_POSITION, clock
-from tests.daemon.process import DaemonProcess
+from tests.service.process import DaemonProcess
 
 TARGET_DEG = 40.0
 # This test holds a target; it does not test the sample-age bound (the fault matrix does).
