@@ -231,3 +231,32 @@ def test_no_call_cycle_between_c_units(directory: str) -> None:
     assert any(unit.startswith(directory + "/") for unit in graph), f"no C units under {directory}/"
     cycles = cycles_through(graph, directory)
     assert cycles == [], "call cycles between C units:\n" + "\n".join(" -> ".join(cycle) for cycle in cycles)
+
+
+INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+SEARCH = (ROOT / "csrc", ROOT / "board" / "plant", ROOT / "board" / "core")
+
+
+def included(source: Path) -> set[str]:
+    """The project headers a file includes, directly or through others (by name)."""
+    seen: set[str] = set()
+    todo = [source]
+    while todo:
+        for name in INCLUDE.findall(todo.pop().read_text()):
+            path = next((d / name for d in SEARCH if (d / name).exists()), None)
+            if path is not None and name not in seen:
+                seen.add(name)
+                todo.append(path)
+    return seen
+
+
+@pytest.mark.parametrize("unit", ["rtcore_sim_plant.c", "rtcore_sim_step_size.c", "rtcore_sim_span.c",
+                                  "rtcore_exact.c"])
+def test_the_finger_dynamics_see_nothing_of_the_hand_above_them(unit: str) -> None:
+    """The finger's dynamics (rtcore_sim_plant.h) and the units below them do not depend on
+    the simulated hand that calls them: not on its header's state (rtcore_sim.h: the valve's
+    history, the sensors) nor on the valve's (rtcore_sim_advance.h). The board's plant links
+    them without the hand."""
+    seen = included(ROOT / "csrc" / unit)
+    assert "rtcore_exact.h" in seen or unit == "rtcore_exact.c"
+    assert seen.isdisjoint({"rtcore_sim.h", "rtcore_sim_advance.h", "rtcore_tick.h"}), sorted(seen)
