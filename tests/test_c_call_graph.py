@@ -14,6 +14,8 @@ and `->` ignored), so it needs neither a compiler nor the cross toolchains.
 from __future__ import annotations
 
 import re
+import shutil
+import subprocess
 from collections import defaultdict
 from pathlib import Path
 
@@ -147,6 +149,44 @@ def test_graph_covers_the_known_units() -> None:
     assert "board/core/regulator.c" in graph["board/core/measure.c"]
 
 
+def gcc_call_graph(sources: list[Path], include_dirs: list[Path], build: Path) -> dict[str, set[str]]:
+    """The same graph between the given source files as gcc sees it: the calls in each
+    translation unit (-fcallgraph-info), resolved to the unit whose object defines the
+    callee (nm). Keys and targets are paths relative to the repository."""
+    defined_in: dict[str, set[str]] = defaultdict(set)
+    calls: dict[str, set[str]] = {}
+    for source in sources:
+        unit = source.relative_to(ROOT).as_posix()
+        obj = build / (source.stem + ".o")
+        subprocess.run(["gcc", "-std=c99", "-O0", "-fcallgraph-info", *(f"-I{d}" for d in include_dirs),
+                        "-c", str(source), "-o", str(obj)], check=True, capture_output=True, cwd=build)
+        info = obj.with_suffix(".ci").read_text()
+        calls[unit] = set(re.findall(r'edge: \{ sourcename: "[^"]+" targetname: "([^"]+)"', info))
+        symbols = subprocess.run(["nm", "--defined-only", str(obj)], check=True, capture_output=True,
+                                 text=True).stdout
+        for line in symbols.splitlines():
+            kind, name = line.split()[-2:]
+            if kind in "TD":
+                defined_in[name].add(unit)
+    return {unit: {owner for name in names for owner in defined_in.get(name, set())
+                   if len(defined_in[name]) == 1 and owner != unit}
+            for unit, names in calls.items()}
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("nm") is None, reason="needs gcc and nm")
+def test_the_tokenizer_sees_every_call_gcc_sees_in_csrc(tmp_path: Path) -> None:
+    """The graph read from the source holds every edge between csrc's units that gcc's own
+    call graph has (it may hold more: a function's address taken is no call to gcc)."""
+    generated = ROOT / "build" / "gen"  # rtcore_can_v1.h, made by the extension's build (rtcore/_build.py)
+    sources = sorted((ROOT / "csrc").glob("*.c"))
+    include_dirs = [ROOT / "csrc", ROOT / "board" / "plant", ROOT / "board" / "core", generated]
+    gcc = gcc_call_graph(sources, include_dirs, tmp_path)
+    ours = call_graph(c_units())
+    assert sum(len(targets) for targets in gcc.values()) > 20, "gcc's graph must see the calls"
+    missing = {unit: sorted(targets - ours[unit]) for unit, targets in gcc.items() if targets - ours[unit]}
+    assert missing == {}
+
+
 def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
     seen: set[str] = set()
     todo = [start]
@@ -186,3 +226,32 @@ def test_no_call_cycle_between_c_units(directory: str) -> None:
     assert any(unit.startswith(directory + "/") for unit in graph), f"no C units under {directory}/"
     cycles = cycles_through(graph, directory)
     assert cycles == [], "call cycles between C units:\n" + "\n".join(" -> ".join(cycle) for cycle in cycles)
+
+
+INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+SEARCH = (ROOT / "csrc", ROOT / "board" / "plant", ROOT / "board" / "core")
+
+
+def included(source: Path) -> set[str]:
+    """The project headers a file includes, directly or through others (by name)."""
+    seen: set[str] = set()
+    todo = [source]
+    while todo:
+        for name in INCLUDE.findall(todo.pop().read_text()):
+            path = next((d / name for d in SEARCH if (d / name).exists()), None)
+            if path is not None and name not in seen:
+                seen.add(name)
+                todo.append(path)
+    return seen
+
+
+@pytest.mark.parametrize("unit", ["rtcore_sim_plant.c", "rtcore_sim_step_size.c", "rtcore_sim_span.c",
+                                  "rtcore_exact.c"])
+def test_the_finger_dynamics_see_nothing_of_the_hand_above_them(unit: str) -> None:
+    """The finger's dynamics (rtcore_sim_plant.h) and the units below them do not depend on
+    the simulated hand that calls them: not on its header's state (rtcore_sim.h: the valve's
+    history, the sensors) nor on the valve's (rtcore_sim_advance.h). The board's plant links
+    them without the hand."""
+    seen = included(ROOT / "csrc" / unit)
+    assert "rtcore_exact.h" in seen or unit == "rtcore_exact.c"
+    assert seen.isdisjoint({"rtcore_sim.h", "rtcore_sim_advance.h", "rtcore_tick.h"}), sorted(seen)
