@@ -118,3 +118,18 @@ def test_the_command_line_loads_no_bus_library_before_a_command_runs() -> None:
              "print(sorted(m for m in ('can', 'cantools', 'serial') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, cwd=ROOT)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_the_wiring_sits_above_the_service_the_api_and_the_view() -> None:
+    """app/ wires the supervisor, the control API and the view together: it imports them,
+    and none of them imports it; the service imports neither the API nor the view."""
+    graph = import_graph()
+    below = ("hand_service.service", "hand_service.api", "hand_service.view")
+    up = sorted((name, target) for name, targets in graph.items() if name.startswith(below)
+                for target in targets if target.startswith("hand_service.app"))
+    assert up == []
+    service_up = sorted((name, target) for name, targets in graph.items()
+                        if name.startswith("hand_service.service.") for target in targets
+                        if target.startswith(("hand_service.api", "hand_service.view")))
+    assert service_up == []
+    assert "hand_service.api.requests" in graph["hand_service.app.daemon"], "the graph must see the wiring"

@@ -19,6 +19,7 @@ from hand_service.api.impedance import gain_limits, impedance_gains
 from hand_service.api.paths import confine, new_file_in
 from hand_service.api.redact import trajectory_error
 from hand_service.api.server import Deferred
+from hand_service.api.state_table import followed_from
 from hand_service.config.profile import Profile
 from hand_service.config.textfile import show
 from hand_service.errors import UserError
@@ -227,9 +228,14 @@ class Api:
 
     def _not_driven(self, fingers: list[int], what: str) -> None:
         driven = [self.sup.names[i] for i in self.sup.trajectory_drives(fingers)]
-        if driven:
-            raise RequestError(f"{what}: {', '.join(driven)} follow the running trajectory; "
-                               "clear_trajectory first")
+        if not driven:
+            return
+        state = self.sup.state
+        playing = state in (State.RUNNING, State.HOLD)
+        then = "hold, then clear the trajectory" if state is State.RUNNING else "clear the trajectory"
+        raise RequestError(f"{what}: in {state.name}, {', '.join(driven)} follow the trajectory "
+                           f"{'playing' if playing else 'loaded (start plays it)'}; {then} first "
+                           "(ctl clear-trajectory)")
 
     # -- requests -----------------------------------------------------------------------
     def mode(self, finger: str, mode: str, stiffness_n_per_deg: float | None = None,
@@ -240,7 +246,8 @@ class Api:
         limits = {self.sup.names[i]: gain_limits(self.sup.profile.fingers[i].model) for i in fingers}
         gains = impedance_gains(mode, stiffness_n_per_deg, damping_n_s_per_deg, limits)
         self._not_driven(fingers, "mode")
-        reply: dict[str, Any] = {"fingers": [self.sup.names[i] for i in fingers], "mode": mode}
+        reply: dict[str, Any] = {"fingers": [self.sup.names[i] for i in fingers], "mode": mode,
+                                 "applies": followed_from(self.sup.state)}
         if gains is not None:
             reply.update(stiffness_n_per_deg=gains[0], damping_n_s_per_deg=gains[1])
         self.sup.set_mode(fingers, MODES_BY_NAME[mode], gains)
@@ -270,7 +277,8 @@ class Api:
         after = self.sup.set_target(fingers, key, value)
         modes = {self.sup.names[i]: MODE_NAMES[m] for i, m in zip(fingers, after, strict=True)}
         shown: str | dict[str, str] = next(iter(modes.values())) if len(set(modes.values())) == 1 else modes
-        return {"fingers": [self.sup.names[i] for i in fingers], key: value, "mode": shown}
+        return {"fingers": [self.sup.names[i] for i in fingers], key: value, "mode": shown,
+                "applies": followed_from(self.sup.state)}
 
     def load_trajectory(self, path: str, loop: bool = False) -> _Loading:
         """Parsed in a worker thread (an hour of trajectory takes seconds, which the loop
@@ -286,18 +294,19 @@ class Api:
 
     def _not_running(self, what: str) -> None:
         if self.sup.state is State.RUNNING:
-            raise RequestError(f"{what}: not while RUNNING (hold or disarm first)")
+            raise RequestError(f"{what}: not in RUNNING; hold or disarm first")
 
     def _loaded(self, traj: Trajectory, driven: np.ndarray, path: str, loop: bool) -> dict[str, Any]:
         self._not_running("load_trajectory")  # the state may have changed while it loaded
         self.sup.set_trajectory(traj, loop, driven)
         return {"path": path, "duration_s": traj.duration_s, "ticks": traj.n_ticks, "loop": loop,
-                "fingers": [n for n, d in zip(self.sup.names, driven, strict=True) if d]}
+                "fingers": [n for n, d in zip(self.sup.names, driven, strict=True) if d],
+                "applies": followed_from(self.sup.state)}
 
     def clear_trajectory(self) -> dict[str, Any]:
         playing = self.sup.trajectory_status()
         if self.sup.state is State.RUNNING and playing is not None and not playing.done:
-            raise RequestError("clear_trajectory: not while it runs (hold first)")
+            raise RequestError("clear_trajectory: not in RUNNING while the trajectory plays; hold first")
         self.sup.clear_trajectory()
         return {"trajectory": None}
 
@@ -307,7 +316,7 @@ class Api:
     def record_stop(self) -> dict[str, Any]:
         stopped = self.sup.stop_recording()
         if stopped is None:
-            raise RequestError("record_stop: not recording")
+            raise RequestError("record_stop: not recording (ctl record-start starts one)")
         return stopped
 
     def faults(self) -> dict[str, Any]:

@@ -86,7 +86,7 @@ class HandCommands(TickLoop):
 
     def trajectory_drives(self, fingers: Sequence[int]) -> list[int]:
         mask = self.trajectory_driven
-        if self.trajectory is None or mask is None or self.trajectory_done or self.state not in ACTIVE:
+        if self.trajectory is None or mask is None or (self.trajectory_done and self.state in ACTIVE):
             return []
         return [i for i in fingers if mask[i]]
 

@@ -61,18 +61,59 @@ TRANSITIONS: dict[tuple[State, Event], State] = {
     **{(s, Event.FAULT): State.FAULT for s in State if s is not State.ESTOP},
 }
 
-HINTS: dict[Event, str] = {
-    Event.ARM: "arm only from DISARMED",
-    Event.DISARM: "disarm from ARMED, RUNNING or HOLD",
-    Event.START: "start only from ARMED (arm first)",
-    Event.HOLD: "hold only while RUNNING",
-    Event.RESUME: "resume only from HOLD",
-    Event.RESET: "reset only from FAULT or ESTOP",
-    Event.HANDSHAKE_OK: "the handshake happens in INIT",
-    Event.HANDSHAKE_FAILED: "the handshake happens in INIT",
-    Event.FAULT: "ESTOP outranks a fault",
-    Event.ESTOP: "ESTOP is accepted everywhere",
-}
+# what a client may send (the handshake and a fault come on their own)
+COMMANDS = (Event.ARM, Event.DISARM, Event.START, Event.HOLD, Event.RESUME, Event.ESTOP, Event.RESET)
+
+
+def accepting(event: Event) -> list[State]:
+    """The states that take `event`, in the machine's order."""
+    return [state for state in State if (state, event) in TRANSITIONS]
+
+
+def commands_to(state: State, goal: frozenset[State] | set[State]) -> list[Event] | None:
+    """The shortest run of a client's commands (the handshake taken as it comes) from
+    `state` to one of `goal`: [] when it is there, None when no run leads there."""
+    steps = (*[e for e in COMMANDS if e is not Event.ESTOP], Event.HANDSHAKE_OK)
+    paths: dict[State, list[Event]] = {state: []}
+    frontier = [state]
+    while frontier:
+        here = frontier.pop(0)
+        if here in goal:
+            return paths[here]
+        for event in steps:
+            there = TRANSITIONS.get((here, event))
+            if there is not None and there not in paths:
+                paths[there] = [*paths[here], event]
+                frontier.append(there)
+    return None
+
+
+def how_to_reach(state: State, goal: frozenset[State] | set[State]) -> str:
+    """What a client does in `state` to get to one of `goal`, in words: `arm first`,
+    `reset, then arm first (the handshake comes between)`, `wait for the handshake`;
+    '' when it is there or no command leads there."""
+    run = commands_to(state, goal) or []
+    said = [e.value for e in run if e is not Event.HANDSHAKE_OK]
+    text = ", then ".join(said) + " first" if said else ""
+    if Event.HANDSHAKE_OK in run:
+        text = f"{text} {handshake_note(run)}" if said else "wait for the handshake"
+    return text
+
+
+def handshake_note(run: list[Event]) -> str:
+    """Where the handshake falls in a run of commands."""
+    return "(after the handshake)" if run[0] is Event.HANDSHAKE_OK else "(the handshake comes between)"
+
+
+def refusal(state: State, event: Event) -> str:
+    """Why `state` does not take `event`, and the commands that would make it."""
+    takers = accepting(event)
+    head = f"cannot {event.value} in {state.name}"
+    if any(TRANSITIONS[(s, event)] is state for s in takers):
+        return f"{head}: already {state.name}"
+    where = " or ".join(s.name for s in takers)
+    how = how_to_reach(state, set(takers))
+    return f"{head}: {event.value} from {where}; {how}" if how else f"{head}: only {where} take it"
 
 
 class TransitionError(Exception):
@@ -91,7 +132,7 @@ class StateMachine:
         """Take the transition or raise TransitionError; returns the new state."""
         target = TRANSITIONS.get((self.state, event))
         if target is None:
-            raise TransitionError(f"cannot {event.value} in {self.state.name}: {HINTS[event]}")
+            raise TransitionError(refusal(self.state, event))
         if target is not self.state:
             self.changes += 1
         self.state = target
@@ -106,5 +147,5 @@ class StateMachine:
 REFS = tuple(REFS_RUN if state is State.RUNNING else REFS_HOLD if state is State.HOLD else REFS_VENT
              for state in State)
 
-__all__ = ["ACTIVE", "LATCHED", "REFS", "TRANSITIONS", "VENTED", "Event", "State", "StateMachine",
-           "TransitionError"]
+__all__ = ["ACTIVE", "COMMANDS", "LATCHED", "REFS", "TRANSITIONS", "VENTED", "Event", "State", "StateMachine",
+           "TransitionError", "accepting", "commands_to", "handshake_note", "how_to_reach", "refusal"]

@@ -40,6 +40,9 @@ log = logging.getLogger(__name__)
 
 
 class Supervisor(HandCommands):
+    """The state machine and the loop behind the command surface (surface.TickLoop); made
+    through service/factory.py by everything above the service."""
+
     def __init__(self, profile: Profile, transport: Transport, recorder: Recorder | None = None,
                  spin_us: float = 0.0) -> None:
         self.profile = profile

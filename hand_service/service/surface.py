@@ -177,8 +177,9 @@ class HandControl(ABC):
 
     @abstractmethod
     def trajectory_drives(self, fingers: Sequence[int]) -> list[int]:
-        """Those of `fingers` that the trajectory now playing (RUNNING or HOLD, not done)
-        drives: their modes and targets are the trajectory's."""
+        """Those of `fingers` whose modes and targets the trajectory sets: while it plays
+        (RUNNING or HOLD, not done), and in any other state while one is loaded (the next
+        `start` plays it from its start)."""
 
     # -- recording ---------------------------------------------------------------------------
     @abstractmethod

@@ -130,7 +130,7 @@ def test_trajectory_runs_to_hold(daemon: Running, tmp_path: Path) -> None:
         assert loaded["fingers"] == ["index", "middle"] and loaded["ticks"] == 101
         hand.arm()
         hand.start()
-        with pytest.raises(ApiError, match="follow the running trajectory"):
+        with pytest.raises(ApiError, match="follow the trajectory playing"):
             hand.target("index", angle_deg=10.0)
         hand.target("ring", angle_deg=10.0)  # a finger the trajectory leaves alone
         daemon.wait_state(hand, "HOLD", timeout_s=5.0)
@@ -326,7 +326,7 @@ def test_a_trajectory_loads_off_the_loop(daemon: Running, tmp_path: Path,
         release.set()
         (refused,) = _replies(loader, 1)
         assert refused == {"id": 1, "ok": False,
-                           "error": "load_trajectory: not while RUNNING (hold or disarm first)"}
+                           "error": "load_trajectory: not in RUNNING; hold or disarm first"}
 
 
 def test_safety_requests_are_answered_while_a_load_is_pending(daemon: Running, tmp_path: Path,

@@ -64,7 +64,7 @@ def test_ctl_replies_read_alike_and_json_is_one_line(daemon: TcpDaemon,
                                                      capsys: pytest.CaptureFixture[str]) -> None:
     assert ctl(daemon, capsys, "arm") == "state: ARMED\n"
     assert ctl(daemon, capsys, "target", "index", "--angle-deg", "30") == \
-        "fingers: index\nangle_deg: 30\nmode: position\n"
+        "fingers: index\nangle_deg: 30\nmode: position\napplies: from start\n"
     status = ctl(daemon, capsys, "--json", "status")
     assert status.count("\n") == 1 and json.loads(status)["fingers"]["index"]["target_mode"] == "position"
     assert json.loads(ctl(daemon, capsys, "--json", "faults")) == {"counts": {}, "total": 0, "faults": []}
@@ -83,7 +83,8 @@ def test_the_python_example_drives_the_hand_and_records(daemon: TcpDaemon) -> No
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert lines[:2] == ["arm: ARMED",
-                         "target: {'fingers': ['index'], 'angle_deg': 45.0, 'mode': 'position'}"]
+                         "target: {'fingers': ['index'], 'angle_deg': 45.0, 'mode': 'position', "
+                         "'applies': 'from start'}"]
     assert lines[2] == "start: RUNNING" and lines[-1] == "disarm: DISARMED"
     recorded = re.fullmatch(r"recorded (\d+) rows to .*example\.csv", lines[-2])
     assert recorded is not None, lines
