@@ -21,14 +21,19 @@ from tests.diagnose.real.odefit import read_csv
 from tests.diagnose.real.rigs import RIGS
 from tests.diagnose.real.table import (
     FIXTURES,
+    HERE,
     LIBRARY_EFFECTS,
     Expectation,
+    decimation_factor,
     expectation,
     judge,
     run_diagnose,
 )
 
-REAL = Path(__file__).resolve().parent / "real"
+REAL = HERE
+DECIMATION = {rig: decimation_factor(read_csv(REAL / f"{rig}.csv"))[0] for rig in FIXTURES}
+TWO_RATES = sorted(rig for rig, q in DECIMATION.items() if q is not None)
+RUNS = [(rig, None) for rig in FIXTURES] + [(rig, DECIMATION[rig]) for rig in TWO_RATES]
 
 
 def test_every_rig_of_the_converter_is_a_fixture() -> None:
@@ -88,11 +93,23 @@ def test_the_judge_flags_what_it_should() -> None:
     assert other.confident_wrong
 
 
+def test_some_fixture_is_run_at_two_rates() -> None:
+    assert "emps" in TWO_RATES
+
+
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason="diagnose engine work of issue 44")
-@pytest.mark.parametrize("rig", FIXTURES)
-def test_diagnose_is_never_confidently_wrong(rig: str, tmp_path: Path) -> None:
-    result = run_diagnose(rig, None, tmp_path)
+@pytest.mark.parametrize(("rig", "q"), RUNS)
+def test_diagnose_is_never_confidently_wrong(rig: str, q: int | None, tmp_path: Path) -> None:
+    result = run_diagnose(rig, q, tmp_path)
     verdict = judge(expectation(rig), result)
     assert not verdict.confident_wrong, verdict
     assert not verdict.control_failed, verdict
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=False, reason="diagnose engine work of issue 44")
+@pytest.mark.parametrize("rig", TWO_RATES)
+def test_verdict_class_does_not_change_with_the_rate(rig: str, tmp_path: Path) -> None:
+    native = run_diagnose(rig, None, tmp_path)["verdict"]
+    assert run_diagnose(rig, DECIMATION[rig], tmp_path)["verdict"] == native

@@ -3,8 +3,9 @@ expectations (README.md §1 and §6).
 
     python -m tests.diagnose.real.table --out X.json [--only RIG ...] [--native-only] [--jobs 1]
 
-Each fixture is run at its own rate and, where that is 200 Hz or more, decimated by a whole
-factor to about 100 Hz (rate invariance, issue 44): the command is averaged over each block
+Each fixture is run at its own rate and, where the rate allows (200 Hz or more, and the
+motion slow enough not to alias: `decimation_factor`), decimated by a whole factor to about
+100 Hz (rate invariance, issue 44): the command is averaged over each block
 (the right input for a command held over the sample period) or, for a command read linear
 between samples (`--input-hold point`), sampled like the angle, at the block's first sample.
 
@@ -29,7 +30,9 @@ import numpy as np
 
 from hand_service.cli import main as cli_main
 from hand_service.config.effects import LIBRARY
+from hand_service.config.profile import load_model
 from tests.diagnose.real.odefit import Recording, read_csv, write_csv
+from tests.diagnose.real.rawcheck import raw_rms
 from tests.diagnose.real.rigs import RIGS
 
 HERE = Path(__file__).resolve().parent
@@ -38,6 +41,7 @@ LIBRARY_EFFECTS = frozenset(spec.name for spec in LIBRARY)
 CONFIDENT_GRADES = ("complete", "dominant")
 DECIMATE_FROM_HZ = 200.0
 TARGET_HZ = 100.0
+ALIAS_SHARE = 0.01
 
 
 @dataclass(frozen=True)
@@ -88,9 +92,26 @@ def rate_hz(rec: Recording) -> float:
     return 1.0 / rec.dt
 
 
-def decimation_factor(rec: Recording) -> int | None:
+def power_above(rec: Recording, freq_hz: float) -> float:
+    """The share of the angle's varying power above freq_hz."""
+    x = rec.theta_deg - np.mean(rec.theta_deg)
+    power = np.abs(np.fft.rfft(x)) ** 2
+    freqs = np.fft.rfftfreq(x.size, rec.dt)
+    return float(power[freqs > freq_hz].sum() / max(power.sum(), 1e-300))
+
+
+def decimation_factor(rec: Recording) -> tuple[int | None, str]:
+    """The whole factor to about 100 Hz, or None and why not: a rate under 200 Hz, or motion
+    the lower rate would alias (ALIAS_SHARE or more of the angle's power above 0.4 times it)."""
     native = rate_hz(rec)
-    return int(native // TARGET_HZ) if native >= DECIMATE_FROM_HZ else None
+    if native < DECIMATE_FROM_HZ:
+        return None, f"native {native:.4g} Hz"
+    q = int(native / TARGET_HZ + 1e-6)
+    above = power_above(rec, 0.4 * native / q)
+    if above >= ALIAS_SHARE:
+        return None, (f"{100 * above:.0f} % of the angle's power lies above {0.4 * native / q:.3g} Hz: "
+                      f"{native / q:.4g} Hz would alias it")
+    return q, ""
 
 
 def decimate(rec: Recording, q: int, hold: str) -> Recording:
@@ -121,14 +142,30 @@ def run_diagnose(rig: str, q: int | None, workdir: Path) -> dict[str, Any]:
     return result
 
 
+def _fmt(value: object) -> str:
+    return f"{value:.3g}" if isinstance(value, float) else "-"
+
+
 def _raw_rms(result: dict[str, Any]) -> str:
-    """Raw RMS before/after when the JSON carries it (issue 44 asks for it; today's may not)."""
+    """Raw RMS before/after when diagnose's JSON carries it (issue 44 asks for it)."""
     for key in ("raw_rmse_deg", "rmse_raw_deg", "raw_rms_deg"):
         raw = result.get(key)
         if isinstance(raw, dict):
-            vals = [raw.get(k) for k in ("nominal", "refit", "augmented")]
-            return " / ".join("-" if v is None else f"{v:.3g}" for v in vals)
+            return " / ".join(_fmt(raw.get(k)) for k in ("nominal", "refit", "augmented"))
     return "n/a"
+
+
+def _our_raw_rms(rig: str, q: int | None, result: dict[str, Any]) -> dict[str, float | None]:
+    """rawcheck's raw RMS of the nominal model and of diagnose's refit with its effects."""
+    rec = read_csv(HERE / f"{rig}.csv")
+    hold = str(expected_json(rig).get("input_hold", "zoh"))
+    if q is not None:
+        rec = decimate(rec, q, hold)
+    model = load_model(HERE / f"{rig}_model.yaml")
+    nominal = {"inertia_kgm2": model.inertia_kgm2, "damping_nms_per_rad": model.damping_nms_per_rad,
+               "stiffness_nm_per_rad": model.stiffness_nm_per_rad,
+               "pressure_gain_nm_per_kpa": model.pressure_gain_nm_per_kpa}
+    return raw_rms(rec, nominal, result, hold)
 
 
 def _heldout(result: dict[str, Any]) -> str:
@@ -152,11 +189,12 @@ def one_row(task: tuple[str, int | None]) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         result = run_diagnose(rig, q, Path(tmp))
     mark = judge(exp, result)
+    ours = _our_raw_rms(rig, q, result)
     rate = result.get("sample_rate_hz")
     return {"rig": rig, "decimation": q or 1, "rate_hz": rate,
             "expected": exp.effect or (f"{exp.kind} ({exp.control})" if exp.control else exp.kind),
             "verdict": result.get("verdict"), "grade": result.get("grade"),
-            "effects": _effects(result), "raw_rms_deg": _raw_rms(result),
+            "effects": _effects(result), "raw_rms_deg": _raw_rms(result), "our_raw_rms_deg": ours,
             "heldout_rmse_deg": _heldout(result), "seconds": result.get("wall_s"),
             "judgement": asdict(mark), "warnings": result.get("warnings"),
             "partial_effects": [e.get("name") for e in result.get("partial_effects") or []]}
@@ -164,8 +202,9 @@ def one_row(task: tuple[str, int | None]) -> dict[str, Any]:
 
 def markdown(rows: list[dict[str, Any]]) -> str:
     lines = ["| rig | rate (Hz) | expected | verdict (grade) | effects named | raw RMS nominal / refit / "
-             "augmented (deg) | held-out RMSE refit / augmented (deg) | s | flag |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "augmented, diagnose's (deg) | raw RMS nominal → refit with effects, rawcheck's (deg) | "
+             "held-out RMSE refit / augmented (deg) | s | flag |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         j = r["judgement"]
         flag = ("CONFIDENT WRONG" if j["confident_wrong"] else "") + \
@@ -173,7 +212,8 @@ def markdown(rows: list[dict[str, Any]]) -> str:
         flag = flag.strip() or ("ok" if j["verdict_ok"] else "not expected")
         rate = f"{r['rate_hz']:.4g}" if isinstance(r["rate_hz"], float) else "?"
         lines.append(f"| {r['rig']} | {rate} | {r['expected']} | {r['verdict']} ({r['grade'] or '-'}) | "
-                     f"{r['effects']} | {r['raw_rms_deg']} | {r['heldout_rmse_deg']} | "
+                     f"{r['effects']} | {r['raw_rms_deg']} | {_fmt(r['our_raw_rms_deg']['nominal'])} → "
+                     f"{_fmt(r['our_raw_rms_deg']['augmented'])} | {r['heldout_rmse_deg']} | "
                      f"{r['seconds']:.1f} | {flag} |")
     wrong = sum(r["judgement"]["confident_wrong"] for r in rows)
     failed = sum(r["judgement"]["control_failed"] for r in rows)
@@ -191,11 +231,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args(argv)
     tasks: list[tuple[str, int | None]] = []
+    not_decimated: dict[str, str] = {}
     for rig in args.only or FIXTURES:
         tasks.append((rig, None))
-        q = decimation_factor(read_csv(HERE / f"{rig}.csv"))
+        q, why = decimation_factor(read_csv(HERE / f"{rig}.csv"))
         if q is not None and not args.native_only:
             tasks.append((rig, q))
+        elif q is None:
+            not_decimated[rig] = why
     if args.jobs > 1:
         with ProcessPoolExecutor(args.jobs) as pool:
             rows = list(pool.map(one_row, tasks))
@@ -205,8 +248,9 @@ def main(argv: list[str] | None = None) -> int:
             rows.append(one_row(task))
             print(f"{task[0]} x{task[1] or 1}: {rows[-1]['verdict']} ({rows[-1]['grade']}) "
                   f"{rows[-1]['effects']} {rows[-1]['seconds']:.1f} s", flush=True)
-    table = markdown(rows)
-    args.out.write_text(json.dumps({"rows": rows, "markdown": table,
+    table = markdown(rows) + "\n\nNot decimated: " + "; ".join(
+        f"{rig} ({why})" for rig, why in not_decimated.items()) + "."
+    args.out.write_text(json.dumps({"rows": rows, "markdown": table, "not_decimated": not_decimated,
                                     "rates_native_vs_decimated": _rate_pairs(rows)}, indent=2) + "\n")
     print(table)
     return 0
