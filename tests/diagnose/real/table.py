@@ -155,7 +155,7 @@ def _raw_rms(result: dict[str, Any]) -> str:
     return "n/a"
 
 
-def _our_raw_rms(rig: str, q: int | None, result: dict[str, Any]) -> dict[str, float | None]:
+def our_raw_rms(rig: str, q: int | None, result: dict[str, Any]) -> dict[str, float | None]:
     """rawcheck's raw RMS of the nominal model and of diagnose's refit with its effects."""
     rec = read_csv(HERE / f"{rig}.csv")
     hold = str(expected_json(rig).get("input_hold", "zoh"))
@@ -189,7 +189,7 @@ def one_row(task: tuple[str, int | None]) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as tmp:
         result = run_diagnose(rig, q, Path(tmp))
     mark = judge(exp, result)
-    ours = _our_raw_rms(rig, q, result)
+    ours = our_raw_rms(rig, q, result)
     rate = result.get("sample_rate_hz")
     return {"rig": rig, "decimation": q or 1, "rate_hz": rate,
             "expected": exp.effect or (f"{exp.kind} ({exp.control})" if exp.control else exp.kind),
