@@ -118,6 +118,8 @@ _ZILLEN = dict(repository="github.com/EvaZillen/3D-printed-pneumatic-actuator",
                      "actuators, TU Delft Biomechanical Design, 2021 (the repository)")
 _DAISY = ("DaISy, Database for the Identification of Systems (B. De Moor, ed., KU Leuven "
           "ESAT-SISTA), free for identification research; cite De Moor et al., DaISy")
+_RGP_LICENCE = "repository BSD-3-Clause (Copyright (c) 2015-2016, Zhenwen Dai); "
+_FARNN_LICENCE = "repository MIT (Copyright (c) 2016, Olalekan P. Ogunmolu); "
 _RGP = dict(repository="github.com/zhenwendai/RGP",
             commit="be679607d3457a1038a2fe39b36b816ea380ea39")
 _FARNN = dict(repository="github.com/lakehanne/FARNN",
@@ -128,8 +130,9 @@ SOURCES: dict[str, Source] = {
         repository="github.com/forgi86/sysid-neural-structures-fitting",
         path="examples/CTS_example/data/dataBenchmark.csv",
         commit="886c969c03e86422b8a81d9e826b5745a4934bb0",
-        licence="repository MIT; the data are the benchmark's (nonlinearbenchmark.org), "
-                "published free for identification research, cite Schoukens & Noël 2017",
+        licence="repository MIT (Copyright (c) 2019 Marco Forgione); the data are the benchmark's "
+                "(nonlinearbenchmark.org), "
+                "published free for identification research, cite Schoukens et al. 2016",
         data="Cascaded tanks benchmark, estimation record (uEst, yEst)",
         paper="M. Schoukens, P. Mattsson, T. Wigren, J.-P. Noël, 'Cascaded tanks benchmark "
               "combining soft and hard nonlinearities', Workshop on Nonlinear System "
@@ -144,7 +147,7 @@ SOURCES: dict[str, Source] = {
         **_ZILLEN),
     "coupled_drives": Source(
         path="datasets/system_identification/drive.mat",
-        licence="repository BSD-3-Clause; the data are the CE8 coupled electric drives "
+        licence=_RGP_LICENCE + "the data are the CE8 coupled electric drives "
                 "benchmark's, published free for identification research, cite Wigren & "
                 "Schoukens 2017",
         data="Coupled electric drives (CE8), PRBS record of amplitude 1.5 (u2, z2)",
@@ -153,7 +156,7 @@ SOURCES: dict[str, Source] = {
         **_RGP),
     "hydraulic_actuator": Source(
         path="datasets/system_identification/actuator.mat",
-        licence="repository BSD-3-Clause; the data are Linköping University's (Sjöberg et al.), "
+        licence=_RGP_LICENCE + "the data are Linköping University's (Sjöberg et al.), "
                 "distributed with identification toolboxes for research; cite Sjöberg et al. 1995",
         data="Hydraulic actuator of a robot arm: valve opening u, oil pressure p",
         paper="J. Sjöberg et al., 'Nonlinear black-box modeling in system identification: a "
@@ -161,26 +164,26 @@ SOURCES: dict[str, Source] = {
         **_RGP),
     "ball_beam": Source(
         path="datasets/system_identification/ballbeam.dat",
-        licence="repository BSD-3-Clause; " + _DAISY,
+        licence=_RGP_LICENCE + _DAISY,
         data="Ball and beam practicum (ESAT-SISTA): beam angle, ball position",
         paper="DaISy, the ball-and-beam data set",
         **_RGP),
     "hair_dryer": Source(
         path="datasets/system_identification/dryer.dat",
-        licence="repository BSD-3-Clause; " + _DAISY,
+        licence=_RGP_LICENCE + _DAISY,
         data="Laboratory hair dryer (Feedback Process Trainer PT326): heater voltage, air temperature",
         paper="L. Ljung, System Identification, Theory for the User, 1987 (the dryer example); "
               "DaISy, the dryer data set",
         **_RGP),
     "flexible_arm": Source(
         path="data/robotArm.mat",
-        licence="repository MIT; " + _DAISY,
+        licence=_FARNN_LICENCE + _DAISY,
         data="Flexible robot arm on an electric motor: reaction torque, arm acceleration",
         paper="DaISy, the flexible robot arm data set",
         **_FARNN),
     "glass_furnace": Source(
         path="data/glassfurnace.mat",
-        licence="repository MIT; " + _DAISY,
+        licence=_FARNN_LICENCE + _DAISY,
         data="Glass furnace (Philips): 3 inputs (2 heating, 1 cooling), 6 temperatures",
         paper="DaISy, the glass furnace data set",
         **_FARNN),
