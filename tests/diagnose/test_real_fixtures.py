@@ -25,18 +25,18 @@ from tests.diagnose.real.table import (
     HERE,
     LIBRARY_EFFECTS,
     Expectation,
-    decimation_factor,
     expectation,
     judge,
+    lower_rate,
     our_raw_rms,
     run_diagnose,
 )
 
 REAL = HERE
-DECIMATION = {rig: decimation_factor(read_csv(REAL / f"{rig}.csv"))[0] for rig in FIXTURES}
-TWO_RATES = sorted(rig for rig, q in DECIMATION.items() if q is not None)
-RUNS = [(rig, None) for rig in FIXTURES] + [(rig, DECIMATION[rig]) for rig in TWO_RATES]
-Cache = dict[tuple[str, int | None], dict[str, Any]]
+LOWER_RATE = {rig: lower_rate(read_csv(REAL / f"{rig}.csv"))[0] for rig in FIXTURES}
+TWO_RATES = sorted(rig for rig, rate in LOWER_RATE.items() if rate is not None)
+RUNS = [(rig, None) for rig in FIXTURES] + [(rig, LOWER_RATE[rig]) for rig in TWO_RATES]
+Cache = dict[tuple[str, float | None], dict[str, Any]]
 
 
 def test_every_rig_of_the_converter_is_a_fixture() -> None:
@@ -106,32 +106,32 @@ def diagnoses() -> Cache:
     return {}
 
 
-def diagnosed(cache: Cache, rig: str, q: int | None,
+def diagnosed(cache: Cache, rig: str, rate: float | None,
               workdir: Path) -> dict[str, Any]:
-    if (rig, q) not in cache:
-        cache[rig, q] = run_diagnose(rig, q, workdir)
-    return cache[rig, q]
+    if (rig, rate) not in cache:
+        cache[rig, rate] = run_diagnose(rig, rate, workdir)
+    return cache[rig, rate]
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason="diagnose engine work of issue 44")
-@pytest.mark.parametrize(("rig", "q"), RUNS)
-def test_diagnose_is_never_confidently_wrong(rig: str, q: int | None, tmp_path: Path,
+@pytest.mark.parametrize(("rig", "rate"), RUNS)
+def test_diagnose_is_never_confidently_wrong(rig: str, rate: float | None, tmp_path: Path,
                                              diagnoses: Cache) -> None:
-    verdict = judge(expectation(rig), diagnosed(diagnoses, rig, q, tmp_path))
+    verdict = judge(expectation(rig), diagnosed(diagnoses, rig, rate, tmp_path))
     assert not verdict.confident_wrong, verdict
     assert not verdict.control_failed, verdict
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason="diagnose engine work of issue 44")
-@pytest.mark.parametrize(("rig", "q"), RUNS)
-def test_a_named_effect_lowers_the_raw_error(rig: str, q: int | None, tmp_path: Path,
+@pytest.mark.parametrize(("rig", "rate"), RUNS)
+def test_a_named_effect_lowers_the_raw_error(rig: str, rate: float | None, tmp_path: Path,
                                              diagnoses: Cache) -> None:
     """Issue 44: named only when the model with it, simulated from the command alone, misses
     the raw angle by less than the model without it (rawcheck.py measures both)."""
-    result = diagnosed(diagnoses, rig, q, tmp_path)
-    raw = our_raw_rms(rig, q, result)
+    result = diagnosed(diagnoses, rig, rate, tmp_path)
+    raw = our_raw_rms(rig, rate, result)
     if not result.get("effects") or raw["augmented"] is None:
         pytest.skip("no effect named, or none rawcheck can simulate")
     assert raw["augmented"] < raw["nominal"], raw
@@ -143,4 +143,4 @@ def test_a_named_effect_lowers_the_raw_error(rig: str, q: int | None, tmp_path: 
 def test_verdict_class_does_not_change_with_the_rate(rig: str, tmp_path: Path,
                                                      diagnoses: Cache) -> None:
     native = diagnosed(diagnoses, rig, None, tmp_path)["verdict"]
-    assert diagnosed(diagnoses, rig, DECIMATION[rig], tmp_path)["verdict"] == native
+    assert diagnosed(diagnoses, rig, LOWER_RATE[rig], tmp_path)["verdict"] == native

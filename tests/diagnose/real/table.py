@@ -4,10 +4,11 @@ expectations (README.md §1 and §6).
     python -m tests.diagnose.real.table --out X.json [--only RIG ...] [--native-only] [--jobs 1]
 
 Each fixture is run at its own rate and, where the rate allows (200 Hz or more, and the
-motion slow enough not to alias: `decimation_factor`), decimated by a whole factor to about
-100 Hz (rate invariance, issue 44): the command is averaged over each block
-(the right input for a command held over the sample period) or, for a command read linear
-between samples (`--input-hold point`), sampled like the angle, at the block's first sample.
+motion slow enough not to alias: `lower_rate`), resampled to 100 Hz (rate invariance,
+issue 44): the angle read at the new instants (linear between samples), the command held
+over each sample averaged exactly over each new period (the right input for a command held
+over the sample period) or, for a command read linear between samples (`--input-hold
+point`), read at the new instants like the angle.
 
 A row is a **confident wrong verdict** when a library effect outside the rig's
 `acceptable_effects` is named with grade `complete` or `dominant`; a **negative control
@@ -100,37 +101,44 @@ def power_above(rec: Recording, freq_hz: float) -> float:
     return float(power[freqs > freq_hz].sum() / max(power.sum(), 1e-300))
 
 
-def decimation_factor(rec: Recording) -> tuple[int | None, str]:
-    """The whole factor to about 100 Hz, or None and why not: a rate under 200 Hz, or motion
-    the lower rate would alias (ALIAS_SHARE or more of the angle's power above 0.4 times it)."""
+def lower_rate(rec: Recording) -> tuple[float | None, str]:
+    """TARGET_HZ, or None and why not: a rate under 200 Hz, or motion 100 Hz would alias
+    (ALIAS_SHARE or more of the angle's power above 0.4 times it)."""
     native = rate_hz(rec)
     if native < DECIMATE_FROM_HZ:
         return None, f"native {native:.4g} Hz"
-    q = int(native / TARGET_HZ + 1e-6)
-    above = power_above(rec, 0.4 * native / q)
+    above = power_above(rec, 0.4 * TARGET_HZ)
     if above >= ALIAS_SHARE:
-        return None, (f"{100 * above:.0f} % of the angle's power lies above {0.4 * native / q:.3g} Hz: "
-                      f"{native / q:.4g} Hz would alias it")
-    return q, ""
+        return None, (f"{100 * above:.0f} % of the angle's power lies above {0.4 * TARGET_HZ:.3g} Hz: "
+                      f"{TARGET_HZ:.4g} Hz would alias it")
+    return TARGET_HZ, ""
 
 
-def decimate(rec: Recording, q: int, hold: str) -> Recording:
-    n = rec.t.size // q
-    p = rec.p[: n * q: q] if hold == "point" else rec.p[: n * q].reshape(n, q).mean(axis=1)
-    return Recording(rec.t[: n * q: q], p, rec.theta_deg[: n * q: q])
+def resample(rec: Recording, new_rate_hz: float, hold: str) -> Recording:
+    """The recording at new_rate_hz (lower than its own): see the module's docstring."""
+    period = 1.0 / new_rate_hz
+    t = rec.t[0] + np.arange(int((rec.t[-1] - rec.t[0]) / period)) * period
+    theta = np.interp(t, rec.t, rec.theta_deg)
+    if hold == "point":
+        return Recording(t - rec.t[0], np.interp(t, rec.t, rec.p), theta)
+    edges = np.append(rec.t, rec.t[-1] + rec.dt)  # the held command's integral, exact
+    integral = np.concatenate([[0.0], np.cumsum(rec.p * np.diff(edges))])
+    area = np.interp(np.append(t, t[-1] + period), edges, integral)
+    return Recording(t - rec.t[0], np.diff(area) / period, theta)
 
 
-def run_diagnose(rig: str, q: int | None, workdir: Path) -> dict[str, Any]:
-    """diagnose's JSON for the fixture (decimated by q when given), with the wall time."""
+def run_diagnose(rig: str, new_rate_hz: float | None, workdir: Path) -> dict[str, Any]:
+    """diagnose's JSON for the fixture (resampled to new_rate_hz when given), with the wall time."""
     hold = str(expected_json(rig).get("input_hold", "zoh"))
     csv = HERE / f"{rig}.csv"
-    if q is not None:
-        rec = read_csv(csv)
-        small = decimate(rec, q, hold)
-        csv = workdir / f"{rig}_q{q}.csv"
-        write_csv(csv, small, {"source": f"{rig}.csv decimated {q}x by tests/diagnose/real/table.py",
+    tag = "native" if new_rate_hz is None else f"{new_rate_hz:g}hz"
+    if new_rate_hz is not None:
+        small = resample(read_csv(csv), new_rate_hz, hold)
+        csv = workdir / f"{rig}_{tag}.csv"
+        write_csv(csv, small, {"source": f"{rig}.csv resampled to {new_rate_hz:g} Hz by "
+                                         "tests/diagnose/real/table.py",
                                "sample_rate_hz": f"{rate_hz(small):.6g}"}, (".6f", ".6g", ".6g"))
-    out = workdir / f"{rig}_q{q or 1}.json"
+    out = workdir / f"{rig}_{tag}.json"
     started = time.perf_counter()
     code = cli_main(["diagnose", str(csv), "--model", str(HERE / f"{rig}_model.yaml"),
                      "--input-hold", hold, "--json", str(out), "--quiet"])
@@ -155,12 +163,12 @@ def _raw_rms(result: dict[str, Any]) -> str:
     return "n/a"
 
 
-def our_raw_rms(rig: str, q: int | None, result: dict[str, Any]) -> dict[str, float | None]:
+def our_raw_rms(rig: str, new_rate_hz: float | None, result: dict[str, Any]) -> dict[str, float | None]:
     """rawcheck's raw RMS of the nominal model and of diagnose's refit with its effects."""
     rec = read_csv(HERE / f"{rig}.csv")
     hold = str(expected_json(rig).get("input_hold", "zoh"))
-    if q is not None:
-        rec = decimate(rec, q, hold)
+    if new_rate_hz is not None:
+        rec = resample(rec, new_rate_hz, hold)
     model = load_model(HERE / f"{rig}_model.yaml")
     nominal = {"inertia_kgm2": model.inertia_kgm2, "damping_nms_per_rad": model.damping_nms_per_rad,
                "stiffness_nm_per_rad": model.stiffness_nm_per_rad,
@@ -184,14 +192,14 @@ def _effects(result: dict[str, Any]) -> str:
 
 
 def one_row(task: tuple[str, int | None]) -> dict[str, Any]:
-    rig, q = task
+    rig, new_rate_hz = task
     exp = expectation(rig)
     with tempfile.TemporaryDirectory() as tmp:
-        result = run_diagnose(rig, q, Path(tmp))
+        result = run_diagnose(rig, new_rate_hz, Path(tmp))
     mark = judge(exp, result)
-    ours = our_raw_rms(rig, q, result)
+    ours = our_raw_rms(rig, new_rate_hz, result)
     rate = result.get("sample_rate_hz")
-    return {"rig": rig, "decimation": q or 1, "rate_hz": rate,
+    return {"rig": rig, "resampled": new_rate_hz is not None, "rate_hz": rate,
             "expected": exp.effect or (f"{exp.kind} ({exp.control})" if exp.control else exp.kind),
             "verdict": result.get("verdict"), "grade": result.get("grade"),
             "effects": _effects(result), "raw_rms_deg": _raw_rms(result), "our_raw_rms_deg": ours,
@@ -230,14 +238,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--native-only", action="store_true")
     parser.add_argument("--jobs", type=int, default=1)
     args = parser.parse_args(argv)
-    tasks: list[tuple[str, int | None]] = []
+    tasks: list[tuple[str, float | None]] = []
     not_decimated: dict[str, str] = {}
     for rig in args.only or FIXTURES:
         tasks.append((rig, None))
-        q, why = decimation_factor(read_csv(HERE / f"{rig}.csv"))
-        if q is not None and not args.native_only:
-            tasks.append((rig, q))
-        elif q is None:
+        lower, why = lower_rate(read_csv(HERE / f"{rig}.csv"))
+        if lower is not None and not args.native_only:
+            tasks.append((rig, lower))
+        elif lower is None:
             not_decimated[rig] = why
     if args.jobs > 1:
         with ProcessPoolExecutor(args.jobs) as pool:
@@ -246,9 +254,9 @@ def main(argv: list[str] | None = None) -> int:
         rows = []
         for task in tasks:
             rows.append(one_row(task))
-            print(f"{task[0]} x{task[1] or 1}: {rows[-1]['verdict']} ({rows[-1]['grade']}) "
+            print(f"{task[0]} at {task[1] or 'native'}: {rows[-1]['verdict']} ({rows[-1]['grade']}) "
                   f"{rows[-1]['effects']} {rows[-1]['seconds']:.1f} s", flush=True)
-    table = markdown(rows) + "\n\nNot decimated: " + "; ".join(
+    table = markdown(rows) + "\n\nNot resampled: " + "; ".join(
         f"{rig} ({why})" for rig, why in not_decimated.items()) + "."
     args.out.write_text(json.dumps({"rows": rows, "markdown": table, "not_decimated": not_decimated,
                                     "rates_native_vs_decimated": _rate_pairs(rows)}, indent=2) + "\n")
