@@ -142,3 +142,19 @@ def test_independent_fitter_recovers_a_known_effect(kind: str, c: float) -> None
     fit = fit_ode(recording, kind, start=start)
     assert abs(fit.c / c - 1) < 0.03
     assert abs(fit.k / truth[1] - 1) < 0.03
+
+
+def test_independent_fitter_keeps_a_physical_nominal() -> None:
+    """rigs.py fits its nominal models with `physical`: a recording that a negative damping
+    fits best (a growing ring) gets B = 0 there, and B < 0 without it."""
+    dt = 0.01
+    t = np.arange(0, 2.0, dt)
+    p = np.where(t < 0.2, 30.0, 0.0)
+    truth = np.array([-0.8, 400.0, 20.0, 0.0, 0.0, 0.0])  # b < 0: the ring grows
+    recording = Recording(t, p, simulate(truth, p, dt, "linear")[0] / DEG)
+    start = np.array([0.5, 400.0, 20.0, 0.0, 0.0, 0.0])
+    free = fit_ode(recording, "linear", start=start, max_step=dt / 2)
+    held = fit_ode(recording, "linear", start=start, max_step=dt / 2, physical=True)
+    assert free.b < -0.5
+    assert held.b >= 0.0 and held.k > 0.0
+    assert held.rmse_deg > free.rmse_deg

@@ -131,11 +131,14 @@ def initial_state(rec: Recording) -> tuple[float, float]:
 
 
 def fit_ode(rec: Recording, kind: str, start: FloatArray | None = None, skip_s: float = 0.0,
-            hold: str = "zoh", free_initial: bool = True, stiffness: float | None = None) -> OdeFit:
+            hold: str = "zoh", free_initial: bool = True, stiffness: float | None = None,
+            max_step: float = 5e-4, physical: bool = False) -> OdeFit:
     """Output-error least squares of [b, k, n, c, θ0, ω0] (c fixed at 0 for `linear`).
 
     With `free_initial` False the initial state is the data's (`initial_state`), not fitted;
-    `stiffness` holds k/A at a given value (an axis without a spring: 0).
+    `stiffness` holds k/A at a given value (an axis without a spring: 0); `max_step` (s) is
+    the longest RK4 step; `physical` keeps B/A and k/A at or above zero (a nominal finger that
+    neither gains energy nor has a negative spring).
     """
     p0 = equation_error_start(rec, kind) if start is None else np.asarray(start, dtype=float).copy()
     free = [0, 1, 2, 3, 4, 5]
@@ -165,17 +168,23 @@ def fit_ode(rec: Recording, kind: str, start: FloatArray | None = None, skip_s: 
         return q
 
     def residual(z: FloatArray) -> FloatArray:
-        return (simulate(full(z), rec.p, rec.dt, kind, hold)[0] / DEG - y)[keep]
+        return (simulate(full(z), rec.p, rec.dt, kind, hold, max_step)[0] / DEG - y)[keep]
 
     def jacobian(z: FloatArray) -> FloatArray:
         step = 1e-6
         rows = np.repeat(full(z)[None, :], len(free) + 1, axis=0)
         for j, idx in enumerate(free):
             rows[j + 1, idx] += step * scale[j]
-        sims = simulate(rows, rec.p, rec.dt, kind, hold) / DEG
+        sims = simulate(rows, rec.p, rec.dt, kind, hold, max_step) / DEG
         return ((sims[1:] - sims[0]) / step).T[keep]
 
-    sol = least_squares(residual, p0[free] / scale, jac=jacobian,
+    lower = np.full(len(free), -np.inf)
+    if physical:
+        for idx in (0, 1):
+            if idx in free:
+                p0[idx] = max(p0[idx], 1e-3 * scale[free.index(idx)])
+                lower[free.index(idx)] = 0.0
+    sol = least_squares(residual, p0[free] / scale, jac=jacobian, bounds=(lower, np.inf),
                         x_scale="jac", xtol=1e-10, ftol=1e-10, max_nfev=200)
     q = full(sol.x)
     dof = max(1, int(keep.sum()) - len(free))
