@@ -12,17 +12,21 @@
 #define TX_BYTES 65536u
 #define CAN_QUEUE 512u
 #define RAD_TO_DEG 57.29577951308232
-/* A longer gap between runs is this process held up (a busy machine), not the board: the
- * board polls once, receiving first, as the host build's loop does after a stall, rather
- * than living through the gap without the frames that arrived in it (a false watchdog vent) */
+/* A run normally follows what arrived at once (the caller wakes on input), so the board
+ * receives it at the run's last step. A longer gap is this process held up (a busy machine),
+ * not the board: what arrived came at unknown times within it, so the board receives it
+ * spread evenly over the gap, living through the gap step by step as a board does; it would
+ * otherwise vent for want of commands that were waiting. A gap beyond STALL_MAX_US is cut
+ * to it (the board's clock jumps, as its sample timer does after that long). */
 #define STALL_US 50000u
+#define STALL_MAX_US 500000u
 
 struct inprocess {
     struct board board;
     struct hal_plant plant;
     uint64_t t0_us;               /* the caller's clock at init: the HAL's clock counts from it */
     uint64_t now_us;              /* the HAL's clock, in the caller's time */
-    int receiving;                /* the link hands out what was pushed (the last step of a run) */
+    uint32_t rx_budget;           /* how many frames (can) or bytes (serial) the link hands out now */
     uint8_t rx[RX_BYTES];
     uint32_t rx_head, rx_count;
     uint8_t tx[TX_BYTES];
@@ -52,7 +56,8 @@ uint16_t hal_serial_read(uint8_t *buf, uint16_t max_len)
 {
     struct inprocess *ip = current;
     uint16_t n = 0u;
-    while (ip->receiving && n < max_len && ip->rx_count > 0u) {
+    while (ip->rx_budget > 0u && n < max_len && ip->rx_count > 0u) {
+        ip->rx_budget--;
         buf[n++] = ip->rx[ip->rx_head];
         ip->rx_head = (ip->rx_head + 1u) % RX_BYTES;
         ip->rx_count--;
@@ -82,9 +87,10 @@ static int queue_frame(struct inprocess_frame *queue, uint32_t head, uint32_t *c
 uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len)
 {
     struct inprocess *ip = current;
-    if (!ip->receiving || ip->can_rx_count == 0u) {
+    if (ip->rx_budget == 0u || ip->can_rx_count == 0u) {
         return 0u;
     }
+    ip->rx_budget--;
     const struct inprocess_frame *f = &ip->can_rx[ip->can_rx_head];
     *id = f->id;
     *len = f->len;
@@ -157,17 +163,33 @@ static void step(struct inprocess *ip, uint64_t at_us)
     }
 }
 
+static uint32_t waiting(const struct inprocess *ip)
+{
+    return ip->board.cfg.wire == BOARD_WIRE_CAN ? ip->can_rx_count : ip->rx_count;
+}
+
 void inprocess_run(struct inprocess *ip, uint64_t now_us)
 {
     select_instance(ip);
     const uint64_t inner_us = ip->board.cfg.inner_period_us;
-    ip->receiving = 0;
-    while (ip->now_us + inner_us < now_us && now_us - ip->now_us <= STALL_US) {
-        step(ip, ip->now_us + inner_us);
+    if (now_us > ip->now_us + STALL_MAX_US) {
+        ip->now_us = now_us - STALL_MAX_US;
     }
-    ip->receiving = 1;
+    const uint64_t start_us = ip->now_us;
+    const uint64_t gap_us = now_us > start_us ? now_us - start_us : 0u;
+    const uint32_t arrived = waiting(ip);
+    while (ip->now_us + inner_us < now_us) {
+        const uint64_t at_us = ip->now_us + inner_us;
+        ip->rx_budget = 0u;
+        if (gap_us > STALL_US) { /* what should have arrived by at_us, of what is waiting */
+            const uint32_t later = (uint32_t)((uint64_t)arrived * (now_us - at_us) / gap_us);
+            ip->rx_budget = waiting(ip) > later ? waiting(ip) - later : 0u;
+        }
+        step(ip, at_us);
+    }
+    ip->rx_budget = UINT32_MAX;
     step(ip, now_us > ip->now_us ? now_us : ip->now_us);
-    ip->receiving = 0;
+    ip->rx_budget = 0u;
 }
 
 /* The time from now_us to when_us on the wrapping clock; 0 once it has passed. */
