@@ -96,6 +96,8 @@ struct board {
     uint16_t pressure_bad_ticks[BOARD_MAX_FINGERS];
     float command_kpa[BOARD_MAX_FINGERS];
     float pressure_kpa[BOARD_MAX_FINGERS];   /* measured at the newest inner tick */
+    float pressure_sum_kpa[BOARD_MAX_FINGERS]; /* the valid ones since the last sample: its mean */
+    uint16_t pressure_ticks[BOARD_MAX_FINGERS];
     struct regulator regulators[BOARD_MAX_FINGERS];
     struct serial_v1_decoder decoder;
     struct board_partial_command partial;

@@ -61,6 +61,10 @@ void board_inner_tick(struct board *b)
         int valid;
         const float kpa = pressure_from_adc(b, hal_adc_read((uint8_t)(2u * i)), &valid);
         b->pressure_kpa[i] = valid ? kpa : NAN;
+        if (valid) {
+            b->pressure_sum_kpa[i] += kpa;
+            b->pressure_ticks[i]++;
+        }
         b->pressure_bad_ticks[i] = valid ? 0u : (uint16_t)(b->pressure_bad_ticks[i] + 1u);
         if (b->pressure_bad_ticks[i] >= b->cfg.pressure_fault_ticks) {
             if (b->state != BOARD_FAULT) {
@@ -95,7 +99,14 @@ void board_sample(struct board *b)
     float pressure_kpa[BOARD_MAX_FINGERS];
     for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
         flex_mv[i] = (float)hal_adc_read((uint8_t)(2u * i + 1u)) * b->cfg.adc_ref_mv / (float)b->cfg.adc_max_counts;
-        pressure_kpa[i] = b->pressure_kpa[i];
+        /* the mean over the sample period, not the newest tick: the valves' PWM ripples the
+         * chamber pressure at the sample rate, and one tick of it would read the ripple's
+         * phase as a pressure the finger never felt */
+        pressure_kpa[i] = isnan(b->pressure_kpa[i]) || b->pressure_ticks[i] == 0u
+                              ? b->pressure_kpa[i]
+                              : b->pressure_sum_kpa[i] / (float)b->pressure_ticks[i];
+        b->pressure_sum_kpa[i] = 0.0f;
+        b->pressure_ticks[i] = 0u;
     }
 #ifdef BOARD_TEST_IMAGE
     struct inject *in = &b->inject;

@@ -12,13 +12,21 @@
 #define TX_BYTES 65536u
 #define CAN_QUEUE 512u
 #define RAD_TO_DEG 57.29577951308232
+/* A run normally follows what arrived at once (the caller wakes on input), so the board
+ * receives it at the run's last step. A longer gap is this process held up (a busy machine),
+ * not the board: what arrived came at unknown times within it, so the board receives it
+ * spread evenly over the gap, living through the gap step by step as a board does; it would
+ * otherwise vent for want of commands that were waiting. A gap beyond STALL_MAX_US is cut
+ * to it (the board's clock jumps, as its sample timer does after that long). */
+#define STALL_US 50000u
+#define STALL_MAX_US 500000u
 
 struct inprocess {
     struct board board;
     struct hal_plant plant;
     uint64_t t0_us;               /* the caller's clock at init: the HAL's clock counts from it */
     uint64_t now_us;              /* the HAL's clock, in the caller's time */
-    int receiving;                /* the link hands out what was pushed (the last step of a run) */
+    uint32_t rx_budget;           /* how many frames (can) or bytes (serial) the link hands out now */
     uint8_t rx[RX_BYTES];
     uint32_t rx_head, rx_count;
     uint8_t tx[TX_BYTES];
@@ -48,7 +56,8 @@ uint16_t hal_serial_read(uint8_t *buf, uint16_t max_len)
 {
     struct inprocess *ip = current;
     uint16_t n = 0u;
-    while (ip->receiving && n < max_len && ip->rx_count > 0u) {
+    while (ip->rx_budget > 0u && n < max_len && ip->rx_count > 0u) {
+        ip->rx_budget--;
         buf[n++] = ip->rx[ip->rx_head];
         ip->rx_head = (ip->rx_head + 1u) % RX_BYTES;
         ip->rx_count--;
@@ -78,9 +87,10 @@ static int queue_frame(struct inprocess_frame *queue, uint32_t head, uint32_t *c
 uint8_t hal_can_read(uint16_t *id, uint8_t *data, uint8_t *len)
 {
     struct inprocess *ip = current;
-    if (!ip->receiving || ip->can_rx_count == 0u) {
+    if (ip->rx_budget == 0u || ip->can_rx_count == 0u) {
         return 0u;
     }
+    ip->rx_budget--;
     const struct inprocess_frame *f = &ip->can_rx[ip->can_rx_head];
     *id = f->id;
     *len = f->len;
@@ -153,41 +163,63 @@ static void step(struct inprocess *ip, uint64_t at_us)
     }
 }
 
+static uint32_t waiting(const struct inprocess *ip)
+{
+    return ip->board.cfg.wire == BOARD_WIRE_CAN ? ip->can_rx_count : ip->rx_count;
+}
+
 void inprocess_run(struct inprocess *ip, uint64_t now_us)
 {
     select_instance(ip);
     const uint64_t inner_us = ip->board.cfg.inner_period_us;
-    if (now_us > ip->now_us + HAL_PLANT_CATCH_UP_US) {
-        ip->now_us = now_us - HAL_PLANT_CATCH_UP_US; /* a stalled process: catch up 0.2 s at most */
+    if (now_us > ip->now_us + STALL_MAX_US) {
+        ip->now_us = now_us - STALL_MAX_US;
     }
-    ip->receiving = 0;
+    const uint64_t start_us = ip->now_us;
+    const uint64_t gap_us = now_us > start_us ? now_us - start_us : 0u;
+    const uint32_t arrived = waiting(ip);
     while (ip->now_us + inner_us < now_us) {
-        step(ip, ip->now_us + inner_us);
+        const uint64_t at_us = ip->now_us + inner_us;
+        ip->rx_budget = 0u;
+        if (gap_us > STALL_US) { /* what should have arrived by at_us, of what is waiting */
+            const uint32_t later = (uint32_t)((uint64_t)arrived * (now_us - at_us) / gap_us);
+            ip->rx_budget = waiting(ip) > later ? waiting(ip) - later : 0u;
+        }
+        step(ip, at_us);
     }
-    ip->receiving = 1;
+    ip->rx_budget = UINT32_MAX;
     step(ip, now_us > ip->now_us ? now_us : ip->now_us);
-    ip->receiving = 0;
+    ip->rx_budget = 0u;
+}
+
+/* The time from now_us to when_us on the wrapping clock; 0 once it has passed. */
+static uint32_t time_left_us(uint32_t now_us, uint32_t when_us)
+{
+    const int32_t left_us = (int32_t)(when_us - now_us);
+    return left_us > 0 ? (uint32_t)left_us : 0u;
+}
+
+static uint32_t smaller(uint32_t a, uint32_t b)
+{
+    return a < b ? a : b;
 }
 
 uint64_t inprocess_next_event_us(const struct inprocess *ip)
 {
     const struct board *b = &ip->board;
-    uint32_t until_us = b->next_sample_us - b->now_us;
+    uint32_t left_us = time_left_us(b->now_us, b->next_sample_us);
     if (b->state == BOARD_RUNNING) {
-        const uint32_t watchdog_us = b->last_command_us + b->cfg.watchdog_us - b->now_us;
-        until_us = (int32_t)watchdog_us < 0 ? 0u : (watchdog_us < until_us ? watchdog_us : until_us);
+        left_us = smaller(left_us, time_left_us(b->now_us, b->last_command_us + b->cfg.watchdog_us));
     }
     if (b->state == BOARD_BOOTING) {
-        const uint32_t boot_us = b->boot_end_us - b->now_us;
-        until_us = (int32_t)boot_us < 0 ? 0u : (boot_us < until_us ? boot_us : until_us);
+        left_us = smaller(left_us, time_left_us(b->now_us, b->boot_end_us));
     }
 #ifdef BOARD_TEST_IMAGE
     if (b->inject.count > 0u) {
-        const uint32_t due_us = b->inject.due_us[b->inject.head] - b->now_us;
-        until_us = (int32_t)due_us < 0 ? 0u : (due_us < until_us ? due_us : until_us);
+        left_us = smaller(left_us, time_left_us(b->now_us, b->inject.due_us[b->inject.head]));
     }
 #endif
-    return ip->now_us + ((int32_t)until_us < 0 ? 0u : until_us);
+    return ip->now_us + left_us;
 }
 
 int inprocess_can_push(struct inprocess *ip, uint16_t id, const uint8_t *data, uint8_t len)

@@ -54,7 +54,8 @@ struct inprocess_view {
 size_t inprocess_size(void);
 /* 0, or -1 when the firmware refuses the configuration. */
 int inprocess_init(struct inprocess *ip, const struct inprocess_config *cfg, uint64_t now_us);
-/* Run the board to now_us in steps of its inner period; what was pushed is received at the end. */
+/* Run the board to now_us in steps of its inner period; what was pushed is received at the
+ * end, or, after a longer gap (the calling process held up), spread over the gap. */
 void inprocess_run(struct inprocess *ip, uint64_t now_us);
 /* When the board next has something to do on its own (a sample, the watchdog, a held frame). */
 uint64_t inprocess_next_event_us(const struct inprocess *ip);

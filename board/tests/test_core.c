@@ -277,6 +277,18 @@ static void test_can_wire(void)
     CHECK(b.rx_errors == 1);
 }
 
+static void test_sample_reports_the_periods_mean_pressure(void)
+{
+    boot(BOARD_WIRE_SERIAL);
+    for (int ms = 0; ms < 40; ms++) { /* a chamber that swings 20 <-> 40 kPa every tick (PWM ripple) */
+        set_pressure(0, ms % 2 ? 40.0f : 20.0f);
+        run_for_us(1000u);
+    }
+    collect();
+    const struct sent *s = last_of(SERIAL_V1_SENSOR_REPORT);
+    CHECK(s != NULL && fabsf(serial_v1_get_f32(s->payload + 7) - 30.0f) < 2.5f);
+}
+
 static void can_fault(uint8_t kind, uint16_t value)
 {
     struct can_v1_fault_inject_t msg;
@@ -357,6 +369,7 @@ int main(void)
     test_version_request_and_refusal();
     test_over_pressure_and_sensor_faults();
     test_injected_faults();
+    test_sample_reports_the_periods_mean_pressure();
     test_can_wire();
     test_can_error_frames_and_bus_off();
     test_clock_drift_moves_every_time_the_board_keeps();

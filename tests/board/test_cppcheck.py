@@ -1,7 +1,8 @@
 """cppcheck (`make -C board cppcheck`) is clean on everything under board/: the core and the
-plant in the test and the release image, the host build, the C tests, the Cortex-M and AVR
-ports and the Arduino sketch; and it is live on each of them: a bug seeded into a copy of each
-part fails it. Run by `make test-board` (marker `qemu`), which installs cppcheck."""
+plant in the test and the release image, the host and the in-process builds, the C tests,
+the Cortex-M and AVR ports and the Arduino sketch; and it is live on each of them: a bug
+seeded into a copy of each part fails it. Run by `make test-board` (marker `qemu`), which
+installs cppcheck."""
 
 from __future__ import annotations
 
@@ -20,8 +21,8 @@ DBC = REPO / "firmware_profiles" / "can-v1.dbc"
 # an out-of-bounds write cppcheck reports as an error (arrayIndexOutOfBounds)
 SEED = "\nint seeded_bug_reader(void);\nint seeded_bug_reader(void)\n{\n    int two[2];\n    two[2] = 1;\n" \
        "    return two[0];\n}\n"
-PARTS = ["core/board.c", "plant/finger.c", "host/main.c", "tests/test_core.c", "cortexm/hal_mps2.c",
-         "avr/hal_avr.c", "arduino/valve_board/valve_board.ino"]
+PARTS = ["core/board.c", "plant/finger.c", "host/main.c", "inprocess/inprocess.c", "tests/test_core.c",
+         "cortexm/hal_mps2.c", "avr/hal_avr.c", "arduino/valve_board/valve_board.ino"]
 
 
 def run_make(board_dir: Path, build_dir: Path, target: str) -> subprocess.CompletedProcess[str]:
