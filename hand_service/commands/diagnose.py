@@ -62,7 +62,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.commands.progress import Progress
     from hand_service.config.profile import load_model
     from hand_service.diagnose.engine import diagnose
-    from hand_service.diagnose.timebase import regular_grid
+    from hand_service.diagnose.recording.timebase import regular_grid
     from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
     from hand_service.outputs import check_writable
@@ -114,7 +114,7 @@ def _write_files(args: argparse.Namespace, result: Any) -> None:
     from hand_service.config.model import save_model
 
     if args.report:
-        from hand_service.diagnose.report import write_report
+        from hand_service.diagnose.report.html import write_report
 
         write_report(result, args.report, str(args.recording))
         print(f"wrote {args.report}")
@@ -131,7 +131,7 @@ def _write_files(args: argparse.Namespace, result: Any) -> None:
 
 
 def print_summary(result) -> None:
-    from hand_service.diagnose.evidence import uncertainty
+    from hand_service.diagnose.report.evidence import uncertainty
 
     j = result.to_json()
     print(f"verdict: {j['verdict']}")

@@ -4,7 +4,7 @@
     b. refit k, B, N (A and the model's own effects held) by output-error least squares;
     c. locate: residual whiteness, cross-correlation with the past input, windows in time,
        and each library effect's signature correlation;
-    d. name: forward selection over the library effects the model leaves out (search.py);
+    d. name: forward selection over the library effects the model leaves out (search/forward_selection.py);
     e. judge: consistent / parameters_only / missing_physics / unexplained /
        insufficient_excitation.
 """
@@ -19,9 +19,7 @@ from threadpoolctl import threadpool_limits
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
-from hand_service.diagnose import excitation, noise, stability, stats
-from hand_service.diagnose.evidence import Context, sentence
-from hand_service.diagnose.fit import (
+from hand_service.diagnose.fitting.output_error import (
     FAR_FACTOR,
     Fit,
     far_from_nominal,
@@ -30,18 +28,12 @@ from hand_service.diagnose.fit import (
     relative_std,
     unpinned,
 )
-from hand_service.diagnose.outside import Outside, outside_checks
-from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
-from hand_service.diagnose.scales import check_nominal
-from hand_service.diagnose.search import (
-    SIGNIFICANT_BIC,
-    Candidate,
-    Progress,
-    Selection,
-    data_alone_bic,
-    select,
-)
-from hand_service.diagnose.verdict import (
+from hand_service.diagnose.model.problem import PLAIN, Param, Problem, build_problem
+from hand_service.diagnose.model.unit_check import check_nominal
+from hand_service.diagnose.outside_library.checks import Outside, outside_checks
+from hand_service.diagnose.recording import excitation
+from hand_service.diagnose.report.evidence import Context, sentence
+from hand_service.diagnose.report.verdict import (
     SEPARABLE_MIN,
     FoundEffect,
     explained_share,
@@ -49,6 +41,16 @@ from hand_service.diagnose.verdict import (
     prior_share,
     structure_left,
     trade_offs,
+)
+from hand_service.diagnose.residual import noise, stats
+from hand_service.diagnose.search import posture_stability
+from hand_service.diagnose.search.forward_selection import (
+    SIGNIFICANT_BIC,
+    Candidate,
+    Progress,
+    Selection,
+    data_alone_bic,
+    select,
 )
 
 
@@ -177,13 +179,13 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
              missing: np.ndarray | None = None, input_hold: str = "zoh",
              noise_model: str = "ar") -> Diagnosis:
     """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
-    offset (noise.py), so that clean recordings from a lab's sensor come out clean; or
+    offset (residual/noise.py), so that clean recordings from a lab's sensor come out clean; or
     "white", independent samples.
 
-    BLAS runs one thread meanwhile: diagnose's own threads (search.WORKERS, the Jacobian's
-    columns in fit.py) keep the cores busy, and OpenBLAS, which threads every dot product
-    past about 10 000 samples (the residual statistics at 500 Hz and 1 kHz), would only
-    make them wait (a 30 s, 1 kHz recording: 4.0 s with its threads, 2.65 s without)."""
+    BLAS runs one thread meanwhile: diagnose's own threads (forward_selection.WORKERS, the
+    Jacobian's columns in fitting/output_error.py) keep the cores busy, and OpenBLAS, which
+    threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
+    and 1 kHz), would only make them wait."""
     with threadpool_limits(limits=1, user_api="blas"):
         return _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
                          noise_model)
@@ -289,7 +291,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                 len(params))
     extra: list[FoundEffect] = []
     kept = list(selection.accepted)
-    unstable_later = stability.later_unstable(problem, final, selection) if len(found) > 1 else []
+    unstable_later = posture_stability.later_unstable(problem, final, selection) if len(found) > 1 else []
     if len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
         # Structure outside the library remains even with every effect, or a later effect
         # does not hold across the postures while the first alone does: the later ones may
@@ -319,8 +321,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if selection.ambiguous is not None:
         warnings.extend(posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":
-        unstable = stability.check(problem, final, [e.name for e in found])
-        mended = [] if unstable or len(found) < 2 else stability.first_alone_unstable(problem, selection)
+        unstable = posture_stability.check(problem, final, [e.name for e in found])
+        mended = ([] if unstable or len(found) < 2
+                  else posture_stability.first_alone_unstable(problem, selection))
         warnings.extend(u.sentence() for u in unstable + mended)
         if mended:
             later = " and ".join(e.name for e in found[1:])
@@ -331,7 +334,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append("so no effect is named: the mismatch lies outside the library "
                             "(see partial_effects)")
             verdict, notes = "unexplained", []
-    # a named effect standing in for physics outside the library (outside.py)
+    # a named effect standing in for physics outside the library (outside_library/checks.py)
     names = [e.name for e in found]
     outside = outside_checks(problem, final, names) if verdict in NAMING and found else Outside()
     if said := outside.sentences(names):

@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from hand_service.diagnose.evidence import Context, _coulomb
+from hand_service.diagnose.report.evidence import Context, _coulomb
 
 RATE_HZ = 100.0
 T = np.arange(int(10 * RATE_HZ)) / RATE_HZ
@@ -33,7 +33,7 @@ def test_a_release_is_a_free_swing() -> None:
 def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None:
     """The evidence sentence, the report's tables and the command's parameter table."""
     from hand_service.commands.diagnose import print_summary
-    from hand_service.diagnose.evidence import estimate, sentence, uncertainty
+    from hand_service.diagnose.report.evidence import estimate, sentence, uncertainty
 
     assert uncertainty(0.00213, "s") == "± 0.0021 s" and estimate(0.0312, 0.0021, "s") == "0.0312 ± 0.0021 s"
     for std in (np.inf, np.nan):

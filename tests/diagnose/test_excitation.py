@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from hand_service.diagnose.excitation import analyse
+from hand_service.diagnose.recording.excitation import analyse
 
 RATE_HZ = 100.0
 K, A = 0.57, 1.6e-4  # resonance about 9.5 Hz

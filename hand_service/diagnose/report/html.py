@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import stats
 from hand_service.diagnose.engine import Diagnosis
-from hand_service.diagnose.evidence import estimate, uncertainty
+from hand_service.diagnose.report.evidence import estimate, uncertainty
+from hand_service.diagnose.residual import stats
 from hand_service.errors import UserError
 
 COLOURS = {"recording": "#9a9a9a", "nominal": "#d62728", "refit": "#1f77b4", "augmented": "#2ca02c"}

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose.problem import Problem
+from hand_service.diagnose.model.problem import Problem
 
 
 @dataclass

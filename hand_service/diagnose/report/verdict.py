@@ -9,10 +9,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import noise, stats
-from hand_service.diagnose.fit import Fit
-from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Problem
-from hand_service.diagnose.search import Selection, prior_chi2
+from hand_service.diagnose.fitting.output_error import Fit
+from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Problem
+from hand_service.diagnose.residual import noise, stats
+from hand_service.diagnose.search.forward_selection import Selection, prior_chi2
 
 STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
 # An effect whose signature k, B and N absorb all but this share of could hide in a refit:
