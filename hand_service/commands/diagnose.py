@@ -142,9 +142,11 @@ def print_summary(result) -> None:
         print(f"{name:<28} {getattr(model, name):11.5g} {j['refit'][name]:11.5g}  {std:<16}".rstrip())
     for i, effect in enumerate(result.effects, start=1):
         print(f"{i}. {effect.name}: {effect.evidence}")
-    rm = j["rmse_deg"]
-    print(f"held-out RMSE (deg): nominal {rm['nominal']:.3f}, refit {rm['refit']:.3f}, "
-          f"augmented {rm['augmented']:.3f}; noise {result.noise_deg:.3f}")
+    rm, raw = j["rmse_deg"], j.get("raw_rmse_deg", {})
+    print("RMS error (deg, a constant offset each, no drift): "
+          + ", ".join(f"{name} raw {raw.get(name, float('nan')):.3f} held-out {rm[name]:.3f}"
+                      for name in ("nominal", "refit", "augmented"))
+          + f"; noise {result.noise_deg:.3f}")
     if j["windows"]:
         print("windows (s): " + ", ".join(f"{a:.2f}-{b:.2f}" for a, b in j["windows"]))
     for warning in j["warnings"]:

@@ -19,6 +19,7 @@ from threadpoolctl import threadpool_limits
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
+from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.fitting.output_error import (
     FAR_FACTOR,
     Fit,
@@ -64,7 +65,7 @@ class Diagnosis:
     nominal_angle_deg: np.ndarray
     effects: list[FoundEffect]
     windows: list[tuple[float, float, float]]
-    rmse_deg: dict[str, float]
+    rmse_deg: dict[str, float]  # held out, a constant offset each, no drift (raw_error.py)
     warnings: list[str]
     selection: Selection
     noise_deg: float
@@ -76,6 +77,7 @@ class Diagnosis:
     explained_share: float = 0.0  # of the refitted model's mismatch, by the effects found
     structure_left: str = ""  # what says the final model still misses something ('' if nothing)
     outside: Outside = field(default_factory=Outside)  # physics outside the library a name stood for
+    raw: raw_error.RawErrors | None = None  # every model against the raw angle, no drift
 
     @property
     def grade(self) -> str | None:
@@ -109,6 +111,7 @@ class Diagnosis:
             "effects": [e.to_json() for e in self.effects],
             "windows": [[round(a, 3), round(b, 3)] for a, b, _ in self.windows],
             "rmse_deg": self.rmse_deg,
+            **(self.raw.to_json() if self.raw else {}),
             "warnings": self.warnings,
             "refit_std": {k: float(stds[k]) for k in PLAIN if k in stds},
             "noise_deg": self.noise_deg,
@@ -170,6 +173,11 @@ def refit_with_prior(problem: Problem, params: list[Param], refit: Fit,
                key=lambda f: f.cost_deg2)
 
 
+def models(nominal_angle_deg: np.ndarray, refit: Fit, final: Fit) -> dict[str, np.ndarray]:
+    """The three models' simulated angles, by the names the figures use."""
+    return {"nominal": nominal_angle_deg, "refit": refit.angle_deg, "augmented": final.angle_deg}
+
+
 def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
     return np.gradient(angle_deg) * rate_hz
 
@@ -198,6 +206,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     warnings: list[str] = []
     problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold)
     held, fit_mask = problem.held_mask, problem.fit_mask
+    fitted, scored_held = fit_mask.copy(), held.copy()  # the raw figures' samples (raw_error.py)
+    scored = fitted | scored_held
     measured = problem.measured_deg
     if progress:
         progress("simulating the nominal model on the recorded command")
@@ -253,7 +263,10 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         refit = refit_with_prior(problem, params, refit, progress)
         refit_e = problem.innovations(refit.angle_deg)
         refit_white = stats.ljung_box(refit_e[fit_mask], lags)
-    selection = select(problem, refit, missing, progress)
+    lost = raw_error.cannot_follow(problem, refit.angle_deg, fitted, scored)
+    # the plain model's adequacy first: no effect is searched for on a model that cannot
+    # follow the recording at all
+    selection = Selection(final=refit) if lost else select(problem, refit, missing, progress)
     if unidentified and selection.accepted:
         first = selection.accepted[0]
         free_bic = data_alone_bic(problem, refit, first)
@@ -267,7 +280,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     for label, factor in far_from_nominal(problem, final, REPORT_FACTOR):  # what the report shows
         warnings.append(f"the refitted {label} is {factor:.3g} times the nominal's: this rig is far from "
                         "its model (the fit is not bounded near the nominal; check the model's units)")
-    found = [found_effect(problem, c, selection) for c in selection.accepted]
+    found = [found_effect(problem, c, selection, (fitted, scored_held)) for c in selection.accepted]
     sigma = final.sigma_deg
     residual = refit.residual(problem)
     valid = fit_mask | held
@@ -279,12 +292,10 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     refit_cross = stats.input_independence(refit_e[fit_mask], u, lags, first_lag)
     final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
     xcorr = stats.cross_correlation(refit_e[fit_mask], u, lags, rate_hz)
-    # held out, the sensor's offset and drift (and a start's error) taken out as fitted, as
-    # every other statistic has them: the raw misfit of a release read off by the sensor's
-    # offset is mostly that offset's free motion, which says nothing of the model
-    rmse = {"nominal": stats.rmse(problem.misfit(nominal_angle)[held]),
-            "refit": stats.rmse(problem.misfit(refit.angle_deg)[held]),
-            "augmented": stats.rmse(problem.misfit(final.angle_deg)[held])}
+    # every model against the raw angle, a constant offset each and no drift: raw_error.py
+    errors = raw_error.raw_errors(problem, fitted, scored_held,
+                                  models(nominal_angle, refit, final))
+    rmse = errors.heldout_deg
     refit_gain = stats.heldout_z_innovations(nominal_e[held], refit_e[held],
                                              problem.innovation_sigma(refit_e, len(params)))
     refit_bic = stats.delta_bic(problem.fit_rss(nominal_e), problem.fit_rss(refit_e), problem.n_fit,
@@ -301,12 +312,15 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         warnings.extend(u.sentence() for u in unstable_later)
         first = selection.accepted[0]
         alone = Selection(rounds=selection.rounds[:1], accepted=[first], final=first.fit)
-        extra, found, final = found[1:], [found_effect(problem, first, alone)], first.fit
+        extra, found = found[1:], [found_effect(problem, first, alone, (fitted, scored_held))]
+        final = first.fit
         kept = [first]
         final_e = problem.innovations(final.angle_deg)
         final_white = stats.ljung_box(final_e[fit_mask], lags)
         final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
-        rmse["augmented"] = stats.rmse(problem.misfit(final.angle_deg)[held])
+        errors = raw_error.raw_errors(problem, fitted, scored_held,
+                                      models(nominal_angle, refit, final))
+        rmse = errors.heldout_deg
     explained = explained_share(problem, refit, final) if found else 0.0
     if found and any(c.prior_gain > 0.0 for c in kept):  # the refit's distance from the nominal was evidence
         explained = max(explained, prior_share(problem, refit, final))
@@ -342,6 +356,16 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         if verdict == "missing_physics":
             warnings.append("so no effect is named (see partial_effects)")
             verdict, notes = "unexplained", []
+    if verdict == "missing_physics":  # named only where the augmented model follows the raw angle better
+        as_fitted, refitted = raw_error.effects_follow(problem, refit, final, fitted, scored_held)
+        judged = refitted or as_fitted
+        if refitted is not None:
+            warnings.append(judged.sentence([e.name for e in found], as_fitted))
+        if not judged.follows:
+            verdict, notes = "unexplained", []
+    if lost:
+        warnings.append(lost)
+        verdict, notes = "unexplained", []
     warnings.extend(trade_offs(final, found))
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
@@ -361,7 +385,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained,
                      structure_left(final_white, final_cross) if found or partial else
-                     structure_left(refit_white, refit_cross), outside)
+                     structure_left(refit_white, refit_cross), outside, errors)
 
 
 EVEN_ODD = {"gravity", "cubic_stiffness"}  # a torque even in θ (1 − cos θ), one odd (θ³)
@@ -383,7 +407,9 @@ def posture_advice(pair: tuple[Candidate, Candidate], angle_deg: np.ndarray) -> 
             "with the hand turned over, tells them apart"]
 
 
-def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundEffect:
+def found_effect(problem: Problem, c: Candidate, selection: Selection,
+                 scored: tuple[np.ndarray, np.ndarray]) -> FoundEffect:
+    """`scored`: the fitting and held-out samples of the raw figures."""
     final = selection.final
     assert final is not None
     value = final.value(c.name)
@@ -391,9 +417,9 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundE
     angle = final.angle_deg
     context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
                       final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
-    held = problem.held_mask
     base_angle = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
-    rmse_before = stats.rmse(problem.misfit(base_angle)[held])  # the sensor's offset and drift out, as fitted
-    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, rmse_before, c.rmse_heldout_deg,
-                    c.prior_gain)
+    # without and with the effect, against the raw angle, a constant offset each
+    errors = raw_error.raw_errors(problem, *scored,
+                                  {"before": base_angle, "after": c.fit.angle_deg})
+    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain)
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)

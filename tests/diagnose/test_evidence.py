@@ -6,6 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from hand_service.diagnose.fitting.raw_error import RawErrors
 from hand_service.diagnose.report.evidence import Context, _coulomb
 
 RATE_HZ = 100.0
@@ -40,7 +41,9 @@ def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None
         assert uncertainty(std) == "not identifiable"
         assert estimate(0.0312, std, "s") == "0.0312 s (not identifiable)"
     context = _context(np.zeros(T.size), np.zeros(T.size))
-    text = sentence("valve_lag", context, np.inf, 12.0, 3.0, 0.5, 0.4)
+    errors = RawErrors(dict.fromkeys(("before", "after"), 0.0), {"before": 0.5, "after": 0.4},
+                       {"before": 0.5, "after": 0.4})
+    text = sentence("valve_lag", context, np.inf, 12.0, 3.0, errors)
     assert "(not identifiable)" in text and "inf" not in text.replace("information", "")
     model = SimpleNamespace(stiffness_nm_per_rad=0.57, damping_nms_per_rad=0.003,
                             pressure_gain_nm_per_kpa=0.009)

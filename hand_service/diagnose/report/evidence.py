@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
+from hand_service.diagnose.fitting.raw_error import RawErrors
 from hand_service.diagnose.model.problem import Problem
 
 
@@ -140,16 +141,23 @@ def estimate(value: float, std: float, unit: str = "") -> str:
     return f"{value:.4g} {uncertainty(std, unit)}"
 
 
+def error_change(errors: RawErrors) -> str:
+    """The raw and held-out RMS errors without and with the effect, side by side, in numbers
+    only: no word of improvement, which would be false where the raw error grew."""
+    raw, held = errors.raw_deg, errors.heldout_deg
+    return (f"raw RMS error {raw['before']:.3f} → {raw['after']:.3f} deg, held-out "
+            f"{held['before']:.3f} → {held['after']:.3f} deg")
+
+
 def sentence(name: str, context: Context, std: float, delta_bic: float, z_heldout: float,
-             rmse_before: float, rmse_after: float, prior_gain: float = 0.0) -> str:
+             errors: RawErrors, prior_gain: float = 0.0) -> str:
+    """`errors`: "before" and "after" the effect, against the raw angle (raw_error.py)."""
     spec = fx.BY_NAME[name]
     physics = SENTENCES[name](context) if name in SENTENCES else spec.physics
     text = (f"{physics}. Estimate {spec.param} = {estimate(context.value, std, spec.unit)}; "
             f"the information criterion favours it by ΔBIC = {delta_bic:.0f}")
     if z_heldout > 2.0:
-        return text + (f", and held-out RMSE drops from {rmse_before:.3f} to {rmse_after:.3f} deg "
-                       f"(z = {z_heldout:.1f}).")
+        return text + f"; {error_change(errors)} (z = {z_heldout:.1f})."
     return text + (f" (of which {prior_gain:.0f} because without it k, B and N must leave the nominal "
-                   f"far beyond its stated uncertainty to fit); held-out RMSE is the same, {rmse_before:.3f} "
-                   f"against {rmse_after:.3f} deg (z = {z_heldout:.1f}): this recording alone cannot tell "
-                   "it from that refit.")
+                   f"far beyond its stated uncertainty to fit); {error_change(errors)} "
+                   f"(z = {z_heldout:.1f}): this recording alone cannot tell it from that refit.")

@@ -162,9 +162,10 @@ def render(d: Diagnosis, recording_name: str) -> str:
     if j["warnings"] or j["notes"]:
         items = "".join(f"<li>{html.escape(w)}</li>" for w in j["warnings"] + j["notes"])
         parts.append(f"<ul>{items}</ul>")
-    rm = j["rmse_deg"]
-    parts.append("<h2>Fit on held-out data</h2>" + _table(
-        ["model", "RMSE (deg)"], [[k, f"{v:.3f}"] for k, v in rm.items()]))
+    rm, raw = j["rmse_deg"], j.get("raw_rmse_deg", {})
+    parts.append("<h2>Fit on the raw angle (a constant offset each, no drift)</h2>" + _table(
+        ["model", "raw RMS error (deg)", "held-out RMS error (deg)"],
+        [[k, f"{raw.get(k, float('nan')):.3f}", f"{v:.3f}"] for k, v in rm.items()]))
     parts.append(f"<p>noise estimate {d.noise_deg:.3f} deg; {j['samples']['fit']} samples fitted, "
                  f"{j['samples']['held_out']} held out (interleaved blocks); {d.problem.rate_hz:g} Hz; "
                  f"diagnosed in {d.seconds:.1f} s.</p>")
