@@ -12,7 +12,7 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -33,12 +33,14 @@ from hand_service.diagnose.model.problem import PLAIN, Param, Problem, build_pro
 from hand_service.diagnose.model.unit_check import check_nominal
 from hand_service.diagnose.outside_library.checks import Outside, outside_checks
 from hand_service.diagnose.recording import excitation
+from hand_service.diagnose.report.diagnosis import Diagnosis
 from hand_service.diagnose.report.evidence import Context, sentence
 from hand_service.diagnose.report.verdict import (
     SEPARABLE_MIN,
     FoundEffect,
     explained_share,
     judge,
+    plural,
     prior_share,
     structure_left,
     trade_offs,
@@ -53,95 +55,6 @@ from hand_service.diagnose.search.forward_selection import (
     data_alone_bic,
     select,
 )
-
-
-@dataclass
-class Diagnosis:
-    verdict: str
-    model: FingerModel
-    refit: Fit
-    final: Fit
-    problem: Problem
-    nominal_angle_deg: np.ndarray
-    effects: list[FoundEffect]
-    windows: list[tuple[float, float, float]]
-    rmse_deg: dict[str, float]  # held out, a constant offset each, no drift (raw_error.py)
-    warnings: list[str]
-    selection: Selection
-    noise_deg: float
-    whiteness: dict[str, stats.Whiteness]
-    input_xcorr: stats.CrossCorrelation
-    seconds: float = 0.0
-    notes: list[str] = field(default_factory=list)
-    partial_effects: list[FoundEffect] = field(default_factory=list)  # significant, yet not explaining
-    explained_share: float = 0.0  # of the refitted model's mismatch, by the effects found
-    structure_left: str = ""  # what says the final model still misses something ('' if nothing)
-    outside: Outside = field(default_factory=Outside)  # physics outside the library a name stood for
-    raw: raw_error.RawErrors | None = None  # every model against the raw angle, no drift
-
-    @property
-    def grade(self) -> str | None:
-        """For missing_physics: "complete" when the augmented model leaves no structure,
-        "dominant" when named over structure that remains outside the library."""
-        if self.verdict != "missing_physics":
-            return None
-        return "dominant" if self.structure_left else "complete"
-
-    def refit_model(self, with_effects: bool = True) -> FingerModel:
-        """The refitted model; with the found effects added to its `effects` block."""
-        source = self.final if with_effects and self.effects else self.refit
-        changes = {name: float(getattr(source.finger.prbm, name)) for name in PLAIN}
-        effects = dict(self.model.effects)
-        if with_effects:
-            for found in self.effects:
-                effects[found.name] = {fx.BY_NAME[found.name].param: found.value}
-        return self.model.with_changes(**changes, effects=effects)
-
-    def to_json(self) -> dict:
-        source = self.final if self.effects else self.refit
-        refit = {"inertia_kgm2": self.model.inertia_kgm2,
-                 **{name: float(getattr(source.finger.prbm, name)) for name in
-                    ("damping_nms_per_rad", "stiffness_nm_per_rad", "pressure_gain_nm_per_kpa")}}
-        # what the data alone say: a parameter the prior held shows as unknown (null)
-        stds = dict(zip([p.label for p in source.params], source.std(with_prior=False), strict=True))
-        round1 = self.selection.rounds[0].candidates if self.selection.rounds else []
-        return {
-            "verdict": self.verdict,
-            "refit": refit,
-            "effects": [e.to_json() for e in self.effects],
-            "windows": [[round(a, 3), round(b, 3)] for a, b, _ in self.windows],
-            "rmse_deg": self.rmse_deg,
-            **(self.raw.to_json() if self.raw else {}),
-            "warnings": self.warnings,
-            "refit_std": {k: float(stds[k]) for k in PLAIN if k in stds},
-            "noise_deg": self.noise_deg,
-            "noise_model": {"ar": [float(a) for a in self.problem.noise.ar],
-                            "innovation_std_deg": self.problem.noise.innovation_std_deg,
-                            "drift_terms": (0 if self.problem.noise.basis is None
-                                            else int(self.problem.noise.basis.shape[1]) - 1)},
-            "sample_rate_hz": self.problem.rate_hz,
-            "samples": {"fit": int(self.problem.fit_mask.sum()),
-                        "held_out": int(self.problem.held_mask.sum())},
-            "whiteness": {k: {"ljung_box_q": w.q, "lags": w.lags, "p_value": w.p_value}
-                          for k, w in self.whiteness.items()},
-            "input_cross_correlation": {"worst_lag_s": self.input_xcorr.worst[0],
-                                        "worst_rho": self.input_xcorr.worst[1],
-                                        "band_99": self.input_xcorr.band},
-            "candidates": [candidate_json(c) for c in round1],
-            "partial_effects": [e.to_json() for e in self.partial_effects],
-            "grade": self.grade,
-            "explained_share": self.explained_share,
-            "structure_left": self.structure_left,
-            **self.outside.to_json(),
-            "notes": self.notes,
-            "seconds": self.seconds,
-        }
-
-
-def candidate_json(c: Candidate) -> dict:
-    return {"name": c.name, "estimate": c.estimate, "std": c.std, "delta_bic": c.delta_bic,
-            "heldout_z": c.z_heldout, "signature_corr": c.signature_corr, "separability": c.separability,
-            "significant": c.significant}
 
 
 def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
@@ -331,7 +244,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                            refit_gain, refit_bic, inseparable, warnings, rmse,
                            excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
                                               refit.value("stiffness_nm_per_rad"),
-                                              problem.base.prbm.inertia_kgm2).sentence(), explained)
+                                              problem.base.prbm.inertia_kgm2,
+                                              refit.value("damping_nms_per_rad")).sentence(), explained,
+                           {label: refit.value(label) / getattr(model, label) for label in unidentified})
     if selection.ambiguous is not None:
         warnings.extend(posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":
@@ -374,7 +289,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         partial, found = found + extra, []
     elif extra:
         partial = extra
-        warnings.append(f"{', '.join(e.name for e in extra)} also reduce the residual beside "
+        warnings.append(f"{', '.join(e.name for e in extra)} also {plural(extra, 'reduce')} the residual "
+                        "beside "
                         f"{found[0].name}, but with structure left outside the library they may be "
                         "absorbing it: reported in partial_effects, not named")
     for candidate in (selection.rounds[0].candidates if selection.rounds else []):

@@ -52,7 +52,7 @@ def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None
         "verdict": "insufficient_excitation", "refit": refit, "rmse_deg": dict.fromkeys(
             ("nominal", "refit", "augmented"), 0.4), "windows": [], "warnings": [],
         "refit_std": {"stiffness_nm_per_rad": np.inf, "damping_nms_per_rad": 1e-4}})
-    print_summary(result)
+    print_summary(result, screen=False)
     out = capsys.readouterr().out
     assert "inf" not in out and "not identifiable" in out.splitlines()[2]
     assert out.splitlines()[3].endswith("± 0.0001") and "(the fits took 1.5 s)" in out

@@ -26,6 +26,7 @@ import numpy as np
 
 from hand_service.diagnose.fitting.output_error import Fit, fit
 from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.recording.response_onset import white_noise_deg
 from hand_service.diagnose.residual.noise import NoiseModel
 
 # The plain model follows a recording when its simulation explains at least this share of
@@ -66,15 +67,6 @@ def raw_errors(problem: Problem, fitting: np.ndarray, held: np.ndarray,
     return RawErrors(offsets,
                      {name: rms(problem, a, offsets[name], fitting | held) for name, a in angles.items()},
                      {name: rms(problem, a, offsets[name], held) for name, a in angles.items()})
-
-
-def white_noise_deg(angle_deg: np.ndarray) -> float:
-    """The sensor's white noise from the data alone: the robust spread of the sample-to-sample
-    differences (a smooth motion adds little to them), over √2."""
-    d = np.diff(angle_deg)
-    if d.size == 0:
-        return 0.0
-    return float(np.median(np.abs(d - np.median(d))) / 0.6745 / np.sqrt(2.0))
 
 
 def explained_variance(problem: Problem, angle_deg: np.ndarray, offset_deg: float,
@@ -144,10 +136,11 @@ class RawJudgement:
                     f"angle with a constant offset alone, the model with {them} does "
                     f"({self.after_deg:.3g} against {self.before_deg:.3g} deg)")
         how = "refitted on the raw angle with a constant offset alone" if self.refitted else "as fitted"
-        return (f"{said} fit the innovations, yet the model with {them}, simulated from the recorded command "
-                f"alone ({how}), follows the recorded angle no better than the plain model (raw RMS error "
-                f"{self.after_deg:.3g} against {self.before_deg:.3g} deg): so no effect is named "
-                "(see partial_effects)")
+        verb = "fits" if len(names) == 1 else "fit"
+        return (f"{said} {verb} the innovations, yet the model with {them}, simulated from the recorded "
+                f"command alone ({how}), follows the recorded angle no better than the plain model "
+                f"(raw RMS error {self.after_deg:.3g} against {self.before_deg:.3g} deg): so no effect is "
+                "named (see partial_effects)")
 
 
 def effects_follow(problem: Problem, refit: Fit, final: Fit, fitting: np.ndarray,

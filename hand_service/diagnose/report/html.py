@@ -5,13 +5,15 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 from pathlib import Path
 
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose.engine import Diagnosis
+from hand_service.diagnose.report.diagnosis import Diagnosis
 from hand_service.diagnose.report.evidence import estimate, uncertainty
+from hand_service.diagnose.report.sentence_checks import facts_of, screened
 from hand_service.diagnose.residual import stats
 from hand_service.errors import UserError
 
@@ -134,6 +136,8 @@ def evidence_rows(d: Diagnosis) -> list[list[str]]:
     rows = []
     accepted = {e.name for e in d.effects}
     for c in (d.selection.rounds[0].candidates if d.selection.rounds else []):
+        if c.delta_bic < -math.log(max(d.problem.n_fit, 2)):
+            continue  # a fit that came out worse than the model it adds to: no evidence either way
         spec = fx.BY_NAME[c.name]
         partial = {e.name for e in d.partial_effects}
         verdict = ("found" if c.name in accepted else "partial" if c.name in partial
@@ -151,16 +155,19 @@ th{background:#f0f0f0}.verdict{font-size:1.4em;font-weight:bold}img{max-width:10
 
 def render(d: Diagnosis, recording_name: str) -> str:
     j = d.to_json()
+    facts = facts_of(d)  # every sentence checked against the recording (sentence_checks.py)
     parts = [f"<html><head><meta charset='utf-8'><title>diagnose {html.escape(recording_name)}</title>"
              f"<style>{CSS}</style></head><body>",
              f"<h1>diagnose: {html.escape(recording_name)}</h1>",
              f"<p class='verdict'>verdict: {j['verdict']}</p>"]
     if d.effects:
         parts.append("<h2>Found effects (strongest first)</h2><ol>")
-        parts += [f"<li><b>{e.name}</b>: {html.escape(e.evidence)}</li>" for e in d.effects]
+        said = screened([e.evidence for e in d.effects], facts)
+        parts += [f"<li><b>{e.name}</b>: {html.escape(text)}</li>"
+                  for e, text in zip(d.effects, said, strict=True)]
         parts.append("</ol>")
     if j["warnings"] or j["notes"]:
-        items = "".join(f"<li>{html.escape(w)}</li>" for w in j["warnings"] + j["notes"])
+        items = "".join(f"<li>{html.escape(w)}</li>" for w in screened(j["warnings"] + j["notes"], facts))
         parts.append(f"<ul>{items}</ul>")
     rm, raw = j["rmse_deg"], j.get("raw_rmse_deg", {})
     parts.append("<h2>Fit on the raw angle (a constant offset each, no drift)</h2>" + _table(
@@ -172,7 +179,7 @@ def render(d: Diagnosis, recording_name: str) -> str:
     model = d.model
     refit = j["refit"]
     rows = [[name, f"{getattr(model, name):.5g}", f"{refit[name]:.5g}",
-             uncertainty(j["refit_std"].get(name, float("nan")))]
+             uncertainty(j["refit_std"].get(name, float("nan")), value=refit[name])]
             for name in ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa")]
     parts.append(f"<h2>Parameters (A held at {model.inertia_kgm2:.4g} kg·m²)</h2>"
                  + _table(["parameter", "nominal", "refit", "±"], rows))
@@ -185,8 +192,8 @@ def render(d: Diagnosis, recording_name: str) -> str:
         parts.append(f"<img src='data:image/png;base64,{_png(zoomed)}'>")
     parts.append("<h2>Residual before and after</h2>")
     parts.append(f"<img src='data:image/png;base64,{_png(residual_figure(d))}'>")
-    parts.append("<p>windows (s): " + (", ".join(f"{a:.2f}–{b:.2f}" for a, b, _ in d.windows) or "none")
-                 + "</p>")
+    spans = ", ".join(f"{max(a, 0.0):.2f} to {b:.2f}" for a, b, _ in d.windows)
+    parts.append(f"<p>windows (s): {spans or 'none'}</p>")
     parts.append("<h2>Residual tests</h2>")
     parts.append(f"<img src='data:image/png;base64,{_png(tests_figure(d))}'>")
     white = j["whiteness"]
