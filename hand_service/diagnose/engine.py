@@ -241,7 +241,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative, selection, found, (refit_white, refit_cross),
                            (final_white, final_cross),
-                           refit_gain, refit_bic, inseparable, warnings, rmse,
+                           refit_gain, refit_bic, inseparable, warnings,
                            excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
                                               refit.value("stiffness_nm_per_rad"),
                                               problem.base.prbm.inertia_kgm2,

@@ -119,11 +119,19 @@ class RawJudgement:
 
     before_deg: float
     after_deg: float
+    before_held_deg: float
+    after_held_deg: float
     refitted: bool = False
+
+    @staticmethod
+    def of(errors: RawErrors, refitted: bool = False) -> RawJudgement:
+        raw, held = errors.raw_deg, errors.heldout_deg
+        return RawJudgement(raw["before"], raw["after"], held["before"], held["after"], refitted)
 
     @property
     def follows(self) -> bool:
-        return self.after_deg < self.before_deg
+        """Lower raw error over every scored sample, and no higher on the held-out ones."""
+        return self.after_deg < self.before_deg and self.after_held_deg <= self.before_held_deg
 
     def sentence(self, names: list[str], first: RawJudgement | None = None) -> str:
         them = "it" if len(names) == 1 else "them"
@@ -134,13 +142,15 @@ class RawJudgement:
                     f"with {said} follows the raw angle no better than the plain model (raw RMS error "
                     f"{first.after_deg:.3g} against {first.before_deg:.3g} deg); both refitted on the raw "
                     f"angle with a constant offset alone, the model with {them} does "
-                    f"({self.after_deg:.3g} against {self.before_deg:.3g} deg)")
+                    f"({self.after_deg:.3g} against {self.before_deg:.3g} deg, held out "
+                    f"{self.after_held_deg:.3g} against {self.before_held_deg:.3g})")
         how = "refitted on the raw angle with a constant offset alone" if self.refitted else "as fitted"
         verb = "fits" if len(names) == 1 else "fit"
         return (f"{said} {verb} the innovations, yet the model with {them}, simulated from the recorded "
                 f"command alone ({how}), follows the recorded angle no better than the plain model "
-                f"(raw RMS error {self.after_deg:.3g} against {self.before_deg:.3g} deg): so no effect is "
-                "named (see partial_effects)")
+                f"(raw RMS error {self.after_deg:.3g} against {self.before_deg:.3g} deg, held out "
+                f"{self.after_held_deg:.3g} against {self.before_held_deg:.3g}): so no effect is named "
+                "(see partial_effects)")
 
 
 def effects_follow(problem: Problem, refit: Fit, final: Fit, fitting: np.ndarray,
@@ -153,11 +163,11 @@ def effects_follow(problem: Problem, refit: Fit, final: Fit, fitting: np.ndarray
     and compared again: (as fitted, refitted or None)."""
     angles = {"before": refit.angle_deg, "after": final.angle_deg}
     errors = raw_errors(problem, fitting, held, angles)
-    first = RawJudgement(errors.raw_deg["before"], errors.raw_deg["after"])
+    first = RawJudgement.of(errors)
     if first.follows:
         return first, None
     raw_problem = dataclasses.replace(problem, noise=offset_only(problem.measured_deg.size))
     plain = fit(raw_problem, refit.params, refit.values)
     augmented = fit(raw_problem, final.params, final.values)
     again = raw_errors(problem, fitting, held, {"before": plain.angle_deg, "after": augmented.angle_deg})
-    return first, RawJudgement(again.raw_deg["before"], again.raw_deg["after"], refitted=True)
+    return first, RawJudgement.of(again, refitted=True)

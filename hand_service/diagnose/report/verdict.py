@@ -137,7 +137,7 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
           found: list[FoundEffect], refit_tests: tuple[stats.Whiteness, stats.Whiteness],
           final_tests: tuple[stats.Whiteness, stats.Whiteness],
           refit_gain_z: float, refit_bic: float, inseparable: list[str],
-          warnings: list[str], rmse: dict[str, float], advice: str = "",
+          warnings: list[str], advice: str = "",
           explained: float = 0.0, held_at: dict[str, float] | None = None) -> tuple[str, list[str]]:
     """The verdict. `advice`: what this recording's command holds and lacks, in words.
     `held_at`: the refitted value over the nominal of each parameter the prior holds."""
@@ -151,16 +151,6 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
                         "recording cannot tell them apart")
         if not found:
             return "insufficient_excitation", notes
-    if found and rmse["augmented"] >= rmse["nominal"]:
-        names = ", ".join(e.name for e in found)
-        one = len(found) == 1
-        warnings.append(f"{names} {plural(found, 'fit')} the recording, yet the model with "
-                        f"{'it' if one else 'them'} predicts the held-out data "
-                        f"worse than the nominal model does ({rmse['augmented']:.3g} against "
-                        f"{rmse['nominal']:.3g} deg RMS): the refit and the effects are bending to absorb "
-                        f"something outside the library, so {'it is' if one else 'they are'} not named "
-                        "(see partial_effects)")
-        return "unexplained", notes
     if found:
         left = structure_left(*final_tests)
         if left and dominant(found, explained):
