@@ -153,7 +153,7 @@ def print_summary(result, screen: bool = True) -> None:
                     for name in ("nominal", "refit", "augmented"))
         + f"; noise {result.noise_deg:.3f}")
     if j["windows"]:
-        out("windows (s): " + ", ".join(f"{max(a, 0.0):.2f} to {b:.2f}" for a, b in j["windows"]))
+        out("windows (s): " + ", ".join(f"{max(0.0, a):.2f} to {b:.2f}" for a, b in j["windows"]))
     for warning in j["warnings"]:
         out(f"warning: {warning}")
     out(f"(the fits took {result.seconds:.1f} s)")

@@ -242,7 +242,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     verdict, notes = judge(unidentified, params, relative, selection, found, (refit_white, refit_cross),
                            (final_white, final_cross),
                            refit_gain, refit_bic, inseparable, warnings,
-                           excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
+                           excitation.analyse(problem.pressure_kpa, rate_hz,
                                               refit.value("stiffness_nm_per_rad"),
                                               problem.base.prbm.inertia_kgm2,
                                               refit.value("damping_nms_per_rad")).sentence(), explained,
@@ -272,7 +272,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append("so no effect is named (see partial_effects)")
             verdict, notes = "unexplained", []
     if verdict == "missing_physics":  # named only where the augmented model follows the raw angle better
-        as_fitted, refitted = raw_error.effects_follow(problem, refit, final, fitted, scored_held)
+        as_fitted, refitted = raw_error.effects_follow(problem, nominal_angle, refit, final, fitted,
+                                                           scored_held)
         judged = refitted or as_fitted
         if refitted is not None:
             warnings.append(judged.sentence([e.name for e in found], as_fitted))

@@ -56,3 +56,22 @@ def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None
     out = capsys.readouterr().out
     assert "inf" not in out and "not identifiable" in out.splitlines()[2]
     assert out.splitlines()[3].endswith("± 0.0001") and "(the fits took 1.5 s)" in out
+
+
+def test_a_window_from_the_start_prints_without_a_minus_zero(capsys) -> None:
+    """A window starting at −0.0 s (rounded from a tiny negative time) was printed
+    "-0.00-0.44"; and a refit known worse than its value says it is unknown."""
+    from hand_service.commands.diagnose import print_summary
+
+    model = SimpleNamespace(stiffness_nm_per_rad=0.57, damping_nms_per_rad=0.003,
+                            pressure_gain_nm_per_kpa=0.009)
+    refit = {"stiffness_nm_per_rad": 0.42, "damping_nms_per_rad": 0.0031, "pressure_gain_nm_per_kpa": 0.0091}
+    result = SimpleNamespace(model=model, effects=[], noise_deg=0.3, seconds=1.5, to_json=lambda: {
+        "verdict": "unexplained", "refit": refit,
+        "rmse_deg": dict.fromkeys(("nominal", "refit", "augmented"), 0.4),
+        "windows": [[-0.0, 0.44], [1.2, 1.5]], "warnings": [],
+        "refit_std": {"stiffness_nm_per_rad": 15.0, "damping_nms_per_rad": 1e-4}})
+    print_summary(result, screen=False)
+    out = capsys.readouterr().out
+    assert "windows (s): 0.00 to 0.44, 1.20 to 1.50" in out, out
+    assert "± 15 (unknown: over 100 % of the value)" in out, out

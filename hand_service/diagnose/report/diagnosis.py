@@ -71,7 +71,7 @@ class Diagnosis:
             "verdict": self.verdict,
             "refit": refit,
             "effects": [e.to_json() for e in self.effects],
-            "windows": [[round(a, 3), round(b, 3)] for a, b, _ in self.windows],
+            "windows": [[round(max(0.0, a), 3), round(b, 3)] for a, b, _ in self.windows],
             "rmse_deg": self.rmse_deg,
             **(self.raw.to_json() if self.raw else {}),
             "warnings": self.warnings,

@@ -192,7 +192,7 @@ def render(d: Diagnosis, recording_name: str) -> str:
         parts.append(f"<img src='data:image/png;base64,{_png(zoomed)}'>")
     parts.append("<h2>Residual before and after</h2>")
     parts.append(f"<img src='data:image/png;base64,{_png(residual_figure(d))}'>")
-    spans = ", ".join(f"{max(a, 0.0):.2f} to {b:.2f}" for a, b, _ in d.windows)
+    spans = ", ".join(f"{max(0.0, a):.2f} to {b:.2f}" for a, b, _ in d.windows)
     parts.append(f"<p>windows (s): {spans or 'none'}</p>")
     parts.append("<h2>Residual tests</h2>")
     parts.append(f"<img src='data:image/png;base64,{_png(tests_figure(d))}'>")
