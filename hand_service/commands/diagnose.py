@@ -62,7 +62,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.commands.progress import Progress
     from hand_service.config.profile import load_model
     from hand_service.diagnose.engine import diagnose
-    from hand_service.diagnose.timebase import regular_grid
+    from hand_service.diagnose.recording.timebase import regular_grid
     from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
     from hand_service.outputs import check_writable
@@ -114,7 +114,7 @@ def _write_files(args: argparse.Namespace, result: Any) -> None:
     from hand_service.config.model import save_model
 
     if args.report:
-        from hand_service.diagnose.report import write_report
+        from hand_service.diagnose.report.html import write_report
 
         write_report(result, args.report, str(args.recording))
         print(f"wrote {args.report}")
@@ -130,23 +130,32 @@ def _write_files(args: argparse.Namespace, result: Any) -> None:
         print(f"wrote {args.write_model}")
 
 
-def print_summary(result) -> None:
-    from hand_service.diagnose.evidence import uncertainty
+def print_summary(result, screen: bool = True) -> None:
+    """The summary; with `screen`, a sentence that is not true of the recording is withheld
+    (hand_service/diagnose/report/sentence_checks.py)."""
+    from hand_service.diagnose.report.evidence import uncertainty
+    from hand_service.diagnose.report.sentence_checks import facts_of, screened
 
+    lines: list[str] = []
+    out = lines.append
     j = result.to_json()
-    print(f"verdict: {j['verdict']}")
+    out(f"verdict: {j['verdict']}")
     model = result.model
-    print(f"{'parameter':<28} {'nominal':>11} {'refit':>11}  ±")
+    out(f"{'parameter':<28} {'nominal':>11} {'refit':>11}  ±")
     for name in ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa"):
-        std = uncertainty(j["refit_std"].get(name, float("nan")))
-        print(f"{name:<28} {getattr(model, name):11.5g} {j['refit'][name]:11.5g}  {std:<16}".rstrip())
+        std = uncertainty(j["refit_std"].get(name, float("nan")), value=j["refit"][name])
+        out(f"{name:<28} {getattr(model, name):11.5g} {j['refit'][name]:11.5g}  {std:<16}".rstrip())
     for i, effect in enumerate(result.effects, start=1):
-        print(f"{i}. {effect.name}: {effect.evidence}")
-    rm = j["rmse_deg"]
-    print(f"held-out RMSE (deg): nominal {rm['nominal']:.3f}, refit {rm['refit']:.3f}, "
-          f"augmented {rm['augmented']:.3f}; noise {result.noise_deg:.3f}")
+        out(f"{i}. {effect.name}: {effect.evidence}")
+    rm, raw = j["rmse_deg"], j.get("raw_rmse_deg", {})
+    out("RMS error (deg, a constant offset each, no drift): "
+        + ", ".join(f"{name} raw {raw.get(name, float('nan')):.3f} held-out {rm[name]:.3f}"
+                    for name in ("nominal", "refit", "augmented"))
+        + f"; noise {result.noise_deg:.3f}")
     if j["windows"]:
-        print("windows (s): " + ", ".join(f"{a:.2f}-{b:.2f}" for a, b in j["windows"]))
+        out("windows (s): " + ", ".join(f"{max(0.0, a):.2f} to {b:.2f}" for a, b in j["windows"]))
     for warning in j["warnings"]:
-        print(f"warning: {warning}")
-    print(f"(the fits took {result.seconds:.1f} s)")
+        out(f"warning: {warning}")
+    out(f"(the fits took {result.seconds:.1f} s)")
+    for line in screened(lines, facts_of(result)) if screen else lines:
+        print(line)

@@ -4,7 +4,7 @@
     b. refit k, B, N (A and the model's own effects held) by output-error least squares;
     c. locate: residual whiteness, cross-correlation with the past input, windows in time,
        and each library effect's signature correlation;
-    d. name: forward selection over the library effects the model leaves out (search.py);
+    d. name: forward selection over the library effects the model leaves out (search/forward_selection.py);
     e. judge: consistent / parameters_only / missing_physics / unexplained /
        insufficient_excitation.
 """
@@ -12,16 +12,15 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 from threadpoolctl import threadpool_limits
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
-from hand_service.diagnose import excitation, noise, stability, stats
-from hand_service.diagnose.evidence import Context, sentence
-from hand_service.diagnose.fit import (
+from hand_service.diagnose.fitting import raw_error
+from hand_service.diagnose.fitting.output_error import (
     FAR_FACTOR,
     Fit,
     far_from_nominal,
@@ -30,10 +29,25 @@ from hand_service.diagnose.fit import (
     relative_std,
     unpinned,
 )
-from hand_service.diagnose.outside import Outside, outside_checks
-from hand_service.diagnose.problem import PLAIN, Param, Problem, build_problem
-from hand_service.diagnose.scales import check_nominal
-from hand_service.diagnose.search import (
+from hand_service.diagnose.model.problem import PLAIN, Param, Problem, build_problem
+from hand_service.diagnose.model.unit_check import check_nominal
+from hand_service.diagnose.outside_library.checks import Outside, outside_checks
+from hand_service.diagnose.recording import excitation
+from hand_service.diagnose.report.diagnosis import Diagnosis
+from hand_service.diagnose.report.evidence import Context, sentence
+from hand_service.diagnose.report.verdict import (
+    SEPARABLE_MIN,
+    FoundEffect,
+    explained_share,
+    judge,
+    plural,
+    prior_share,
+    structure_left,
+    trade_offs,
+)
+from hand_service.diagnose.residual import noise, stats
+from hand_service.diagnose.search import posture_stability
+from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Candidate,
     Progress,
@@ -41,102 +55,6 @@ from hand_service.diagnose.search import (
     data_alone_bic,
     select,
 )
-from hand_service.diagnose.verdict import (
-    SEPARABLE_MIN,
-    FoundEffect,
-    explained_share,
-    judge,
-    prior_share,
-    structure_left,
-    trade_offs,
-)
-
-
-@dataclass
-class Diagnosis:
-    verdict: str
-    model: FingerModel
-    refit: Fit
-    final: Fit
-    problem: Problem
-    nominal_angle_deg: np.ndarray
-    effects: list[FoundEffect]
-    windows: list[tuple[float, float, float]]
-    rmse_deg: dict[str, float]
-    warnings: list[str]
-    selection: Selection
-    noise_deg: float
-    whiteness: dict[str, stats.Whiteness]
-    input_xcorr: stats.CrossCorrelation
-    seconds: float = 0.0
-    notes: list[str] = field(default_factory=list)
-    partial_effects: list[FoundEffect] = field(default_factory=list)  # significant, yet not explaining
-    explained_share: float = 0.0  # of the refitted model's mismatch, by the effects found
-    structure_left: str = ""  # what says the final model still misses something ('' if nothing)
-    outside: Outside = field(default_factory=Outside)  # physics outside the library a name stood for
-
-    @property
-    def grade(self) -> str | None:
-        """For missing_physics: "complete" when the augmented model leaves no structure,
-        "dominant" when named over structure that remains outside the library."""
-        if self.verdict != "missing_physics":
-            return None
-        return "dominant" if self.structure_left else "complete"
-
-    def refit_model(self, with_effects: bool = True) -> FingerModel:
-        """The refitted model; with the found effects added to its `effects` block."""
-        source = self.final if with_effects and self.effects else self.refit
-        changes = {name: float(getattr(source.finger.prbm, name)) for name in PLAIN}
-        effects = dict(self.model.effects)
-        if with_effects:
-            for found in self.effects:
-                effects[found.name] = {fx.BY_NAME[found.name].param: found.value}
-        return self.model.with_changes(**changes, effects=effects)
-
-    def to_json(self) -> dict:
-        source = self.final if self.effects else self.refit
-        refit = {"inertia_kgm2": self.model.inertia_kgm2,
-                 **{name: float(getattr(source.finger.prbm, name)) for name in
-                    ("damping_nms_per_rad", "stiffness_nm_per_rad", "pressure_gain_nm_per_kpa")}}
-        # what the data alone say: a parameter the prior held shows as unknown (null)
-        stds = dict(zip([p.label for p in source.params], source.std(with_prior=False), strict=True))
-        round1 = self.selection.rounds[0].candidates if self.selection.rounds else []
-        return {
-            "verdict": self.verdict,
-            "refit": refit,
-            "effects": [e.to_json() for e in self.effects],
-            "windows": [[round(a, 3), round(b, 3)] for a, b, _ in self.windows],
-            "rmse_deg": self.rmse_deg,
-            "warnings": self.warnings,
-            "refit_std": {k: float(stds[k]) for k in PLAIN if k in stds},
-            "noise_deg": self.noise_deg,
-            "noise_model": {"ar": [float(a) for a in self.problem.noise.ar],
-                            "innovation_std_deg": self.problem.noise.innovation_std_deg,
-                            "drift_terms": (0 if self.problem.noise.basis is None
-                                            else int(self.problem.noise.basis.shape[1]) - 1)},
-            "sample_rate_hz": self.problem.rate_hz,
-            "samples": {"fit": int(self.problem.fit_mask.sum()),
-                        "held_out": int(self.problem.held_mask.sum())},
-            "whiteness": {k: {"ljung_box_q": w.q, "lags": w.lags, "p_value": w.p_value}
-                          for k, w in self.whiteness.items()},
-            "input_cross_correlation": {"worst_lag_s": self.input_xcorr.worst[0],
-                                        "worst_rho": self.input_xcorr.worst[1],
-                                        "band_99": self.input_xcorr.band},
-            "candidates": [candidate_json(c) for c in round1],
-            "partial_effects": [e.to_json() for e in self.partial_effects],
-            "grade": self.grade,
-            "explained_share": self.explained_share,
-            "structure_left": self.structure_left,
-            **self.outside.to_json(),
-            "notes": self.notes,
-            "seconds": self.seconds,
-        }
-
-
-def candidate_json(c: Candidate) -> dict:
-    return {"name": c.name, "estimate": c.estimate, "std": c.std, "delta_bic": c.delta_bic,
-            "heldout_z": c.z_heldout, "signature_corr": c.signature_corr, "separability": c.separability,
-            "significant": c.significant}
 
 
 def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
@@ -168,6 +86,11 @@ def refit_with_prior(problem: Problem, params: list[Param], refit: Fit,
                key=lambda f: f.cost_deg2)
 
 
+def models(nominal_angle_deg: np.ndarray, refit: Fit, final: Fit) -> dict[str, np.ndarray]:
+    """The three models' simulated angles, by the names the figures use."""
+    return {"nominal": nominal_angle_deg, "refit": refit.angle_deg, "augmented": final.angle_deg}
+
+
 def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
     return np.gradient(angle_deg) * rate_hz
 
@@ -177,13 +100,13 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
              missing: np.ndarray | None = None, input_hold: str = "zoh",
              noise_model: str = "ar") -> Diagnosis:
     """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
-    offset (noise.py), so that clean recordings from a lab's sensor come out clean; or
+    offset (residual/noise.py), so that clean recordings from a lab's sensor come out clean; or
     "white", independent samples.
 
-    BLAS runs one thread meanwhile: diagnose's own threads (search.WORKERS, the Jacobian's
-    columns in fit.py) keep the cores busy, and OpenBLAS, which threads every dot product
-    past about 10 000 samples (the residual statistics at 500 Hz and 1 kHz), would only
-    make them wait (a 30 s, 1 kHz recording: 4.0 s with its threads, 2.65 s without)."""
+    BLAS runs one thread meanwhile: diagnose's own threads (forward_selection.WORKERS, the
+    Jacobian's columns in fitting/output_error.py) keep the cores busy, and OpenBLAS, which
+    threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
+    and 1 kHz), would only make them wait."""
     with threadpool_limits(limits=1, user_api="blas"):
         return _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
                          noise_model)
@@ -196,6 +119,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     warnings: list[str] = []
     problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold)
     held, fit_mask = problem.held_mask, problem.fit_mask
+    fitted, scored_held = fit_mask.copy(), held.copy()  # the raw figures' samples (raw_error.py)
+    scored = fitted | scored_held
     measured = problem.measured_deg
     if progress:
         progress("simulating the nominal model on the recorded command")
@@ -251,7 +176,10 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         refit = refit_with_prior(problem, params, refit, progress)
         refit_e = problem.innovations(refit.angle_deg)
         refit_white = stats.ljung_box(refit_e[fit_mask], lags)
-    selection = select(problem, refit, missing, progress)
+    lost = raw_error.cannot_follow(problem, refit.angle_deg, fitted, scored)
+    # the plain model's adequacy first: no effect is searched for on a model that cannot
+    # follow the recording at all
+    selection = Selection(final=refit) if lost else select(problem, refit, missing, progress)
     if unidentified and selection.accepted:
         first = selection.accepted[0]
         free_bic = data_alone_bic(problem, refit, first)
@@ -265,7 +193,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     for label, factor in far_from_nominal(problem, final, REPORT_FACTOR):  # what the report shows
         warnings.append(f"the refitted {label} is {factor:.3g} times the nominal's: this rig is far from "
                         "its model (the fit is not bounded near the nominal; check the model's units)")
-    found = [found_effect(problem, c, selection) for c in selection.accepted]
+    found = [found_effect(problem, c, selection, (fitted, scored_held)) for c in selection.accepted]
     sigma = final.sigma_deg
     residual = refit.residual(problem)
     valid = fit_mask | held
@@ -277,19 +205,17 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     refit_cross = stats.input_independence(refit_e[fit_mask], u, lags, first_lag)
     final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
     xcorr = stats.cross_correlation(refit_e[fit_mask], u, lags, rate_hz)
-    # held out, the sensor's offset and drift (and a start's error) taken out as fitted, as
-    # every other statistic has them: the raw misfit of a release read off by the sensor's
-    # offset is mostly that offset's free motion, which says nothing of the model
-    rmse = {"nominal": stats.rmse(problem.misfit(nominal_angle)[held]),
-            "refit": stats.rmse(problem.misfit(refit.angle_deg)[held]),
-            "augmented": stats.rmse(problem.misfit(final.angle_deg)[held])}
+    # every model against the raw angle, a constant offset each and no drift: raw_error.py
+    errors = raw_error.raw_errors(problem, fitted, scored_held,
+                                  models(nominal_angle, refit, final))
+    rmse = errors.heldout_deg
     refit_gain = stats.heldout_z_innovations(nominal_e[held], refit_e[held],
                                              problem.innovation_sigma(refit_e, len(params)))
     refit_bic = stats.delta_bic(problem.fit_rss(nominal_e), problem.fit_rss(refit_e), problem.n_fit,
                                 len(params))
     extra: list[FoundEffect] = []
     kept = list(selection.accepted)
-    unstable_later = stability.later_unstable(problem, final, selection) if len(found) > 1 else []
+    unstable_later = posture_stability.later_unstable(problem, final, selection) if len(found) > 1 else []
     if len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
         # Structure outside the library remains even with every effect, or a later effect
         # does not hold across the postures while the first alone does: the later ones may
@@ -299,12 +225,15 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         warnings.extend(u.sentence() for u in unstable_later)
         first = selection.accepted[0]
         alone = Selection(rounds=selection.rounds[:1], accepted=[first], final=first.fit)
-        extra, found, final = found[1:], [found_effect(problem, first, alone)], first.fit
+        extra, found = found[1:], [found_effect(problem, first, alone, (fitted, scored_held))]
+        final = first.fit
         kept = [first]
         final_e = problem.innovations(final.angle_deg)
         final_white = stats.ljung_box(final_e[fit_mask], lags)
         final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
-        rmse["augmented"] = stats.rmse(problem.misfit(final.angle_deg)[held])
+        errors = raw_error.raw_errors(problem, fitted, scored_held,
+                                      models(nominal_angle, refit, final))
+        rmse = errors.heldout_deg
     explained = explained_share(problem, refit, final) if found else 0.0
     if found and any(c.prior_gain > 0.0 for c in kept):  # the refit's distance from the nominal was evidence
         explained = max(explained, prior_share(problem, refit, final))
@@ -312,15 +241,18 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     inseparable = [c.name for c in round1 if 0.0 < c.separability < SEPARABLE_MIN]
     verdict, notes = judge(unidentified, params, relative, selection, found, (refit_white, refit_cross),
                            (final_white, final_cross),
-                           refit_gain, refit_bic, inseparable, warnings, rmse,
-                           excitation.analyse(problem.pressure_kpa[fit_mask], rate_hz,
+                           refit_gain, refit_bic, inseparable, warnings,
+                           excitation.analyse(problem.pressure_kpa, rate_hz,
                                               refit.value("stiffness_nm_per_rad"),
-                                              problem.base.prbm.inertia_kgm2).sentence(), explained)
+                                              problem.base.prbm.inertia_kgm2,
+                                              refit.value("damping_nms_per_rad")).sentence(), explained,
+                           {label: refit.value(label) / getattr(model, label) for label in unidentified})
     if selection.ambiguous is not None:
         warnings.extend(posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":
-        unstable = stability.check(problem, final, [e.name for e in found])
-        mended = [] if unstable or len(found) < 2 else stability.first_alone_unstable(problem, selection)
+        unstable = posture_stability.check(problem, final, [e.name for e in found])
+        mended = ([] if unstable or len(found) < 2
+                  else posture_stability.first_alone_unstable(problem, selection))
         warnings.extend(u.sentence() for u in unstable + mended)
         if mended:
             later = " and ".join(e.name for e in found[1:])
@@ -331,7 +263,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append("so no effect is named: the mismatch lies outside the library "
                             "(see partial_effects)")
             verdict, notes = "unexplained", []
-    # a named effect standing in for physics outside the library (outside.py)
+    # a named effect standing in for physics outside the library (outside_library/checks.py)
     names = [e.name for e in found]
     outside = outside_checks(problem, final, names) if verdict in NAMING and found else Outside()
     if said := outside.sentences(names):
@@ -339,6 +271,17 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         if verdict == "missing_physics":
             warnings.append("so no effect is named (see partial_effects)")
             verdict, notes = "unexplained", []
+    if verdict == "missing_physics":  # named only where the augmented model follows the raw angle better
+        as_fitted, refitted = raw_error.effects_follow(problem, nominal_angle, refit, final, fitted,
+                                                           scored_held)
+        judged = refitted or as_fitted
+        if refitted is not None:
+            warnings.append(judged.sentence([e.name for e in found], as_fitted))
+        if not judged.follows:
+            verdict, notes = "unexplained", []
+    if lost:
+        warnings.append(lost)
+        verdict, notes = "unexplained", []
     warnings.extend(trade_offs(final, found))
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
@@ -347,7 +290,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         partial, found = found + extra, []
     elif extra:
         partial = extra
-        warnings.append(f"{', '.join(e.name for e in extra)} also reduce the residual beside "
+        warnings.append(f"{', '.join(e.name for e in extra)} also {plural(extra, 'reduce')} the residual "
+                        "beside "
                         f"{found[0].name}, but with structure left outside the library they may be "
                         "absorbing it: reported in partial_effects, not named")
     for candidate in (selection.rounds[0].candidates if selection.rounds else []):
@@ -358,7 +302,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained,
                      structure_left(final_white, final_cross) if found or partial else
-                     structure_left(refit_white, refit_cross), outside)
+                     structure_left(refit_white, refit_cross), outside, errors)
 
 
 EVEN_ODD = {"gravity", "cubic_stiffness"}  # a torque even in θ (1 − cos θ), one odd (θ³)
@@ -380,7 +324,9 @@ def posture_advice(pair: tuple[Candidate, Candidate], angle_deg: np.ndarray) -> 
             "with the hand turned over, tells them apart"]
 
 
-def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundEffect:
+def found_effect(problem: Problem, c: Candidate, selection: Selection,
+                 scored: tuple[np.ndarray, np.ndarray]) -> FoundEffect:
+    """`scored`: the fitting and held-out samples of the raw figures."""
     final = selection.final
     assert final is not None
     value = final.value(c.name)
@@ -388,9 +334,9 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection) -> FoundE
     angle = final.angle_deg
     context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
                       final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
-    held = problem.held_mask
     base_angle = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
-    rmse_before = stats.rmse(problem.misfit(base_angle)[held])  # the sensor's offset and drift out, as fitted
-    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, rmse_before, c.rmse_heldout_deg,
-                    c.prior_gain)
+    # without and with the effect, against the raw angle, a constant offset each
+    errors = raw_error.raw_errors(problem, *scored,
+                                  {"before": base_angle, "after": c.fit.angle_deg})
+    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain)
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)

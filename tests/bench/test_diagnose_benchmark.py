@@ -64,7 +64,7 @@ def _independent(effect: str, excitation: str, family: str, rate_hz: float, tmp_
     """One recording of the independent truth generator (tests/diagnose/truth), read back
     through the recording reader as a lab's file would be."""
     from hand_service.config.profile import load_model
-    from hand_service.diagnose.timebase import regular_grid
+    from hand_service.diagnose.recording.timebase import regular_grid
     from hand_service.recording import read_recording
     from tests.diagnose.truth import cases as cs
 

@@ -73,7 +73,7 @@ def stepped_recording(seed: int, seconds: float, rate_hz: float, stiffness_facto
     """A Problem of the truth finger on random steps with 0.3° white noise, against a
     nominal whose k is `stiffness_factor` times the truth's (and with `effects`)."""
     from hand_service.config.model import FingerModel
-    from hand_service.diagnose.problem import build_problem
+    from hand_service.diagnose.model.problem import build_problem
 
     truth = LinearFinger()
     rng = np.random.default_rng(seed)

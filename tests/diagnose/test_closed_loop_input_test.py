@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service.diagnose import stats
+from hand_service.diagnose.residual import stats
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_in_process
 

@@ -135,7 +135,7 @@ def test_two_hidden_effects_are_both_named() -> None:
 
 
 def test_timing_jitter_is_tolerated() -> None:
-    from hand_service.diagnose.timebase import regular_grid
+    from hand_service.diagnose.recording.timebase import regular_grid
 
     c = generate(index_model(), {"dead_time": None}, "steps", noise_deg=0.5, seed=9, conceal_ratio=CONCEAL)
     t = c.t_s + np.random.default_rng(0).uniform(-0.002, 0.002, c.t_s.size)  # ±20 % of the period
@@ -148,7 +148,7 @@ def test_timing_jitter_is_tolerated() -> None:
 def test_skipped_ticks_are_held_and_left_out() -> None:
     """A daemon that skipped deadlines leaves rows out; the valves held the last command.
     On its grid again, the recording is diagnosed as if nothing were missing."""
-    from hand_service.diagnose.timebase import regular_grid
+    from hand_service.diagnose.recording.timebase import regular_grid
 
     c = generate(index_model(), {"dead_time": None}, "steps", noise_deg=0.5, seed=9, conceal_ratio=CONCEAL)
     keep = np.ones(c.t_s.size, dtype=bool)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 import hand_service.diagnose.engine as engine
-import hand_service.diagnose.outside as outside
+import hand_service.diagnose.outside_library.checks as outside
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_in_process
 
@@ -32,7 +32,7 @@ def test_a_lag_the_prior_alone_asks_for_is_not_named(tmp_path: Path) -> None:
 def test_without_the_check_the_rate_test_still_refuses_the_lag(tmp_path: Path,
                                                                monkeypatch: pytest.MonkeyPatch) -> None:
     """A second line: the valve lag's delay does not grow with the ramps' rates, and a loop
-    along the command's path explains the residual better (loop.py)."""
+    along the command's path explains the residual better (outside_library/rate_independent_loop.py)."""
     monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))
     result = _diagnose(tmp_path)
     assert not result["effects"], result["effects"]

@@ -6,7 +6,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from hand_service.diagnose.evidence import Context, _coulomb
+from hand_service.diagnose.fitting.raw_error import RawErrors
+from hand_service.diagnose.report.evidence import Context, _coulomb
 
 RATE_HZ = 100.0
 T = np.arange(int(10 * RATE_HZ)) / RATE_HZ
@@ -33,14 +34,16 @@ def test_a_release_is_a_free_swing() -> None:
 def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None:
     """The evidence sentence, the report's tables and the command's parameter table."""
     from hand_service.commands.diagnose import print_summary
-    from hand_service.diagnose.evidence import estimate, sentence, uncertainty
+    from hand_service.diagnose.report.evidence import estimate, sentence, uncertainty
 
     assert uncertainty(0.00213, "s") == "± 0.0021 s" and estimate(0.0312, 0.0021, "s") == "0.0312 ± 0.0021 s"
     for std in (np.inf, np.nan):
         assert uncertainty(std) == "not identifiable"
         assert estimate(0.0312, std, "s") == "0.0312 s (not identifiable)"
     context = _context(np.zeros(T.size), np.zeros(T.size))
-    text = sentence("valve_lag", context, np.inf, 12.0, 3.0, 0.5, 0.4)
+    errors = RawErrors(dict.fromkeys(("before", "after"), 0.0), {"before": 0.5, "after": 0.4},
+                       {"before": 0.5, "after": 0.4})
+    text = sentence("valve_lag", context, np.inf, 12.0, 3.0, errors)
     assert "(not identifiable)" in text and "inf" not in text.replace("information", "")
     model = SimpleNamespace(stiffness_nm_per_rad=0.57, damping_nms_per_rad=0.003,
                             pressure_gain_nm_per_kpa=0.009)
@@ -49,7 +52,26 @@ def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None
         "verdict": "insufficient_excitation", "refit": refit, "rmse_deg": dict.fromkeys(
             ("nominal", "refit", "augmented"), 0.4), "windows": [], "warnings": [],
         "refit_std": {"stiffness_nm_per_rad": np.inf, "damping_nms_per_rad": 1e-4}})
-    print_summary(result)
+    print_summary(result, screen=False)
     out = capsys.readouterr().out
     assert "inf" not in out and "not identifiable" in out.splitlines()[2]
     assert out.splitlines()[3].endswith("± 0.0001") and "(the fits took 1.5 s)" in out
+
+
+def test_a_window_from_the_start_prints_without_a_minus_zero(capsys) -> None:
+    """A window starting at −0.0 s (rounded from a tiny negative time) was printed
+    "-0.00-0.44"; and a refit known worse than its value says it is unknown."""
+    from hand_service.commands.diagnose import print_summary
+
+    model = SimpleNamespace(stiffness_nm_per_rad=0.57, damping_nms_per_rad=0.003,
+                            pressure_gain_nm_per_kpa=0.009)
+    refit = {"stiffness_nm_per_rad": 0.42, "damping_nms_per_rad": 0.0031, "pressure_gain_nm_per_kpa": 0.0091}
+    result = SimpleNamespace(model=model, effects=[], noise_deg=0.3, seconds=1.5, to_json=lambda: {
+        "verdict": "unexplained", "refit": refit,
+        "rmse_deg": dict.fromkeys(("nominal", "refit", "augmented"), 0.4),
+        "windows": [[-0.0, 0.44], [1.2, 1.5]], "warnings": [],
+        "refit_std": {"stiffness_nm_per_rad": 15.0, "damping_nms_per_rad": 1e-4}})
+    print_summary(result, screen=False)
+    out = capsys.readouterr().out
+    assert "windows (s): 0.00 to 0.44, 1.20 to 1.50" in out, out
+    assert "± 15 (unknown: over 100 % of the value)" in out, out

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import hand_service.diagnose.noise as noise
+import hand_service.diagnose.residual.noise as noise
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_in_process
 

@@ -321,7 +321,7 @@ def test_an_object_met_above_some_angle_is_not_named_a_stiffening_spring(tmp_pat
     cubic spring and gravity together fit that one-sided stiffening with a white residual
     (both were named before the posture test), but fitted on the lower and upper half of
     the angles apart their parameters disagree (k3 0.053 against 0.130): `unexplained`,
-    the pair in partial_effects (hand_service/diagnose/stability.py)."""
+    the pair in partial_effects (hand_service/diagnose/search/posture_stability.py)."""
     from hand_service.cli import main
 
     spec = cs.CaseSpec("contact", "ramp", 0, "evident", "ringing", 500.0)

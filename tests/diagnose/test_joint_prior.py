@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 import hand_service.diagnose.engine as engine
-import hand_service.diagnose.search as search
+import hand_service.diagnose.search.forward_selection as search
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_in_process
 

@@ -1,6 +1,6 @@
 """A lag that does not grow with the command's rate is not named a valve lag: the rate test
-(hand_service/diagnose/loop.py) on recordings from the independent truth generator, and its
-path state against a step-by-step integration of Dahl's law."""
+(hand_service/diagnose/outside_library/rate_independent_loop.py) on recordings from the
+independent truth generator, and its path state against a step-by-step integration of Dahl's law."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hand_service.diagnose.loop import path_state
+from hand_service.diagnose.outside_library.rate_independent_loop import path_state
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_argv
 

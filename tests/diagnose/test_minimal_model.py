@@ -64,7 +64,7 @@ def test_point_samples_of_a_continuous_command_are_taken_as_linear_between_them(
     from scipy import signal
 
     from hand_service.config.model import FingerModel
-    from hand_service.diagnose.problem import build_problem
+    from hand_service.diagnose.model.problem import build_problem
 
     truth = LinearFinger()
     a, b, k, n = (truth.inertia_kgm2, truth.damping_nms_per_rad, truth.stiffness_nm_per_rad,

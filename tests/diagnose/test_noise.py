@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from hand_service.diagnose import noise
+from hand_service.diagnose.residual import noise
 
 
 def test_an_ar1_process_is_recovered_and_whitened() -> None:

@@ -1,6 +1,6 @@
 """A stiffening that switches on at an angle (a contact, an end stop) is not named a cubic
-spring: the onset test (hand_service/diagnose/onset.py) on recordings from the independent
-truth generator, and its linear response against an ODE solver."""
+spring: the onset test (hand_service/diagnose/outside_library/contact_onset.py) on
+recordings from the independent truth generator, and its linear response against an ODE solver."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from hand_service.diagnose.onset import linear_finger
+from hand_service.diagnose.outside_library.contact_onset import linear_finger
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_argv
 
@@ -84,7 +84,7 @@ def test_a_stiffening_as_steep_as_the_finger_itself_is_still_named_when_fitted_i
     (the generator's power-law stiffening) on a chirp, whose slope over the range passes half of k, so the
     linearised test would not hold. The object fitted in full loses to the cubic spring,
     which is named."""
-    from hand_service.diagnose import onset as onset_module
+    from hand_service.diagnose.outside_library import contact_onset as onset_module
 
     calls: list[object] = []
     fitted = onset_module.fitted_onset

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from hand_service.config.profile import load_model
-from hand_service.diagnose.problem import build_problem
+from hand_service.diagnose.model.problem import build_problem
 from hand_service.recording import read_recording
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_in_process

@@ -1,4 +1,4 @@
-"""The joint fits' numerics (hand_service/diagnose/search.py): k, B and N kept within
+"""The joint fits' numerics (hand_service/diagnose/search/forward_selection.py): k, B and N kept within
 JOINT_RANGE of the refit and the nominal, a candidate never scored worse than no effect
 at all, and the same answer whether the effects are fitted one at a time or side by side."""
 
@@ -10,9 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from hand_service.diagnose import noise, search
-from hand_service.diagnose.fit import fit
-from hand_service.diagnose.problem import PLAIN, Param
+from hand_service.diagnose.fitting.output_error import fit
+from hand_service.diagnose.model.problem import PLAIN, Param
+from hand_service.diagnose.residual import noise
+from hand_service.diagnose.search import forward_selection as search
 from tests.diagnose.linear_truth import lab_sensor_noise, quantise, stepped_recording
 
 RATE_HZ = 100.0

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from hand_service.config.model import FingerModel
-from hand_service.diagnose.problem import build_problem
+from hand_service.diagnose.model.problem import build_problem
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_in_process
 from tests.diagnose.truth.files import read_rows, write_rows

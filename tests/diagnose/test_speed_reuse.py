@@ -1,5 +1,5 @@
-"""What makes diagnose faster without changing its answer (hand_service/diagnose/problem.py,
-fit.py): a finger simulated again on the same recording comes from the problem's cache,
+"""What makes diagnose faster without changing its answer (hand_service/diagnose/model/problem.py,
+fitting/output_error.py): a finger simulated again on the same recording comes from the problem's cache,
 the same bit for bit; and a Jacobian's columns simulated side by side give the same fit,
 bit for bit, as one at a time. (How much faster: tests/bench/test_diagnose_benchmark.py.)"""
 
@@ -12,10 +12,10 @@ import threading
 import numpy as np
 import pytest
 
-from hand_service.diagnose import fit as fit_module
-from hand_service.diagnose.fit import column_map, fit
-from hand_service.diagnose.problem import PLAIN, Param, Problem
-from hand_service.diagnose.simcache import SimulationCache, finger_key
+from hand_service.diagnose.fitting import output_error as fit_module
+from hand_service.diagnose.fitting.output_error import column_map, fit
+from hand_service.diagnose.model.problem import PLAIN, Param, Problem
+from hand_service.diagnose.model.simulation_cache import SimulationCache, finger_key
 from tests.diagnose.linear_truth import stepped_recording
 
 RATE_HZ = 100.0

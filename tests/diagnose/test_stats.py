@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hand_service.diagnose import stats
-from hand_service.diagnose.problem import split_blocks, substeps_for
+from hand_service.diagnose.model.problem import split_blocks, substeps_for
+from hand_service.diagnose.residual import stats
 
 
 def test_ljung_box_passes_white_noise_and_fails_a_ringing_residual() -> None:

@@ -1,6 +1,7 @@
 """The simulator's loop in the angle (csrc/rtcore_sim.h, hysteresis_*: Dahl's form, the
-rival diagnose fits in dry friction's place, hand_service/diagnose/hysteresis.py) against
-an integration written apart from it: the three states (θ, θ', z) by LSODA, with the loop's
+rival diagnose fits in dry friction's place,
+hand_service/diagnose/outside_library/material_hysteresis.py) against an integration
+written apart from it: the three states (θ, θ', z) by LSODA, with the loop's
 ODE z' = (θ' − |θ'|·z)/d as Dahl wrote it, not the solved form per step the simulator uses;
 on the three plant families, a triangle (slow turns) and steps (turns in the ringing)."""
 

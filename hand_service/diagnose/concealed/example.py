@@ -44,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
                     f"{d.rmse_deg['augmented']:.3f} |")
         print(rows[-1], file=sys.stderr, flush=True)
         if spec.name == args.plot_effect:
-            from hand_service.diagnose.report import overview_figure, residual_figure
+            from hand_service.diagnose.report.html import overview_figure, residual_figure
 
             out = Path(args.out)
             out.mkdir(parents=True, exist_ok=True)

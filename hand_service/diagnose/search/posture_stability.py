@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.diagnose import noise
-from hand_service.diagnose.fit import Fit, fit
-from hand_service.diagnose.problem import Problem
-from hand_service.diagnose.search import Selection
+from hand_service.diagnose.fitting.output_error import Fit, fit
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.residual import noise
+from hand_service.diagnose.search.forward_selection import Selection
 
 POSTURE_EFFECTS = ("cubic_stiffness", "gravity")  # one parameter for every angle
 STABILITY_Z = 4.0  # the halves disagree beyond this many joint standard errors
@@ -120,8 +120,7 @@ def first_alone_unstable(problem: Problem, selection: Selection) -> list[Stabili
     form, not adding physics: over one side of the angles a cubic spring and a gravity load
     together make a two-term stiffening (θ² and θ³ beside k's θ) that fits an object met part
     way (Hunt-Crossley, δ^1.5 past 47°, with its own damping) across both halves, while the
-    cubic alone, 0.0022 below the median angle and 0.0055 above, fails. A spring that truly
-    is cubic, or a true gravity load, holds alone with a second effect named beside it (six
-    such battery cases)."""
+    cubic alone fails. A spring that truly is cubic, or a true gravity load, holds alone with
+    a second effect named beside it."""
     first = selection.accepted[0]
     return check(problem, first.fit, [first.name])

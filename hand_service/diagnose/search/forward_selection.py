@@ -26,10 +26,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import stats
-from hand_service.diagnose.fit import Fit, far_from_nominal, fit, nominal_prior, unpinned
-from hand_service.diagnose.problem import NO_PRIOR, Param, Problem
-from hand_service.diagnose.screen import Screen, screen, start_value
+from hand_service.diagnose.fitting.output_error import Fit, far_from_nominal, fit, nominal_prior, unpinned
+from hand_service.diagnose.model.problem import NO_PRIOR, Param, Problem
+from hand_service.diagnose.residual import stats
+from hand_service.diagnose.search.screening import Screen, screen, start_value
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
 SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)

@@ -11,7 +11,7 @@ tested against a loop along the command's path,
     z' = (sign(p') − z) · |p'| / d  (Dahl's form: z turns over within about d kPa of travel),
     d at 0.5 % to 50 % of the command's range,
 
-the loop linearised as onset.py's torques are (its angle response through the refitted
+the loop linearised as contact_onset.py's torques are (its angle response through the refitted
 finger's own linear dynamics), the timed effect as fitted (the model with it less the model
 without it, scaled by a free factor), each regressed with k, B, N and the other found
 effects on the prewhitened residual. The lag's exact signature against a linearised loop
@@ -26,10 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.diagnose import stats
-from hand_service.diagnose.fit import Fit, sensitivity
-from hand_service.diagnose.onset import incumbent_projection, linear_finger, through
-from hand_service.diagnose.problem import Problem
+from hand_service.diagnose.fitting.output_error import Fit, sensitivity
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.outside_library.contact_onset import incumbent_projection, linear_finger, through
+from hand_service.diagnose.residual import stats
 
 SIGNIFICANT_BIC = 10.0
 TIMED = ("valve_lag", "dead_time")  # the library's effects that hold the finger back by a time

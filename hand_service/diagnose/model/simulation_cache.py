@@ -39,7 +39,7 @@ class SimulationCache:
     point another fit reached, the refit's point again in a second split), and the simulator
     is deterministic, so the angles are the same, bit for bit. The least recently used go
     first, past SIMULATION_CACHE_BYTES; each caller gets its own copy. Thread-safe: the
-    effects are fitted side by side (search.py)."""
+    effects are fitted side by side (search/forward_selection.py)."""
 
     def __init__(self, budget_bytes: int = SIMULATION_CACHE_BYTES) -> None:
         self._angles: OrderedDict[Hashable, np.ndarray] = OrderedDict()

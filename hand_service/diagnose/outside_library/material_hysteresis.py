@@ -22,9 +22,8 @@ library", with d.
 The fits cost a second or more, and dry friction is named often; they are run only where
 a memory helps at all: the loop put in the friction's place as fitted (k, B, N and its
 torque the named model's), with a travel of SCREEN_SHARES of the range, must fit better
-than with its floor for one of them. Dry friction's misfit only grows with the travel (on
-the 7 frictions of the outside probes, by 0.5 to 48 % from the floor to 1 %); the probe's
-two Bouc–Wen loops fit 0.8 and 0.7 % better at 1 and 4 %.
+than with its floor for one of them. Dry friction's misfit only grows with the travel; a
+material's loop fits better at a travel of a few per cent of the range.
 """
 
 from __future__ import annotations
@@ -35,10 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.diagnose import stats
-from hand_service.diagnose.fit import COLUMN_WORKERS, Fit
-from hand_service.diagnose.problem import Problem
-from hand_service.diagnose.rival import fit_rival
+from hand_service.diagnose.fitting.output_error import COLUMN_WORKERS, Fit
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.outside_library.rival_fit import fit_rival
+from hand_service.diagnose.residual import stats
 from rtcore.sim import SimFinger
 
 SIGNIFICANT_BIC = 10.0

@@ -4,7 +4,7 @@ For each library effect the model leaves out: its signature (the angle's sensiti
 the effect's parameter, with what k, B and N can absorb projected out), whose correlation
 with the residual is the score (Lagrange multiplier) test, and a scan over a logarithmic
 grid of the effect's values on both sides of neutral, k, B and N readjusted linearly at
-each point. Together they rank the effects and give each joint fit its starts (search.py).
+each point. Together they rank the effects and give each joint fit its starts (forward_selection.py).
 """
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import noise, stats
-from hand_service.diagnose.fit import Fit, sensitivity
-from hand_service.diagnose.problem import EffectScales, Param, Problem
+from hand_service.diagnose.fitting.output_error import Fit, sensitivity
+from hand_service.diagnose.model.problem import EffectScales, Param, Problem
+from hand_service.diagnose.residual import noise, stats
 
 
 def project_out(jacobian: np.ndarray, signal: np.ndarray) -> np.ndarray:
@@ -36,8 +36,8 @@ SCAN_SPAN = np.geomspace(0.03, 30.0, 13)  # deviations from neutral, in units of
 SCAN_STRIDES = (4, 2, 1)  # the grid's points at a factor of 10 apart first, then halved twice about the best
 # Effects whose cost along a side of the grid is not one valley: a dead zone wider than every
 # command stops the finger, a plateau beyond the commands that the coarse points can straddle
-# (coarse to fine, the dead zone's scan ended up to 1.38 times the grid's best cost in 31 of
-# 385 scans on 30 battery recordings): every point of the grid.
+# (coarse to fine, the dead zone's scan can end well above the grid's best cost): every point
+# of the grid.
 WHOLE_GRID = frozenset({"pressure_deadzone"})
 
 

@@ -12,7 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose.problem import Problem
+from hand_service.diagnose.fitting.raw_error import RawErrors
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.recording.response_onset import delay_seen, onset_delay_s
 
 
 @dataclass
@@ -34,6 +36,12 @@ def _valve_lag(c: Context) -> str:
 
 
 def _dead_time(c: Context) -> str:
+    p = c.problem
+    onset = onset_delay_s(p.pressure_kpa, p.measured_deg, p.rate_hz)
+    if not delay_seen(c.value, onset, p.rate_hz):
+        return (f"the model fits better with a transport delay of {1e3 * c.value:.1f} ms, yet the recorded "
+                f"response starts {1e3 * (onset or 0.0):.0f} ms after the command's steps: the delay is not "
+                "seen at the onset, so it stands for something else in the response")
     return (f"the finger starts to move about {1e3 * c.value:.1f} ms later after each change of pressure "
             "than the model predicts, with the shape of the response unchanged: a transport delay")
 
@@ -125,31 +133,43 @@ SENTENCES: dict[str, Callable[[Context], str]] = {
 NOT_IDENTIFIABLE = "not identifiable"
 
 
-def uncertainty(std: float, unit: str = "") -> str:
+UNKNOWN = "unknown: over 100 % of the value"
+
+
+def uncertainty(std: float, unit: str = "", value: float | None = None) -> str:
     """`± 0.0021 s`, or "not identifiable" where the data leave the value free (an infinite
-    or undefined standard deviation), never "± inf"."""
+    or undefined standard deviation), never "± inf"; with the `value`, a std larger than it
+    says the value is unknown."""
     if not np.isfinite(std):
         return NOT_IDENTIFIABLE
-    return f"± {std:.2g}{f' {unit}' if unit else ''}"
+    text = f"± {std:.2g}{f' {unit}' if unit else ''}"
+    return f"{text} ({UNKNOWN})" if value is not None and std > abs(value) else text
 
 
 def estimate(value: float, std: float, unit: str = "") -> str:
     """`0.03 ± 0.002 s`, or `0.03 s (not identifiable)`."""
     if not np.isfinite(std):
         return f"{value:.4g}{f' {unit}' if unit else ''} ({NOT_IDENTIFIABLE})"
-    return f"{value:.4g} {uncertainty(std, unit)}"
+    return f"{value:.4g} {uncertainty(std, unit, value)}"
+
+
+def error_change(errors: RawErrors) -> str:
+    """The raw and held-out RMS errors without and with the effect, side by side, in numbers
+    only: no word of improvement, which would be false where the raw error grew."""
+    raw, held = errors.raw_deg, errors.heldout_deg
+    return (f"raw RMS error {raw['before']:.3f} → {raw['after']:.3f} deg, held-out "
+            f"{held['before']:.3f} → {held['after']:.3f} deg")
 
 
 def sentence(name: str, context: Context, std: float, delta_bic: float, z_heldout: float,
-             rmse_before: float, rmse_after: float, prior_gain: float = 0.0) -> str:
+             errors: RawErrors, prior_gain: float = 0.0) -> str:
+    """`errors`: "before" and "after" the effect, against the raw angle (raw_error.py)."""
     spec = fx.BY_NAME[name]
     physics = SENTENCES[name](context) if name in SENTENCES else spec.physics
     text = (f"{physics}. Estimate {spec.param} = {estimate(context.value, std, spec.unit)}; "
             f"the information criterion favours it by ΔBIC = {delta_bic:.0f}")
     if z_heldout > 2.0:
-        return text + (f", and held-out RMSE drops from {rmse_before:.3f} to {rmse_after:.3f} deg "
-                       f"(z = {z_heldout:.1f}).")
+        return text + f"; {error_change(errors)} (z = {z_heldout:.1f})."
     return text + (f" (of which {prior_gain:.0f} because without it k, B and N must leave the nominal "
-                   f"far beyond its stated uncertainty to fit); held-out RMSE is the same, {rmse_before:.3f} "
-                   f"against {rmse_after:.3f} deg (z = {z_heldout:.1f}): this recording alone cannot tell "
-                   "it from that refit.")
+                   f"far beyond its stated uncertainty to fit); {error_change(errors)} "
+                   f"(z = {z_heldout:.1f}): this recording alone cannot tell it from that refit.")

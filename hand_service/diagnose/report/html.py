@@ -5,14 +5,16 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 from pathlib import Path
 
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import stats
-from hand_service.diagnose.engine import Diagnosis
-from hand_service.diagnose.evidence import estimate, uncertainty
+from hand_service.diagnose.report.diagnosis import Diagnosis
+from hand_service.diagnose.report.evidence import estimate, uncertainty
+from hand_service.diagnose.report.sentence_checks import facts_of, screened
+from hand_service.diagnose.residual import stats
 from hand_service.errors import UserError
 
 COLOURS = {"recording": "#9a9a9a", "nominal": "#d62728", "refit": "#1f77b4", "augmented": "#2ca02c"}
@@ -134,6 +136,8 @@ def evidence_rows(d: Diagnosis) -> list[list[str]]:
     rows = []
     accepted = {e.name for e in d.effects}
     for c in (d.selection.rounds[0].candidates if d.selection.rounds else []):
+        if c.delta_bic < -math.log(max(d.problem.n_fit, 2)):
+            continue  # a fit that came out worse than the model it adds to: no evidence either way
         spec = fx.BY_NAME[c.name]
         partial = {e.name for e in d.partial_effects}
         verdict = ("found" if c.name in accepted else "partial" if c.name in partial
@@ -151,27 +155,31 @@ th{background:#f0f0f0}.verdict{font-size:1.4em;font-weight:bold}img{max-width:10
 
 def render(d: Diagnosis, recording_name: str) -> str:
     j = d.to_json()
+    facts = facts_of(d)  # every sentence checked against the recording (sentence_checks.py)
     parts = [f"<html><head><meta charset='utf-8'><title>diagnose {html.escape(recording_name)}</title>"
              f"<style>{CSS}</style></head><body>",
              f"<h1>diagnose: {html.escape(recording_name)}</h1>",
              f"<p class='verdict'>verdict: {j['verdict']}</p>"]
     if d.effects:
         parts.append("<h2>Found effects (strongest first)</h2><ol>")
-        parts += [f"<li><b>{e.name}</b>: {html.escape(e.evidence)}</li>" for e in d.effects]
+        said = screened([e.evidence for e in d.effects], facts)
+        parts += [f"<li><b>{e.name}</b>: {html.escape(text)}</li>"
+                  for e, text in zip(d.effects, said, strict=True)]
         parts.append("</ol>")
     if j["warnings"] or j["notes"]:
-        items = "".join(f"<li>{html.escape(w)}</li>" for w in j["warnings"] + j["notes"])
+        items = "".join(f"<li>{html.escape(w)}</li>" for w in screened(j["warnings"] + j["notes"], facts))
         parts.append(f"<ul>{items}</ul>")
-    rm = j["rmse_deg"]
-    parts.append("<h2>Fit on held-out data</h2>" + _table(
-        ["model", "RMSE (deg)"], [[k, f"{v:.3f}"] for k, v in rm.items()]))
+    rm, raw = j["rmse_deg"], j.get("raw_rmse_deg", {})
+    parts.append("<h2>Fit on the raw angle (a constant offset each, no drift)</h2>" + _table(
+        ["model", "raw RMS error (deg)", "held-out RMS error (deg)"],
+        [[k, f"{raw.get(k, float('nan')):.3f}", f"{v:.3f}"] for k, v in rm.items()]))
     parts.append(f"<p>noise estimate {d.noise_deg:.3f} deg; {j['samples']['fit']} samples fitted, "
                  f"{j['samples']['held_out']} held out (interleaved blocks); {d.problem.rate_hz:g} Hz; "
                  f"diagnosed in {d.seconds:.1f} s.</p>")
     model = d.model
     refit = j["refit"]
     rows = [[name, f"{getattr(model, name):.5g}", f"{refit[name]:.5g}",
-             uncertainty(j["refit_std"].get(name, float("nan")))]
+             uncertainty(j["refit_std"].get(name, float("nan")), value=refit[name])]
             for name in ("stiffness_nm_per_rad", "damping_nms_per_rad", "pressure_gain_nm_per_kpa")]
     parts.append(f"<h2>Parameters (A held at {model.inertia_kgm2:.4g} kg·m²)</h2>"
                  + _table(["parameter", "nominal", "refit", "±"], rows))
@@ -184,8 +192,8 @@ def render(d: Diagnosis, recording_name: str) -> str:
         parts.append(f"<img src='data:image/png;base64,{_png(zoomed)}'>")
     parts.append("<h2>Residual before and after</h2>")
     parts.append(f"<img src='data:image/png;base64,{_png(residual_figure(d))}'>")
-    parts.append("<p>windows (s): " + (", ".join(f"{a:.2f}–{b:.2f}" for a, b, _ in d.windows) or "none")
-                 + "</p>")
+    spans = ", ".join(f"{max(0.0, a):.2f} to {b:.2f}" for a, b, _ in d.windows)
+    parts.append(f"<p>windows (s): {spans or 'none'}</p>")
     parts.append("<h2>Residual tests</h2>")
     parts.append(f"<img src='data:image/png;base64,{_png(tests_figure(d))}'>")
     white = j["whiteness"]

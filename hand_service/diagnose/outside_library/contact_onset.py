@@ -33,10 +33,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, signal
 
-from hand_service.diagnose import noise, stats
-from hand_service.diagnose.fit import COLUMN_WORKERS, Fit, sensitivity
-from hand_service.diagnose.problem import Problem
-from hand_service.diagnose.rival import fit_rival
+from hand_service.diagnose.fitting.output_error import COLUMN_WORKERS, Fit, sensitivity
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.outside_library.rival_fit import fit_rival
+from hand_service.diagnose.residual import noise, stats
 from rtcore.sim import SimFinger
 
 SIGNIFICANT_BIC = 10.0

@@ -9,10 +9,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose import noise, stats
-from hand_service.diagnose.fit import Fit
-from hand_service.diagnose.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Problem
-from hand_service.diagnose.search import Selection, prior_chi2
+from hand_service.diagnose.fitting.output_error import Fit
+from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Problem
+from hand_service.diagnose.residual import noise, stats
+from hand_service.diagnose.search.forward_selection import Selection, prior_chi2
 
 STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
 # An effect whose signature k, B and N absorb all but this share of could hide in a refit:
@@ -39,6 +39,11 @@ class FoundEffect:
 
 DOMINANT_SHARE = 0.6  # the share of the mismatch an effect must explain to be named over structure
 DOMINANT_RELATIVE_STD = 0.2  # and its estimate must be this well determined
+
+
+def plural(names: list, verb: str) -> str:
+    """`verb` agreeing with a list of one or more subjects: "reduces" for one."""
+    return verb + "s" if len(names) == 1 else verb
 
 
 def dominant(found: list[FoundEffect], explained: float) -> bool:
@@ -110,20 +115,35 @@ def structure_left(white: stats.Whiteness, cross: stats.Whiteness) -> str:
     return "; and ".join(reasons)
 
 
+HELD_NEAR = 1.0 + 3.0 * PRIOR_RELATIVE_WIDTH  # within this factor of the nominal, a value is held near it
+
+
+def unpinned_sentence(unidentified: list[str], held_at: dict[str, float], advice: str) -> str:
+    """What the prior holds, without an uncertainty beside "held near" (the data alone leave
+    those parameters unknown) and without calling a value held near that the fit took far."""
+    far = {label: r for label, r in held_at.items() if not 1.0 / HELD_NEAR <= r <= HELD_NEAR}
+    near = [label for label in unidentified if label not in far]
+    text = (f"the recording alone cannot pin {', '.join(unidentified)} (unknown from the data alone): "
+            f"the nominal's uncertainty (a prior of ±{100 * PRIOR_RELATIVE_WIDTH:.0f} %) is added to the fit")
+    if near:
+        text += f", which holds {', '.join(near)} near the nominal"
+    if far:
+        text += "; " + ", ".join(f"{label} is refitted to {r:.3g} times the nominal even so"
+                                 for label, r in far.items())
+    return f"{text}, and the effects are tested against that; {advice}"
+
+
 def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray, selection: Selection,
           found: list[FoundEffect], refit_tests: tuple[stats.Whiteness, stats.Whiteness],
           final_tests: tuple[stats.Whiteness, stats.Whiteness],
           refit_gain_z: float, refit_bic: float, inseparable: list[str],
-          warnings: list[str], rmse: dict[str, float], advice: str = "",
-          explained: float = 0.0) -> tuple[str, list[str]]:
-    """The verdict. `advice`: what this recording's command holds and lacks, in words."""
+          warnings: list[str], advice: str = "",
+          explained: float = 0.0, held_at: dict[str, float] | None = None) -> tuple[str, list[str]]:
+    """The verdict. `advice`: what this recording's command holds and lacks, in words.
+    `held_at`: the refitted value over the nominal of each parameter the prior holds."""
     notes: list[str] = []
     if unidentified:
-        worst = ", ".join(f"{p.label} ±{100 * r:.0f} %" for p, r in zip(params, relative_std, strict=True)
-                          if p.label in unidentified)
-        warnings.append(f"the recording alone cannot pin the plain parameters ({worst} from the data "
-                        "alone): they are held near the nominal (a prior of "
-                        f"±{100 * PRIOR_RELATIVE_WIDTH:.0f} %) and the effects tested against that; {advice}")
+        warnings.append(unpinned_sentence(unidentified, held_at or {}, advice))
     if selection.ambiguous is not None:
         a, b = selection.ambiguous
         warnings.append(f"{a.name} and {b.name} explain the residual about equally well (ΔBIC "
@@ -131,13 +151,6 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
                         "recording cannot tell them apart")
         if not found:
             return "insufficient_excitation", notes
-    if found and rmse["augmented"] >= rmse["nominal"]:
-        names = ", ".join(e.name for e in found)
-        warnings.append(f"{names} fit the recording, yet the model with them predicts the held-out data "
-                        f"worse than the nominal model does ({rmse['augmented']:.3g} against "
-                        f"{rmse['nominal']:.3g} deg RMS): the refit and the effects are bending to absorb "
-                        "something outside the library, so they are not named (see partial_effects)")
-        return "unexplained", notes
     if found:
         left = structure_left(*final_tests)
         if left and dominant(found, explained):
@@ -148,9 +161,11 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
             return "missing_physics", notes
         if left:
             names = ", ".join(e.name for e in found)
-            warnings.append(f"{names} reduce the residual, but {left}: they explain only part of the "
-                            f"mismatch ({100 * explained:.0f} %), so they are not named "
-                            "(see partial_effects)")
+            one = len(found) == 1
+            warnings.append(f"{names} {plural(found, 'reduce')} the residual, but {left}: "
+                            f"{'it explains' if one else 'they explain'} only part of the "
+                            f"mismatch ({100 * explained:.0f} %), so {'it is' if one else 'they are'} "
+                            "not named (see partial_effects)")
             return "unexplained", notes
         return "missing_physics", notes
     left = structure_left(*refit_tests)

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from hand_service.diagnose.noise import choose_order, prewhiten
+from hand_service.diagnose.residual.noise import choose_order, prewhiten
 
 Z99 = 2.576  # two-sided 99 % normal quantile
 

@@ -18,8 +18,8 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
-from hand_service.diagnose.noise import WHITE, NoiseModel
-from hand_service.diagnose.simcache import SimulationCache, finger_key
+from hand_service.diagnose.model.simulation_cache import SimulationCache, finger_key
+from hand_service.diagnose.residual.noise import WHITE, NoiseModel
 from hand_service.simulator import check_ringing, sim_finger
 from rtcore.sim import SimFinger, simulate_angle
 

@@ -23,7 +23,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from hand_service.config import effects as fx
-from hand_service.diagnose.problem import PRIOR_RELATIVE_WIDTH, Param, Prior, Problem
+from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Param, Prior, Problem
 from rtcore.sim import SimFinger
 
 DIVERGED_DEG = 1e4  # residual that stands for a simulation that ran away
@@ -113,7 +113,7 @@ _columns_lock = threading.Lock()
 
 def _column_pool() -> ThreadPoolExecutor:
     """One pool for the process: its tasks are single simulations, which submit nothing,
-    so fits running in several threads (search.py) can share it without deadlock."""
+    so fits running in several threads (search/forward_selection.py) can share it without deadlock."""
     global _columns
     with _columns_lock:
         if _columns is None:
@@ -259,6 +259,6 @@ def relative_std(f: Fit) -> np.ndarray:
 def unpinned(f: Fit) -> list[str]:
     """The plain parameters (k, B, N) this fit knows worse than MAX_RELATIVE_STD: what the
     recording cannot pin, which the nominal's prior then holds (the plain refit in engine.py,
-    a joint fit in search.py)."""
+    a joint fit in search/forward_selection.py)."""
     return [p.label for p, r in zip(f.params, relative_std(f), strict=True)
             if not p.is_effect and not r < MAX_RELATIVE_STD]

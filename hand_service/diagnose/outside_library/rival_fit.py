@@ -1,8 +1,8 @@
 """A rival to a named effect, fitted in full: the final model with that effect taken out and
 the rival's own physics put in (the simulator's: an object past an angle, a loop in the
 angle), its other found effects held as fitted, k, B, N and the rival's parameters refitted
-by output error. onset.py and hysteresis.py compare such a rival with the named model on
-the innovations."""
+by output error. contact_onset.py and material_hysteresis.py compare such a rival with the
+named model on the innovations."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from collections.abc import Callable
 import numpy as np
 from scipy.optimize import least_squares
 
-from hand_service.diagnose.fit import (
+from hand_service.diagnose.fitting.output_error import (
     Fit,
     PriorRows,
     cost_tolerance,
@@ -19,7 +19,7 @@ from hand_service.diagnose.fit import (
     nominal_prior,
     parallel_columns,
 )
-from hand_service.diagnose.problem import Problem
+from hand_service.diagnose.model.problem import Problem
 from rtcore.sim import SimFinger
 
 PLAIN_BOUNDS = (0.05, 20.0)  # k, B and N, as factors of their fitted values

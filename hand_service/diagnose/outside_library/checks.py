@@ -1,18 +1,19 @@
 """The checks that a named effect is not standing in for physics outside the library: a
-cubic spring or gravity for a contact or an end stop (onset.py), a valve lag or a dead
-time for a loop that does not grow with the rate (loop.py), dry friction for a loop in the
-angle, hysteresis in the material (hysteresis.py). Each is run on the final model when it
-names its effect; any that wins turns the answer into "outside the library"."""
+cubic spring or gravity for a contact or an end stop (contact_onset.py), a valve lag or a
+dead time for a loop that does not grow with the rate (rate_independent_loop.py), dry
+friction for a loop in the angle, hysteresis in the material (material_hysteresis.py).
+Each is run on the final model when it names its effect; any that wins turns the answer
+into "outside the library"."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hand_service.diagnose.fit import Fit
-from hand_service.diagnose.hysteresis import Hysteresis, hysteresis_check
-from hand_service.diagnose.loop import Loop, loop_check
-from hand_service.diagnose.onset import SMOOTH_STATIC, Onset, onset_check
-from hand_service.diagnose.problem import Problem
+from hand_service.diagnose.fitting.output_error import Fit
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.outside_library.contact_onset import SMOOTH_STATIC, Onset, onset_check
+from hand_service.diagnose.outside_library.material_hysteresis import Hysteresis, hysteresis_check
+from hand_service.diagnose.outside_library.rate_independent_loop import Loop, loop_check
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,1 @@
+"""Output-error least squares of the finger model on a recording."""

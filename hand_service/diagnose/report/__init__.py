@@ -1,0 +1,1 @@
+"""What diagnose tells: the verdict, the evidence sentences and the HTML report."""

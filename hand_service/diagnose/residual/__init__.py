@@ -1,0 +1,1 @@
+"""What the residual holds: the sensor noise model and the residual tests."""

@@ -1,0 +1,128 @@
+"""Every sentence diagnose prints is true of the recording
+(hand_service/diagnose/report/sentence_checks.py): the checks catch the false sentences real
+rigs got, and the fixtures' and a slice of the battery's reports pass them unscreened."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from hand_service.commands.diagnose import print_summary
+from hand_service.config.profile import load_model
+from hand_service.diagnose.engine import diagnose
+from hand_service.diagnose.recording.response_onset import onset_delay_s
+from hand_service.diagnose.recording.timebase import regular_grid
+from hand_service.diagnose.report.diagnosis import Diagnosis
+from hand_service.diagnose.report.html import evidence_rows
+from hand_service.diagnose.report.sentence_checks import Facts, evidence_row_failures, facts_of, failures
+from hand_service.recording import read_recording
+from tests.diagnose.truth import cases as cs
+
+HERE = Path(__file__).parent
+RINGING = Facts(rate_hz=100.0, onset_s=0.01, rings=True, own_hz=9.5, period_s=None, n_fit=2000,
+                held_ratio={"damping_nms_per_rad": 2.31, "stiffness_nm_per_rad": 1.1})
+OVERDAMPED_25HZ = Facts(rate_hz=25.0, onset_s=None, rings=False, own_hz=0.007, period_s=None, n_fit=900)
+
+
+@pytest.mark.parametrize(("text", "facts"), [
+    ("the finger starts to move about 157.0 ms later after each change of pressure", RINGING),
+    ("add content near the finger's resonance (4.3 Hz) and 0 % above", OVERDAMPED_25HZ),
+    ("lies 10 % near the finger's resonance (30 Hz) and 0 % above", RINGING),
+    ("add content near 8 Hz (steps, or a chirp through it)", OVERDAMPED_25HZ),
+    ("the command repeats at 0.022 Hz with nearly all its power at that one frequency", RINGING),
+    ("the recording alone cannot pin the plain parameters (stiffness_nm_per_rad ±498469 % from the data "
+     "alone): they are held near the nominal (a prior of ±25 %)", RINGING),
+    ("it holds damping_nms_per_rad near the nominal", RINGING),
+    ("stiffness_nm_per_rad              0.57        0.42  ± 15", RINGING),
+    ("warning: cubic_stiffness reduce the residual, but a structured residual remains", RINGING),
+    ("windows (s): -0.00-0.30, 1.20-1.50", RINGING),
+])
+def test_the_false_sentences_real_rigs_got_are_caught(text: str, facts: Facts) -> None:
+    assert failures(text, facts), text
+
+
+@pytest.mark.parametrize(("text", "facts"), [
+    ("the finger starts to move about 40.0 ms later after each change of pressure",
+     Facts(100.0, 0.05, True, 9.5, None, 2000)),
+    ("lies 10 % near the finger's resonance (9.5 Hz) and 0 % above", RINGING),
+    ("the command repeats at 0.1 Hz with nearly all its power", Facts(100.0, None, True, 9.5, 10.2, 2000)),
+    ("stiffness_nm_per_rad              0.57        0.42  ± 15 (unknown: over 100 % of the value)", RINGING),
+    ("the recording alone cannot pin damping_nms_per_rad (unknown from the data alone): the nominal's "
+     "uncertainty (a prior of ±25 %) is added to the fit, which holds stiffness_nm_per_rad near the nominal",
+     RINGING),
+    ("warning: cubic_stiffness reduces the residual", RINGING),
+    ("windows (s): 0.00 to 0.30, 1.20 to 1.50", RINGING),
+])
+def test_true_sentences_pass(text: str, facts: Facts) -> None:
+    assert failures(text, facts) == []
+
+
+def test_the_onset_is_measured_from_the_data() -> None:
+    """Steps through a first-order finger that answers 120 ms late: the onset is measured at
+    the delay, within two samples."""
+    rate, delay = 200.0, 24
+    command = np.repeat([0.0, 50.0, 10.0, 60.0], 400)
+    angle = np.zeros(command.size)
+    for i in range(1, command.size):
+        angle[i] = angle[i - 1] + 0.1 * (command[max(i - delay, 0)] - angle[i - 1])
+    angle += np.random.default_rng(0).normal(0.0, 0.05, angle.size)
+    onset = onset_delay_s(command, angle, rate)
+    assert onset is not None and abs(onset - delay / rate) <= 2.0 / rate, onset
+
+
+def _diagnosed(recording: Path, model: Path, input_hold: str = "zoh") -> Diagnosis:
+    rec = read_recording(recording, None)
+    grid = regular_grid(rec.t_s, rec.pressure_kpa, rec.angle_deg, recording)
+    return diagnose(load_model(model, None), grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz,
+                    missing=grid.missing, input_hold=input_hold)
+
+
+def _report_failures(d: Diagnosis) -> list[str]:
+    facts = facts_of(d)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        print_summary(d, screen=False)
+    texts = out.getvalue().splitlines() + d.notes + [e.evidence for e in d.partial_effects]
+    wrong = [f"{text[:80]}: {f}" for text in texts for f in failures(text, facts)]
+    return wrong + evidence_row_failures(d, evidence_rows(d))
+
+
+FIXTURES = [("outside", "sinh_spring_ramp"), ("outside", "stiff_contact_steps"), ("outside", "boucwen_ramp"),
+            ("real", "emps")]
+
+
+@pytest.mark.parametrize(("folder", "name"), FIXTURES)
+def test_every_fixture_report_passes_the_checks(folder: str, name: str) -> None:
+    base = HERE / folder
+    model = base / (f"{name}_model.yaml" if folder == "real" else f"{name}.yaml")
+    hold = "zoh"
+    if folder == "real":
+        hold = json.loads((base / f"{name}_expected.json").read_text())["input_hold"]
+    assert _report_failures(_diagnosed(base / f"{name}.csv", model, hold)) == []
+
+
+@pytest.mark.thorough
+def test_the_silverbox_report_passes_the_checks() -> None:
+    base = HERE / "real"
+    hold = json.loads((base / "silverbox_expected.json").read_text())["input_hold"]
+    assert _report_failures(_diagnosed(base / "silverbox.csv", base / "silverbox_model.yaml", hold)) == []
+
+
+BATTERY_SLICE = [
+    cs.CaseSpec("dead_time", "steps", 0, "evident", "ringing", 100.0),
+    cs.CaseSpec("valve_lag", "chirp", 1, "concealed", "overdamped", 200.0),
+    cs.CaseSpec("coulomb_friction", "ramp", 0, "evident", "stiff", 500.0),
+    cs.CaseSpec(cs.CLEAN, "slow_sine", 0, "none", "overdamped", 100.0),
+    cs.CaseSpec("contact", "steps", 0, "evident", "ringing", 100.0),
+]
+
+
+@pytest.mark.parametrize("spec", BATTERY_SLICE, ids=lambda s: s.id)
+def test_battery_reports_pass_the_checks(spec: cs.CaseSpec, tmp_path: Path) -> None:
+    recording, model = cs.write(cs.build(spec), tmp_path)
+    assert _report_failures(_diagnosed(recording, model)) == []
