@@ -60,6 +60,7 @@ def main(args: argparse.Namespace) -> int:
     import numpy as np
 
     from hand_service.commands.progress import Progress
+    from hand_service.config.plausible import say_implausible
     from hand_service.config.profile import load_model
     from hand_service.diagnose.engine import diagnose
     from hand_service.diagnose.timebase import regular_grid
@@ -86,6 +87,7 @@ def main(args: argparse.Namespace) -> int:
         check_finger(recording, other.finger)
         raise
     model.require_prbm(purpose="diagnose", force_point=False)  # a free finger: no force
+    say_implausible(model)
     grid = regular_grid(recording.t_s, recording.pressure_kpa, recording.angle_deg, args.recording)
     rate_hz = grid.rate_hz
     if grid.n_missing:
@@ -122,8 +124,10 @@ def _write_files(args: argparse.Namespace, result: Any) -> None:
         print(f"not writing {args.write_model}: this recording cannot separate the parameters, so the "
               "refit is not to be trusted (see the warnings)")
     elif args.write_model:
+        from hand_service.config.plausible import refuse_implausible
         from hand_service.version import software_version
 
+        refuse_implausible(result.refit_model(), args.write_model)
         save_model(result.refit_model(), args.write_model,
                    header=f"refitted by hand-service diagnose {software_version()} from {args.recording}\n"
                           f"verdict: {result.verdict}")

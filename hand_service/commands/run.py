@@ -88,6 +88,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.app.daemon import Daemon, DaemonOptions, print_summary
     from hand_service.commands import checks
     from hand_service.config.at_rate import with_rate
+    from hand_service.config.plausible import profile_warnings
     from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
     from hand_service.transports import transport_class
@@ -107,6 +108,8 @@ def main(args: argparse.Namespace) -> int:
     if not args.no_realtime and not 1 <= args.realtime_priority <= 99:
         raise UserError(f"--realtime-priority must be 1 to 99 (SCHED_FIFO), not {args.realtime_priority}")
     profile = with_rate(load_profile(args.profile), args.rate)  # checks the range and the filter
+    for line in profile_warnings(profile):
+        print(f"warning: {line}", file=sys.stderr)
     if not 0 <= args.spin_us * 1000 < 1e9 / profile.control.rate_hz:
         raise UserError("--spin-us must be at least 0 and shorter than the period")
     if args.record is not None and args.record.exists():
