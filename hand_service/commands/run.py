@@ -13,7 +13,7 @@ DESCRIPTION = """\
 Run the supervisor: a control tick at the profile's rate (100 Hz by default, up to
 1 kHz) on an absolute clock_nanosleep schedule, the safety state machine, the control
 API on a Unix socket (0600, in a directory only you may write) and, with --record, one
-CSV row per tick. Requests load and record only inside --record-dir. With --tcp-port a
+CSV row per tick. Requests load and record only inside the data directory (--data-dir). With --tcp-port a
 client must show the token the daemon writes beside its socket (ctl reads it).
 
 The daemon starts in INIT, shakes hands with the firmware and waits DISARMED (vented)
@@ -49,11 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also serve the API on 127.0.0.1:PORT (loopback only; 0 picks one); a "
                              "client must show the token the daemon writes beside its socket "
                              "(api.token beside api.sock, mode 0600; docs/api.md)")
-    parser.add_argument("--record-dir", type=Path, metavar="DIR",
-                        help="the only directory requests (load_trajectory, record_start) may read or "
-                             "record in, created 0700 if absent (default: the directory of --record, "
-                             "else $XDG_DATA_HOME/hand-service/recordings, by default "
-                             "~/.local/share/hand-service/recordings)")
+    parser.add_argument("--data-dir", "--record-dir", dest="data_dir", type=Path, metavar="DIR",
+                        help="the data directory: the only one requests (ctl load, ctl record-start) "
+                             "may read or record in, created 0700 if absent, shown at start and in "
+                             "`ctl status` (default: the profile's recording.data_dir, else the "
+                             "directory of --record, else $XDG_DATA_HOME/hand-service/recordings, by "
+                             "default ~/.local/share/hand-service/recordings)")
     parser.add_argument("--rate", type=float, metavar="HZ",
                         help=f"control rate ({RATE_MIN_HZ:g} to {RATE_MAX_HZ:g} Hz, above twice the "
                              "filter cutoff; default: the profile's control.rate_hz)")
@@ -133,7 +134,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.api.server import default_socket_path
     options = DaemonOptions(
         socket_path=None if args.no_socket else (args.socket or default_socket_path()),
-        tcp_port=args.tcp_port, record=args.record, record_dir=args.record_dir, recorder=args.recorder,
+        tcp_port=args.tcp_port, record=args.record, record_dir=args.data_dir, recorder=args.recorder,
         record_sync_s=args.record_sync_s, spin_us=args.spin_us,
         realtime_priority=None if args.no_realtime else args.realtime_priority,
         lock_memory=not (args.no_realtime or args.no_mlock),
