@@ -83,6 +83,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "unless --tcp-port is given (the page needs the daemon's token)")
     parser.add_argument("--view-port", type=int, default=0, metavar="PORT",
                         help="with --view: serve the page on 127.0.0.1:PORT (default 0: a free port)")
+    parser.add_argument("--foxglove", type=int, nargs="?", const=8765, metavar="PORT",
+                        help="also serve the hand live to Foxglove (its WebSocket protocol) on "
+                             "127.0.0.1:PORT (default 8765; 0: a free port, printed), a process of its "
+                             "own reading the recording: the MCAP export's channels, every tick's row "
+                             "(docs/view.md)")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -101,6 +106,11 @@ def main(args: argparse.Namespace) -> int:
     if args.view and (args.no_socket or args.demo):
         raise UserError("--view talks to the daemon's control socket: not with "
                         + ("--no-socket" if args.no_socket else "--demo (it prints its figures and exits)"))
+    if args.foxglove is not None and (args.no_socket or args.demo):
+        raise UserError("--foxglove asks the daemon for its recording over its control socket: not with "
+                        + ("--no-socket" if args.no_socket else "--demo"))
+    if args.foxglove is not None:
+        checks.tcp_port(args.foxglove, "--foxglove", allow_any=True)
     if args.view_port and not args.view:
         raise UserError("--view-port is the page's port: it needs --view")
     if args.view and args.tcp_port is None:
@@ -145,21 +155,26 @@ def main(args: argparse.Namespace) -> int:
         from hand_service.app.demo import run_demo
         return run_demo(daemon, args.record, sys.stdout)
     daemon.open()
-    view = None
-    if args.view:
-        from hand_service.view.beside import start_view, stop_view
+    from hand_service.view.beside import start_beside, start_view, stop_view
 
-        assert options.socket_path is not None
-        sys.stdout.flush()
-        try:
-            view = start_view(options.socket_path, args.view_port)
-        except OSError as exc:
-            daemon.server.close()
-            raise UserError(f"--view: cannot start the view: {exc.strerror or exc}") from None
+    beside = []
+    assert options.socket_path is not None or not (args.view or args.foxglove is not None)
+    sys.stdout.flush()
+    try:
+        if args.view:
+            beside.append(start_view(options.socket_path, args.view_port))
+        if args.foxglove is not None:
+            beside.append(start_beside(["hand_service.view.foxglove", "--socket", str(options.socket_path),
+                                        "--port", str(args.foxglove)]))
+    except OSError as exc:
+        for child in beside:
+            stop_view(child)
+        daemon.server.close()
+        raise UserError(f"cannot start the view or the Foxglove server: {exc.strerror or exc}") from None
     try:
         summary = daemon.run(args.duration)
     finally:
-        if view is not None:
-            stop_view(view)
+        for child in beside:
+            stop_view(child)
     print_summary(summary, sys.stdout)
     return 0
