@@ -11,6 +11,7 @@ channels are advertised when a recording starts (the ring exists only while the 
 records); a recording of other fingers advertises them again.
 
     python -m hand_service.view.foxglove --socket SOCK [--port PORT] [--with-daemon PID]
+    python -m hand_service.view.foxglove --ring PATH --fingers a,b --rate HZ ...   (bench --foxglove)
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -72,10 +74,21 @@ def ring_table(rows: np.ndarray, fingers: list[str]) -> Table:
                  fingers=list(fingers))
 
 
-class Publisher:
-    """The ring's rows -> Foxglove channels. run() until stop()."""
+@dataclass(frozen=True)
+class KnownRing:
+    """A ring given outright (bench --foxglove: no daemon, no socket to ask)."""
 
-    def __init__(self, link: DaemonLink, port: int, with_daemon: int | None = None) -> None:
+    path: str
+    fingers: list[str]
+    rate_hz: float
+
+
+class Publisher:
+    """The ring's rows -> Foxglove channels. run() until stop(). The ring is the daemon's
+    (its status names it) or, with `ring`, one given outright."""
+
+    def __init__(self, link: DaemonLink | None, port: int, with_daemon: int | None = None,
+                 ring: KnownRing | None = None) -> None:
         import foxglove
 
         self._foxglove = foxglove
@@ -87,9 +100,10 @@ class Publisher:
         self._tap: RingTap | None = None
         self._fingers: list[str] = []
         self._channels: list[tuple[ChannelSpec, Any]] = []
-        self._offset_ns = 0  # wall clock minus the ring's t, set when a ring is attached
+        self._offset_ns: int | None = None  # wall clock minus the ring's t, set when attached
         self._max_rows = 1
         self._stop = threading.Event()
+        self.ring = ring
 
     def stop(self) -> None:
         self._stop.set()
@@ -114,12 +128,24 @@ class Publisher:
             self.server.stop()
 
     def _poll_status(self) -> None:
+        if self.ring is not None:
+            status = {"recording": {"active": True, "ring_path": self.ring.path},
+                      "rate_hz": self.ring.rate_hz, "fingers": dict.fromkeys(self.ring.fingers)}
+        else:
+            status = self._daemon_status()
+        if status is not None:
+            self._attach(status)
+
+    def _daemon_status(self) -> dict[str, Any] | None:
+        assert self.link is not None
         try:
-            status = self.link.status()
+            return self.link.status()
         except (ApiError, ConnectionError) as exc:
             log.warning("foxglove: the daemon cannot be reached: %s", exc)
             self._detach()
-            return
+            return None
+
+    def _attach(self, status: dict[str, Any]) -> None:
         rec = status.get("recording", {})
         path = rec.get("ring_path") if rec.get("active") else None
         if path is None:
@@ -135,7 +161,9 @@ class Publisher:
             return
         fingers = list(status.get("fingers", {}))
         self._max_rows = max(1, int(MAX_BEHIND_S * float(status.get("rate_hz", 100.0))))
-        self._offset_ns = time.time_ns() - round(float(status.get("t_s") or 0.0) * 1e9)
+        # wall clock minus t: from the status's t, or (a ring given outright) the first rows read
+        t_s = None if self.ring is not None else float(status["t_s"])
+        self._offset_ns = None if t_s is None else time.time_ns() - round(t_s * 1e9)
         if fingers != self._fingers or not self._channels:
             self._advertise(fingers)
 
@@ -166,6 +194,8 @@ class Publisher:
             return
         if not rows.shape[0]:
             return
+        if self._offset_ns is None:
+            self._offset_ns = time.time_ns() - round(float(rows[-1, 0]) * 1e9)
         table = ring_table(rows, self._fingers)
         cells = table_cells(table)
         times = self._offset_ns + np.round(rows[:, 0] * 1e9).astype(np.int64)
@@ -179,14 +209,20 @@ def main(argv: list[str] | None = None) -> int:
     from hand_service.view.beside import leave_realtime
 
     parser = argparse.ArgumentParser(prog="python -m hand_service.view.foxglove")
-    parser.add_argument("--socket", type=Path, required=True)
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--socket", type=Path, help="the daemon's control socket (its status names the ring)")
+    source.add_argument("--ring", help="a recording ring given outright (with --fingers, --rate)")
+    parser.add_argument("--fingers", default="", help="with --ring: the fingers, comma-separated")
+    parser.add_argument("--rate", type=float, default=100.0, help="with --ring: the rows' rate (Hz)")
     parser.add_argument("--port", type=int, default=DEFAULT_PORT)
     parser.add_argument("--with-daemon", type=int)
     args = parser.parse_args(argv)
+    ring = None if args.ring is None else KnownRing(args.ring, args.fingers.split(","), args.rate)
+    link = None if args.socket is None else DaemonLink(LinkOptions(args.socket))
     leave_realtime()  # started by run --foxglove after the daemon took SCHED_FIFO
     logging.basicConfig(level=logging.INFO, format="%(message)s")
     try:
-        publisher = Publisher(DaemonLink(LinkOptions(args.socket)), args.port, args.with_daemon)
+        publisher = Publisher(link, args.port, args.with_daemon, ring)
     except Exception as exc:  # the SDK's own error type: a port in use, say
         print(f"foxglove: cannot serve on {HOST}:{args.port}: {exc}", file=sys.stderr)
         return 2
