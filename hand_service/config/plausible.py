@@ -182,6 +182,11 @@ def say_implausible(model: Any, finger: str | None = None) -> list[str]:
     return lines
 
 
+def explained(refusal: UserError, lines: list[str]) -> UserError:
+    """A command's refusal of a model, with the first unit slip found in it, still one line."""
+    return UserError(f"{refusal} ({lines[0]})") if lines else refusal
+
+
 def refuse_implausible(model: Any, path: str | Path) -> None:
     """UserError (exit 2) before a model with an implausible value is written to `path`."""
     lines = implausible(model_values(model))
@@ -198,6 +203,7 @@ __all__ = [
     "VALVE_LAG_TAU_S",
     "Plausible",
     "Slip",
+    "explained",
     "implausible",
     "model_values",
     "profile_warnings",

@@ -110,3 +110,17 @@ def test_run_says_the_slip_of_its_profile(profile: Profile, tmp_path: Path,
           "--status", "off"])
     line = _one_slip_line(capsys.readouterr().err)
     assert "mine.yaml: finger index: k = 570 N·m/rad" in line
+
+
+def test_diagnose_says_the_slip_and_writes_only_a_plausible_refit(
+        slipped: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    recording, nominal = tmp_path / "rec.csv", tmp_path / "nominal.yaml"
+    assert main(["simulate", "-o", str(recording), "--duration", "10", "--nominal-model", str(nominal)]) == 0
+    capsys.readouterr()
+    out = tmp_path / "refit.yaml"
+    code = main(["diagnose", str(recording), "--model", str(slipped), "--quiet", "--write-model", str(out)])
+    err = capsys.readouterr().err
+    assert _one_slip_line(err).startswith("warning: ") and "k = 570 N·m/rad" in err
+    assert code == 0 if out.exists() else code == 2, err
+    if out.exists():  # the refit found k from the data
+        assert implausible(model_values(load_model(out))) == []
