@@ -7,7 +7,7 @@ INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_
                   hand_service/firmware/_build.py board/Makefile \
                   $(wildcard csrc/*.c csrc/*.h board/core/* board/plant/* board/host/* board/inprocess/*)
 
-.PHONY: run test test-thorough test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
+.PHONY: run test test-thorough test-firsthour test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -29,7 +29,7 @@ CPU_TESTS := tests/diagnose tests/identification tests/replicate tests/export te
              tests/rtcore tests/pinch tests/wire tests/packaging tests/test_recording.py tests/test_excel_csv.py \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py tests/board/test_board_build.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py
-SELECT := -m "not slow and not thorough and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu"
+SELECT := -m "not slow and not thorough and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu and not firsthour"
 
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
@@ -48,6 +48,10 @@ test-thorough: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m thorough tests/diagnose tests/rtcore
 
 # a wheel of the checkout, installed in a fresh venv outside it, runs (about 10 s)
+# the README's first hour, every command as written, in a fresh directory (tests/test_first_hour.py)
+test-firsthour: $(STAMP)
+	$(PY) -m pytest -q -s -p no:cacheprovider -m firsthour tests/test_first_hour.py
+
 test-install: $(STAMP)
 	$(PY) -m pytest -q -m install
 

@@ -162,10 +162,10 @@ class Api:
                         "angle_deg": Param(float, False), "force_n": Param(float, False),
                         "pressure_kpa": Param(float, False)}, self.target),
             "load_trajectory": ({"path": Param(PATH, doc="absolute path of a trajectory CSV in the "
-                                                         "recording directory"),
+                                                         "data directory"),
                                  "loop": Param(bool, False)}, self.load_trajectory),
             "clear_trajectory": ({}, self.clear_trajectory),
-            "record_start": ({"path": Param(PATH, doc="absolute path of a new CSV in the recording "
+            "record_start": ({"path": Param(PATH, doc="absolute path of a new CSV in the data "
                                                       "directory")}, self.record_start),
             "record_stop": ({}, self.record_stop),
         }
@@ -355,4 +355,5 @@ class Api:
                 reply["trajectory_loading"] = None if self._loading is None else self._loading.path
             elif key == "transport":
                 reply["api"] = {"requests": self.requests, "errors": self.errors}
+        reply["data_dir"] = None if self.record_dir is None else str(self.record_dir)
         return reply

@@ -1,5 +1,5 @@
 """What each request does in each state of the supervisor: docs/api.md's table "What each
-state accepts" is this one, rendered (tests/daemon/test_state_table.py walks it).
+state accepts" is this one, rendered (tests/api/test_state_table.py walks it).
 
 A request is either carried out now, taken now and followed from a later command (a
 target in HOLD is followed from `resume`: HOLD freezes every reference), or refused with

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
 
-from hand_service.api.paths import default_record_dir, prepare_record_dir
+from hand_service.api.paths import SETS_IT, choose_data_dir, prepare_record_dir
 from hand_service.api.requests import Api
 from hand_service.api.server import ApiServer
 from hand_service.config.profile import Profile
@@ -38,7 +38,7 @@ class DaemonOptions:
     socket_path: Path | None = None
     tcp_port: int | None = None
     record: Path | None = None
-    record_dir: Path | None = None  # requests' paths lie in it (default: paths.default_record_dir)
+    record_dir: Path | None = None  # run --data-dir: requests' paths lie in it (paths.choose_data_dir)
     recorder: str = "process"
     record_sync_s: float | None = None  # the writer also fdatasyncs this often
     spin_us: float = 0.0
@@ -91,9 +91,11 @@ class Daemon:
         try:
             self.server.open()
             if self.server.listening:  # the directory requests record to and load from
-                self.api.record_dir = prepare_record_dir(
-                    self.options.record_dir or default_record_dir(self.options.record))
-                log.info("requests' paths: in %s", self.api.record_dir)
+                chosen, why = choose_data_dir(self.options.record_dir, self.profile.recording.data_dir,
+                                              self.options.record)
+                self.api.record_dir = prepare_record_dir(chosen)
+                self.out.write(f"data directory: {self.api.record_dir} ({why}; `ctl load` and "
+                               f"`ctl record-start` use files only here; {SETS_IT})\n")
             if self.options.record is not None:
                 self.sup.start_recording(self.options.record, self.metadata())
         except BaseException:

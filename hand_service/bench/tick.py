@@ -77,11 +77,12 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
                   recorder: str | None = "process", realtime_priority: int | None = 50,
                   progress: bool = False, transport: Transport | None = None,
                   switch_interval_s: float = SWITCH_INTERVAL_S,
-                  record_sync_s: float | None = None) -> dict[str, object]:
+                  record_sync_s: float | None = None, foxglove_port: int | None = None) -> dict[str, object]:
     """`transport`: a bus transport to a (mock) firmware; default: the profile's own, which
     for the sim transport is the in-process simulated hand. `switch_interval_s`: the GIL
     switch interval while ticking (the daemon's by default). `record_sync_s`: the writer also
-    fdatasyncs that often (run --record-sync-s). `progress`: say how far it is on stderr
+    fdatasyncs that often (run --record-sync-s). `foxglove_port`: also serve the recording to
+    Foxglove there (run --foxglove's server, a process beside). `progress`: say how far it is on stderr
     through commands.progress (a bar on a terminal, a plain line every 2 s elsewhere)."""
     profile = with_rate(profile, rate_hz)
     if transport is None:
@@ -89,8 +90,15 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
     rec = Recorder(profile.finger_names, rate_hz, recorder or "process", record_sync_s)
     sup = supervisor(profile, transport, rec, spin_us=spin_us)
     tmp = tempfile.TemporaryDirectory(prefix="hand-service-bench-")
+    beside = None
     if recorder:
         rec.start(Path(tmp.name) / "bench.csv", {"bench": "tick"})
+        if foxglove_port is not None:
+            from hand_service.view.beside import start_beside
+
+            beside = start_beside(["hand_service.view.foxglove", "--ring", str(rec.status()["ring_path"]),
+                                   "--fingers", ",".join(profile.finger_names), "--rate", f"{rate_hz:g}",
+                                   "--port", str(foxglove_port)])
     sup.set_trajectory(sweep_trajectory(len(profile.fingers), rate_hz), loop=True)
     # as the daemon runs (run locks memory unless --no-mlock): both loops, no page faults
     realtime = setup_realtime(realtime_priority, lock_memory=realtime_priority is not None)
@@ -145,6 +153,10 @@ def measure_ticks(profile: Profile, rate_hz: float, seconds: float, spin_us: flo
                     shown.advance(done - shown.count, f"{done / rate_hz:.0f} of {n_ticks / rate_hz:g} s "
                                   "ticked (and as long for the bare loop)")
     finally:
+        if beside is not None:
+            from hand_service.view.beside import stop_view
+
+            stop_view(beside)
         tmp.cleanup()
         if realtime.memory_locked is True:
             clock.unlock_memory()

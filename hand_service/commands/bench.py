@@ -60,6 +60,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the writer also fdatasyncs every S s, as `run --record-sync-s` (default: "
                              "as run's default, on faults, signals and at the end only)")
     parser.add_argument("--no-realtime", action="store_true", help="do not ask for SCHED_FIFO")
+    parser.add_argument("--foxglove", type=int, nargs="?", const=8765, metavar="PORT",
+                        help="also serve the recording to Foxglove on 127.0.0.1:PORT, as run --foxglove "
+                             "(default 8765): connect a client to see what it costs the tick")
     parser.add_argument("--switch-interval-us", type=float, default=None, metavar="US",
                         help="GIL switch interval while ticking (default: the daemon's, 100 us; "
                              "CPython's own is 5000; see docs/service.md)")
@@ -135,6 +138,11 @@ def _check(args: argparse.Namespace, profile: Profile) -> tuple[float, float]:
     if args.tick_in_python and profile.transport["kind"] != "can":
         raise UserError("--tick-in-python compares the two ticks of a can-v1 profile; this one is "
                         f"{profile.transport['kind']}")
+    if args.foxglove is not None:
+        checks.tcp_port(args.foxglove, "--foxglove", allow_any=True)
+        if args.recorder == "off" or profile.transport["kind"] != "sim":
+            raise UserError("--foxglove serves the recording of the simulated hand: not with --recorder off "
+                            "or a bus profile")
     if args.record_sync_s is not None and args.recorder == "off":
         raise UserError("--record-sync-s needs a recording (not --recorder off)")
     if args.machine and (args.io or args.profile or args.spin_us or args.recorder != "process"
@@ -161,7 +169,8 @@ def _ticks(args: argparse.Namespace, profile: Profile, rate_hz: float, seconds: 
     if args.switch_interval_us is not None:
         extra["switch_interval_s"] = args.switch_interval_us / 1e6
     if profile.transport["kind"] == "sim":
-        r = measure_ticks(profile, rate_hz, seconds, *options, progress=not args.quiet, **extra)
+        r = measure_ticks(profile, rate_hz, seconds, *options, progress=not args.quiet,
+                          foxglove_port=args.foxglove, **extra)
     else:  # the bus transport against a mock firmware on its own pty (or virtual channel)
         with tempfile.TemporaryDirectory(prefix="hand-service-bench-") as workdir, \
                 Rig(str(Rig.name_for(profile)), Path(workdir), profile) as rig:

@@ -84,10 +84,12 @@ def _finger_name(args: argparse.Namespace, model_finger: str | None, recording_f
 def _write_back(args: argparse.Namespace, model: Any, changes: dict[str, Any], finger: str | None,
                 header: str) -> None:
     from hand_service.config.model import save_model
+    from hand_service.config.plausible import refuse_implausible
     from hand_service.config.profile import load_profile
     from hand_service.config.yamlupdate import update_values
 
     if args.write_model is not None:
+        refuse_implausible(model.with_changes(**changes), args.write_model)
         save_model(model.with_changes(**changes), args.write_model, header=header)
         print(f"wrote {args.write_model}")
     if args.update_profile is not None:
@@ -107,11 +109,13 @@ def _write_back(args: argparse.Namespace, model: Any, changes: dict[str, Any], f
 
 
 def _gain(args: argparse.Namespace) -> dict[str, Any]:
+    from hand_service.config.plausible import say_implausible
     from hand_service.config.profile import load_model
     from hand_service.identification.calibration import fit_pressure_gain
     from hand_service.recording import check_finger, read_recording
 
     model = load_model(args.model, args.finger)
+    say_implausible(model)
     recording = read_recording(args.recording, args.finger)
     check_finger(recording, args.finger or model.finger)
     fit = fit_pressure_gain(recording, model, args.pressure)
@@ -175,11 +179,13 @@ def _sensor(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _valve(args: argparse.Namespace) -> dict[str, Any]:
+    from hand_service.config.plausible import say_implausible
     from hand_service.config.profile import load_model
     from hand_service.identification.calibration import fit_valve, step_samples
     from hand_service.recording import check_finger, read_recording
 
     model = load_model(args.model, args.finger)
+    say_implausible(model)
     recording = read_recording(args.recording, args.finger)
     check_finger(recording, args.finger or model.finger)
     fit = fit_valve(recording)

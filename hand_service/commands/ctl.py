@@ -26,7 +26,7 @@ reply. Examples:
 
 Every reply prints as `key: value` lines (status as a table); --json prints the reply's
 result as one line of JSON instead, for scripts (docs/api.md lists every reply's keys).
-A path must lie in the daemon's recording directory (run --record-dir). `ctl estop`
+A path must lie in the daemon's data directory (run --data-dir; `ctl status` shows it). `ctl estop`
 is served even when the daemon has all the connections it takes. A refused request
 prints the daemon's reason on one line and exits with status 2.
 """
@@ -125,6 +125,8 @@ def _show_status(result: dict[str, Any]) -> str:
     rec = result["recording"]
     if rec["active"]:
         lines.append(f"recording {rec['path']}: {rec['rows']} rows")
+    if result.get("data_dir"):
+        lines.append(f"data directory {result['data_dir']}")
     return "\n".join(lines)
 
 

@@ -60,6 +60,7 @@ def main(args: argparse.Namespace) -> int:
     import numpy as np
 
     from hand_service.commands.progress import Progress
+    from hand_service.config.plausible import explained, warn_implausible
     from hand_service.config.profile import load_model
     from hand_service.diagnose.engine import diagnose
     from hand_service.diagnose.recording.timebase import regular_grid
@@ -86,6 +87,7 @@ def main(args: argparse.Namespace) -> int:
         check_finger(recording, other.finger)
         raise
     model.require_prbm(purpose="diagnose", force_point=False)  # a free finger: no force
+    slips = warn_implausible(model)  # said once: in the refusal they explain, else as warnings
     grid = regular_grid(recording.t_s, recording.pressure_kpa, recording.angle_deg, args.recording)
     rate_hz = grid.rate_hz
     if grid.n_missing:
@@ -97,9 +99,14 @@ def main(args: argparse.Namespace) -> int:
         raise UserError(f"{args.recording}: angle_deg is {recording.angle_deg[0]:g} deg throughout: nothing "
                         "moved, so there is nothing to compare with the model (is the sensor connected?)")
     with Progress("diagnose", quiet=args.quiet) as progress:
-        result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress,
-                          grid.missing, args.input_hold, args.noise_model)
+        try:
+            result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress,
+                              grid.missing, args.input_hold, args.noise_model)
+        except UserError as refused:
+            raise explained(refused, slips) from None
         progress.done()
+    for line in slips:
+        print(f"warning: {line}", file=sys.stderr)
     with tables_out(args.json):  # `--json -`: the JSON alone on stdout
         print_summary(result)
         _write_files(args, result)
@@ -118,6 +125,10 @@ def _write_files(args: argparse.Namespace, result: Any) -> None:
 
         write_report(result, args.report, str(args.recording))
         print(f"wrote {args.report}")
+    if args.write_model:  # a unit slip first: it is why the rest cannot be trusted
+        from hand_service.config.plausible import refuse_implausible
+
+        refuse_implausible(result.refit_model(), args.write_model)
     if args.write_model and result.verdict == "insufficient_excitation":
         print(f"not writing {args.write_model}: this recording cannot separate the parameters, so the "
               "refit is not to be trusted (see the warnings)")

@@ -48,12 +48,14 @@ def main(args: argparse.Namespace) -> int:
     import sys
 
     from hand_service.config.model import save_model
+    from hand_service.config.plausible import refuse_implausible, say_implausible
     from hand_service.config.profile import load_model
     from hand_service.identification.identify import identify_recordings
     from hand_service.jsonio import tables_out, write_json
 
     with tables_out(args.json):
         model = load_model(args.model, args.finger)
+        say_implausible(model)
         result = identify_recordings(args.trials, model, args.finger, args.method)
         print(f"identify ({args.method}), finger {result.finger or '?'}, A = {model.inertia_kgm2:.5g} kg·m² "
               f"(held), {len(result.trials)} trial(s):\n")
@@ -69,6 +71,7 @@ def main(args: argparse.Namespace) -> int:
         if args.write_model is not None:
             updated = model.with_changes(stiffness_nm_per_rad=result.stiffness_nm_per_rad,
                                          damping_nms_per_rad=result.damping_nms_per_rad)
+            refuse_implausible(updated, args.write_model)
             names = ", ".join(p.name for p in args.trials[:5]) + (" ..." if len(args.trials) > 5 else "")
             save_model(updated, args.write_model,
                        header=f"k and B from `hand-service identify --method {args.method}` on {names}\n"

@@ -13,7 +13,7 @@ DESCRIPTION = """\
 Run the supervisor: a control tick at the profile's rate (100 Hz by default, up to
 1 kHz) on an absolute clock_nanosleep schedule, the safety state machine, the control
 API on a Unix socket (0600, in a directory only you may write) and, with --record, one
-CSV row per tick. Requests load and record only inside --record-dir. With --tcp-port a
+CSV row per tick. Requests load and record only inside the data directory (--data-dir). With --tcp-port a
 client must show the token the daemon writes beside its socket (ctl reads it).
 
 The daemon starts in INIT, shakes hands with the firmware and waits DISARMED (vented)
@@ -49,11 +49,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="also serve the API on 127.0.0.1:PORT (loopback only; 0 picks one); a "
                              "client must show the token the daemon writes beside its socket "
                              "(api.token beside api.sock, mode 0600; docs/api.md)")
-    parser.add_argument("--record-dir", type=Path, metavar="DIR",
-                        help="the only directory requests (load_trajectory, record_start) may read or "
-                             "record in, created 0700 if absent (default: the directory of --record, "
-                             "else $XDG_DATA_HOME/hand-service/recordings, by default "
-                             "~/.local/share/hand-service/recordings)")
+    parser.add_argument("--data-dir", "--record-dir", dest="data_dir", type=Path, metavar="DIR",
+                        help="the data directory: the only one requests (ctl load, ctl record-start) "
+                             "may read or record in, created 0700 if absent, shown at start and in "
+                             "`ctl status` (default: the profile's recording.data_dir, else the "
+                             "directory of --record, else $XDG_DATA_HOME/hand-service/recordings, by "
+                             "default ~/.local/share/hand-service/recordings)")
     parser.add_argument("--rate", type=float, metavar="HZ",
                         help=f"control rate ({RATE_MIN_HZ:g} to {RATE_MAX_HZ:g} Hz, above twice the "
                              "filter cutoff; default: the profile's control.rate_hz)")
@@ -82,12 +83,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "unless --tcp-port is given (the page needs the daemon's token)")
     parser.add_argument("--view-port", type=int, default=0, metavar="PORT",
                         help="with --view: serve the page on 127.0.0.1:PORT (default 0: a free port)")
+    parser.add_argument("--foxglove", type=int, nargs="?", const=8765, metavar="PORT",
+                        help="also serve the hand live to Foxglove (its WebSocket protocol) on "
+                             "127.0.0.1:PORT (default 8765; 0: a free port, printed), a process of its "
+                             "own reading the recording: the MCAP export's channels, every tick's row "
+                             "(docs/view.md)")
 
 
 def main(args: argparse.Namespace) -> int:
     from hand_service.app.daemon import Daemon, DaemonOptions, print_summary
     from hand_service.commands import checks
     from hand_service.config.at_rate import with_rate
+    from hand_service.config.plausible import profile_warnings
     from hand_service.config.profile import load_profile
     from hand_service.errors import UserError
     from hand_service.transports import transport_class
@@ -99,6 +106,11 @@ def main(args: argparse.Namespace) -> int:
     if args.view and (args.no_socket or args.demo):
         raise UserError("--view talks to the daemon's control socket: not with "
                         + ("--no-socket" if args.no_socket else "--demo (it prints its figures and exits)"))
+    if args.foxglove is not None and (args.no_socket or args.demo):
+        raise UserError("--foxglove asks the daemon for its recording over its control socket: not with "
+                        + ("--no-socket" if args.no_socket else "--demo"))
+    if args.foxglove is not None:
+        checks.tcp_port(args.foxglove, "--foxglove", allow_any=True)
     if args.view_port and not args.view:
         raise UserError("--view-port is the page's port: it needs --view")
     if args.view and args.tcp_port is None:
@@ -107,6 +119,8 @@ def main(args: argparse.Namespace) -> int:
     if not args.no_realtime and not 1 <= args.realtime_priority <= 99:
         raise UserError(f"--realtime-priority must be 1 to 99 (SCHED_FIFO), not {args.realtime_priority}")
     profile = with_rate(load_profile(args.profile), args.rate)  # checks the range and the filter
+    for line in profile_warnings(profile):
+        print(f"warning: {line}", file=sys.stderr)
     if not 0 <= args.spin_us * 1000 < 1e9 / profile.control.rate_hz:
         raise UserError("--spin-us must be at least 0 and shorter than the period")
     if args.record is not None and args.record.exists():
@@ -130,7 +144,7 @@ def main(args: argparse.Namespace) -> int:
     from hand_service.api.server import default_socket_path
     options = DaemonOptions(
         socket_path=None if args.no_socket else (args.socket or default_socket_path()),
-        tcp_port=args.tcp_port, record=args.record, record_dir=args.record_dir, recorder=args.recorder,
+        tcp_port=args.tcp_port, record=args.record, record_dir=args.data_dir, recorder=args.recorder,
         record_sync_s=args.record_sync_s, spin_us=args.spin_us,
         realtime_priority=None if args.no_realtime else args.realtime_priority,
         lock_memory=not (args.no_realtime or args.no_mlock),
@@ -141,21 +155,26 @@ def main(args: argparse.Namespace) -> int:
         from hand_service.app.demo import run_demo
         return run_demo(daemon, args.record, sys.stdout)
     daemon.open()
-    view = None
-    if args.view:
-        from hand_service.view.beside import start_view, stop_view
+    from hand_service.view.beside import start_beside, start_view, stop_view
 
-        assert options.socket_path is not None
-        sys.stdout.flush()
-        try:
-            view = start_view(options.socket_path, args.view_port)
-        except OSError as exc:
-            daemon.server.close()
-            raise UserError(f"--view: cannot start the view: {exc.strerror or exc}") from None
+    beside = []
+    assert options.socket_path is not None or not (args.view or args.foxglove is not None)
+    sys.stdout.flush()
+    try:
+        if args.view:
+            beside.append(start_view(options.socket_path, args.view_port))
+        if args.foxglove is not None:
+            beside.append(start_beside(["hand_service.view.foxglove", "--socket", str(options.socket_path),
+                                        "--port", str(args.foxglove)]))
+    except OSError as exc:
+        for child in beside:
+            stop_view(child)
+        daemon.server.close()
+        raise UserError(f"cannot start the view or the Foxglove server: {exc.strerror or exc}") from None
     try:
         summary = daemon.run(args.duration)
     finally:
-        if view is not None:
-            stop_view(view)
+        for child in beside:
+            stop_view(child)
     print_summary(summary, sys.stdout)
     return 0

@@ -45,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="serve the page on 127.0.0.1:PORT (default 0: a free port, printed)")
     parser.add_argument("--record", type=Path, metavar="FILE.csv",
                         help="if the daemon is not recording, start a recording to this new file (in "
-                             "its recording directory) and stop it when the view ends")
+                             "its data directory) and stop it when the view ends")
     parser.add_argument("--open", action="store_true", help="open the page in the default browser")
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument("--with-daemon", type=int, metavar="PID",

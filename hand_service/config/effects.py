@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S, Plausible
 from hand_service.config.schema import fail, unknown_key_message
 from hand_service.config.textfile import show
 from hand_service.config.yamlio import LineDict
@@ -32,9 +33,9 @@ class EffectSpec:
 
 LIBRARY: tuple[EffectSpec, ...] = (
     EffectSpec("valve_lag", "tau_s", "s", "chamber pressure lags the command (first order)",
-               "valve_lag_tau_s", 0.0, 0.0, 0.5, 0.03),
+               "valve_lag_tau_s", 0.0, VALVE_LAG_TAU_S.lower, VALVE_LAG_TAU_S.upper, 0.03),
     EffectSpec("dead_time", "delay_s", "s", "transport delay between command and chamber",
-               "dead_time_s", 0.0, 0.0, 0.25, 0.01),
+               "dead_time_s", 0.0, DEAD_TIME_DELAY_S.lower, DEAD_TIME_DELAY_S.upper, 0.01),
     EffectSpec("coulomb_friction", "torque_nm", "N·m", "dry friction, stick-slip",
                "coulomb_torque_nm", 0.0, 0.0, 0.05, 0.001),
     EffectSpec("cubic_stiffness", "k3_nm_per_rad3", "N·m/rad³", "stiffening: extra torque k3·θ³",
@@ -52,6 +53,8 @@ LIBRARY: tuple[EffectSpec, ...] = (
                "pressure_deadzone_kpa", 0.0, 0.0, 100.0, 5.0),
 )
 BY_NAME: dict[str, EffectSpec] = {spec.name: spec for spec in LIBRARY}
+# the effects whose range is a physical plausibility with unit slips (config/plausible.py)
+PLAUSIBLE: dict[str, Plausible] = {"valve_lag": VALVE_LAG_TAU_S, "dead_time": DEAD_TIME_DELAY_S}
 
 EffectParams = dict[str, dict[str, float]]
 
@@ -79,9 +82,12 @@ def parse_effects(data: Any, source: str | Path, context: str = "effects") -> Ef
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
                 spec.lower <= value <= spec.upper):
             line_owner = params if isinstance(params, LineDict) else data
+            slip = PLAUSIBLE[name].slip(value) if name in PLAUSIBLE and isinstance(value, (int, float)) \
+                and not isinstance(value, bool) else None
+            hint = f": {slip.unit}? ({show(value)} {slip.unit} = {value / slip.per_unit:g} s)" if slip else ""
             raise fail(source, line_owner, spec.param,
                        f"{label}.{spec.param} = {show(value)} is out of range "
-                       f"({spec.lower:g} to {spec.upper:g} {spec.unit})")
+                       f"({spec.lower:g} to {spec.upper:g} {spec.unit}){hint}")
         effects[name] = {spec.param: float(value)}
     return effects
 

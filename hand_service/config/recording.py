@@ -23,6 +23,10 @@ RECORDING_SECTION = Section(
             "error and shows it in `status` while control goes on; `fault` latches FAULT, which "
             "vents, and faults again at every arm until the recording is stopped (docs/service.md)",
             "choice", default="warning", choices=ON_FAILURE),
+        Key("data_dir", "the daemon's data directory: the only one `ctl load` reads and `ctl "
+            "record-start` writes in, relative to the profile's own directory; `run --data-dir` "
+            "overrides it (default: the directory of `run --record`, else "
+            "$XDG_DATA_HOME/hand-service/recordings, docs/api.md)", "str", default=None),
     ))
 
 
@@ -31,6 +35,7 @@ class RecordingSettings:
     """The validated `recording:` block (RECORDING_SECTION documents each key)."""
 
     on_failure: str = "warning"  # warning | fault
+    data_dir: Path | None = None  # the profile's data directory, made absolute against its own
 
     @classmethod
     def from_values(cls, values: dict[str, Any]) -> RecordingSettings:
@@ -41,7 +46,10 @@ class RecordingSettings:
         """The `recording:` block of a profile's top-level mapping (absent: the defaults)."""
         block = data.get("recording")
         block = {} if block is None else expect_mapping(block, source, data, "recording", "recording")
-        return cls.from_values(validate(block, RECORDING_SECTION, source, "recording"))
+        values = validate(block, RECORDING_SECTION, source, "recording")
+        if values["data_dir"] is not None:
+            values["data_dir"] = Path(source).parent / Path(values["data_dir"]).expanduser()
+        return cls.from_values(values)
 
     @property
     def faults(self) -> bool:

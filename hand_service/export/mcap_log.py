@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -94,6 +95,42 @@ def _channels(table: Table) -> list[_Channel]:
     return [hand, *fingers.values()]
 
 
+@dataclass(frozen=True)
+class ChannelSpec:
+    """A channel as the MCAP export and the live Foxglove server (view/foxglove.py) both
+    declare it: its topic, schema (name, JSON schema text) and metadata."""
+
+    topic: str
+    schema_name: str
+    schema_json: str
+    metadata: dict[str, str]
+    fields: dict[str, str]  # message key -> the CSV column
+
+    def message(self, cells: dict[str, list[Any]], row: int) -> dict[str, Any]:
+        return {key: cells[column][row] for key, column in self.fields.items()}
+
+
+def channel_specs(table: Table) -> list[ChannelSpec]:
+    """The channels of a recording's columns (those with at least one field)."""
+    specs = []
+    for channel in _channels(table):
+        if not channel.fields:
+            continue
+        schema = channel.schema(table)
+        metadata = {"units": json.dumps({k: table.units[c] for k, c in channel.fields.items()}),
+                    "columns": json.dumps(channel.fields)}
+        if channel.finger is not None:
+            metadata["finger"] = channel.finger
+        specs.append(ChannelSpec(channel.topic, schema["title"], json.dumps(schema, sort_keys=True), metadata,
+                                 dict(channel.fields)))
+    return specs
+
+
+def table_cells(table: Table) -> dict[str, list[Any]]:
+    """Every column as JSON cells (NaN and infinity as null)."""
+    return {column: _cells(values) for column, values in table.columns.items()}
+
+
 def write_mcap(table: Table, out: Path, software: str) -> Path:
     from hand_service.export.optional import need
 
@@ -107,7 +144,7 @@ def write_mcap(table: Table, out: Path, software: str) -> Path:
     log_ns = start_ns(table.metadata) + np.round(t_s * 1e9).astype(np.int64)
     if np.any(log_ns < 0):
         raise UserError(f"{table.path}: a negative time in '{TIME_COLUMN}' (MCAP times start at 0)")
-    cells = {column: _cells(values) for column, values in table.columns.items()}
+    cells = table_cells(table)
     try:
         stream = open(out, "wb")  # noqa: SIM115 - closed below
     except OSError as exc:
@@ -115,26 +152,20 @@ def write_mcap(table: Table, out: Path, software: str) -> Path:
     with stream:
         writer = writer_module.Writer(stream)
         writer.start(profile="", library=software)
-        ids: list[tuple[int, _Channel]] = []
+        ids: list[tuple[int, ChannelSpec]] = []
         schemas: dict[str, int] = {}
-        for channel in _channels(table):
-            if not channel.fields:
-                continue
-            schema = json.dumps(channel.schema(table), sort_keys=True)
-            if schema not in schemas:
-                schemas[schema] = writer.register_schema(
-                    name=channel.schema(table)["title"], encoding="jsonschema", data=schema.encode())
-            metadata = {"units": json.dumps({k: table.units[c] for k, c in channel.fields.items()}),
-                        "columns": json.dumps(channel.fields)}
-            if channel.finger is not None:
-                metadata["finger"] = channel.finger
-            ids.append((writer.register_channel(topic=channel.topic, message_encoding="json",
-                                                schema_id=schemas[schema], metadata=metadata), channel))
+        for spec in channel_specs(table):
+            if spec.schema_json not in schemas:
+                schemas[spec.schema_json] = writer.register_schema(
+                    name=spec.schema_name, encoding="jsonschema", data=spec.schema_json.encode())
+            ids.append((writer.register_channel(topic=spec.topic, message_encoding="json",
+                                                schema_id=schemas[spec.schema_json], metadata=spec.metadata),
+                        spec))
         writer.add_metadata(METADATA_NAME, dict(table.metadata))
         for row in range(table.rows):
             time_ns = int(log_ns[row])
-            for channel_id, channel in ids:
-                message = {key: cells[column][row] for key, column in channel.fields.items()}
+            for channel_id, spec in ids:
+                message = spec.message(cells, row)
                 writer.add_message(channel_id, log_time=time_ns, publish_time=time_ns, sequence=row,
                                    data=json.dumps(message, separators=(",", ":")).encode())
         writer.finish()

@@ -44,8 +44,13 @@ def start_view(socket_path: Path, port: int = 0) -> ViewChild:
     """`hand-service view` on the daemon's socket, tied to this process, under the normal
     scheduler from its first instruction (posix_spawn's scheduler: the daemon may hold
     SCHED_FIFO already); its stdout is the daemon's (the link line), its stderr too."""
-    argv = [sys.executable, "-m", "hand_service.cli", "view", "--socket", str(socket_path),
-            "--port", str(port), "--with-daemon", str(os.getpid())]
+    return start_beside(["hand_service.cli", "view", "--socket", str(socket_path), "--port", str(port)])
+
+
+def start_beside(module_args: list[str]) -> ViewChild:
+    """`python -m MODULE ARGS... --with-daemon PID` as start_view starts the view (the
+    Foxglove server of run --foxglove too)."""
+    argv = [sys.executable, "-m", *module_args, "--with-daemon", str(os.getpid())]
     pid = os.posix_spawn(sys.executable, argv, dict(os.environ),
                          file_actions=[(os.POSIX_SPAWN_OPEN, 0, os.devnull, os.O_RDONLY, 0)],
                          scheduler=(os.SCHED_OTHER, os.sched_param(0)))
@@ -83,4 +88,4 @@ def leave_realtime() -> None:
             os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
 
-__all__ = ["WATCH_S", "ViewChild", "alive", "leave_realtime", "start_view", "stop_view"]
+__all__ = ["WATCH_S", "ViewChild", "alive", "leave_realtime", "start_beside", "start_view", "stop_view"]

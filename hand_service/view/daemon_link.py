@@ -31,6 +31,17 @@ class LinkOptions:
     timeout_s: float = 5.0
 
 
+def buttons_by_state() -> dict[str, list[str]]:
+    """For each state, the buttons whose request it accepts (the state machine's own table,
+    service/states.py): the page enables only those."""
+    from hand_service.service.states import TRANSITIONS, Event, State
+
+    return {state.name: [b for b in BUTTONS if (state, Event(b)) in TRANSITIONS] for state in State}
+
+
+BUTTONS_BY_STATE = buttons_by_state()
+
+
 def brief_status(status: dict[str, Any]) -> dict[str, Any]:
     """What the page shows of a `status` reply."""
     timing, faults, rec = status.get("timing", {}), status.get("faults", {}), status.get("recording", {})
@@ -45,6 +56,7 @@ def brief_status(status: dict[str, Any]) -> dict[str, Any]:
         "recording": {"active": bool(rec.get("active")), "path": rec.get("path"),
                       "rows": rec.get("rows"), "ring_path": rec.get("ring_path")},
         "fingers": list(status.get("fingers", {})),
+        "buttons": BUTTONS_BY_STATE,
     }
 
 
@@ -121,4 +133,5 @@ class DaemonLink:
             self._drop()
 
 
-__all__ = ["BUTTONS", "STATUS_EVERY_S", "DaemonLink", "LinkOptions", "brief_status"]
+__all__ = ["BUTTONS", "BUTTONS_BY_STATE", "STATUS_EVERY_S", "DaemonLink", "LinkOptions", "brief_status",
+           "buttons_by_state"]

@@ -158,7 +158,7 @@ def test_trajectory_runs_to_hold(daemon: Running, tmp_path: Path) -> None:
     (b'{"cmd": "start"}\n', "cannot start in DISARMED"),
     (b'{"cmd": "reset"}\n', "cannot reset in DISARMED"),
     (b'{"cmd": "load_trajectory", "path": "relative.csv"}\n', "must be absolute"),
-    (b'{"cmd": "load_trajectory", "path": "/nonexistent/t.csv"}\n', "outside the recording directory"),
+    (b'{"cmd": "load_trajectory", "path": "/nonexistent/t.csv"}\n', "outside the data directory"),
     (b'{"cmd": "record_start", "path": "rel.csv"}\n', "must be absolute"),
     (b'{"cmd": "record_stop"}\n', "not recording"),
     (b"{" + b" " * 70000 + b"\n", "not JSON"),

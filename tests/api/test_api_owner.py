@@ -198,12 +198,12 @@ def test_request_paths_stay_in_the_recording_directory(daemon: Owned) -> None:
     (rec / "bad-header.csv").write_text("t,SECRET-HEADER\n0,0\n1,0\n")
     (rec / "bad-cell.csv").write_text("t,angle_ref_deg_index\n0,0\n1,SECRET-CELL\n")
     refused = {
-        ("load_trajectory", "/etc/passwd"): "outside the recording directory",
-        ("load_trajectory", f"{rec}/../secret.csv"): "outside the recording directory",
-        ("load_trajectory", f"{rec}/escape.csv"): "outside the recording directory",
-        ("record_start", f"{rec}/../made.csv"): "outside the recording directory",
-        ("record_start", f"{rec}/out/made.csv"): "outside the recording directory",
-        ("record_start", "/made.csv"): "outside the recording directory",
+        ("load_trajectory", "/etc/passwd"): "outside the data directory",
+        ("load_trajectory", f"{rec}/../secret.csv"): "outside the data directory",
+        ("load_trajectory", f"{rec}/escape.csv"): "outside the data directory",
+        ("record_start", f"{rec}/../made.csv"): "outside the data directory",
+        ("record_start", f"{rec}/out/made.csv"): "outside the data directory",
+        ("record_start", "/made.csv"): "outside the data directory",
         ("record_start", f"{rec}/new/sub/made.csv"): "its directory does not exist",
         ("load_trajectory", f"{rec}/bad-header.csv"): f"{rec}/bad-header.csv:1: unknown column",
         ("load_trajectory", f"{rec}/bad-cell.csv"): f"{rec}/bad-cell.csv:3: column 'angle_ref_deg_index': "
@@ -226,7 +226,7 @@ def test_request_paths_stay_in_the_recording_directory(daemon: Owned) -> None:
     ctl = [sys.executable, "-m", "hand_service.cli", "ctl", "--socket", str(daemon.socket), "record-start"]
     done = subprocess.run([*ctl, "/nonexistent/dir/x.csv"], capture_output=True, text=True, timeout=60)
     assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
-    assert "outside the recording directory" in done.stderr and not Path("/nonexistent").exists()
+    assert "outside the data directory" in done.stderr and not Path("/nonexistent").exists()
 
 
 @pytest.mark.parametrize(("text", "said"), [

@@ -104,7 +104,7 @@ def test_the_python_example_refuses_in_one_line_and_vents(daemon: TcpDaemon, tmp
                            str(outside), "--seconds", "0"], capture_output=True, text=True, timeout=120,
                           cwd=ROOT)
     assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
-    assert "outside the recording directory" in done.stderr and not outside.exists()
+    assert "outside the data directory" in done.stderr and not outside.exists()
     assert done.stdout.splitlines()[-1] == "disarm: DISARMED"  # armed and started before: vented
     with daemon.client() as hand:
         assert hand.status()["state"] == "DISARMED"

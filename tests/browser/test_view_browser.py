@@ -1,7 +1,10 @@
 """The page in a real browser (make test-browser; marker `browser`): Debian's Chromium,
 headless, driven by Playwright against a real daemon on the simulated hand. The page loads,
 its plots advance with the daemon's clock, the E-stop button vents the hand (ESTOP on the
-page and through the API), a wrong token is refused, and docs/img/view.png is written."""
+page and through the API), a wrong token is refused, and docs/img/view.png is written. The
+page logs no console error and no request of it fails; each finger has a tracking-error
+plot; every plot's axes are labelled and its traces differ in colour or dash, with a legend;
+a button is enabled only in the states that accept it."""
 
 from __future__ import annotations
 
@@ -49,19 +52,36 @@ def test_the_page_plots_live_and_its_estop_vents_the_hand(tmp_path: Path) -> Non
                 bypass_csp=True)  # the page's CSP forbids eval; the test evaluates its probes
             try:
                 page = context.new_page()
+                problems: list[str] = []
+                page.on("console", lambda m: problems.append(f"console {m.type}: {m.text}")
+                        if m.type == "error" else None)
+                page.on("pageerror", lambda exc: problems.append(f"page error: {exc}"))
+                page.on("response", lambda r: problems.append(f"HTTP {r.status} {r.url}")
+                        if r.status >= 400 else None)
+                page.on("requestfailed", lambda r: problems.append(f"failed {r.url}: {r.failure}"))
                 page.goto(f"{view.url}#code={view.code}")
                 page.wait_for_function("window.hsView && window.hsView.auth === 'ok'", timeout=20_000)
                 assert "code" not in page.url  # the link's code left the address bar
                 page.wait_for_function("window.hsView.frames > 10 && window.hsView.draws > 5",
                                        timeout=20_000)
                 assert page.locator("section.finger").count() == 5
-                assert page.locator("section.finger canvas").count() == 15  # 5 fingers x 3 plots
+                assert page.locator("section.finger canvas").count() == 20  # 5 fingers x 4 plots
+                assert page.locator("section.finger [data-quantity='tracking error']").count() == 5
+                assert page.locator("section.finger .u-legend").count() == 20
+                assert page.evaluate("hsView.plots.every((p) => p.plot.axes[0].label === 't (s)' && "
+                                     "p.plot.axes[1].label.endsWith('(' + p.spec.unit + ')'))")
+                assert page.evaluate("hsView.plots.every((p) => new Set(p.spec.series.map("
+                                     "([, , colour, dash]) => colour + JSON.stringify(dash))).size === "
+                                     "p.spec.series.length)")
                 before = page.evaluate("[hsView.lastT, hsView.draws, hsView.plots[0].plot.scales.x.max]")
                 time.sleep(1.5)
                 after = page.evaluate("[hsView.lastT, hsView.draws, hsView.plots[0].plot.scales.x.max]")
                 assert after[0] - before[0] > 0.5, (before, after)  # the daemon's time, 1.5 s later
                 assert after[1] > before[1] and after[2] > before[2]  # redrawn, and scrolled
                 assert page.locator("#state").inner_text() == "RUNNING"
+                enabled = ("Array.from(document.querySelectorAll('#buttons button:enabled'), "
+                           "(b) => b.dataset.button)")
+                assert sorted(page.evaluate(enabled)) == ["disarm", "hold"]
                 time.sleep(6.0)  # the sweep's steps fill the plots' 10 s
                 SCREENSHOT.parent.mkdir(parents=True, exist_ok=True)
                 page.screenshot(path=str(tmp_path / "view.png"), full_page=True)
@@ -73,6 +93,10 @@ def test_the_page_plots_live_and_its_estop_vents_the_hand(tmp_path: Path) -> Non
                 page.click("#estop")
                 page.wait_for_function("document.getElementById('state').textContent === 'ESTOP'",
                                        timeout=10_000)
+                page.wait_for_function("document.querySelector('[data-button=reset]').disabled === false",
+                                       timeout=10_000)
+                assert page.evaluate(enabled) == ["reset"] and page.locator("#estop").is_enabled()
+                assert problems == [], problems
                 status = wait_state(hand, "ESTOP")
                 assert status["state"] == "ESTOP"
                 assert all(f["mode"] == "vent" and f["pressure_cmd_kpa"] == 0.0

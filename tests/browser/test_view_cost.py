@@ -6,7 +6,7 @@ in 10 s blocks that alternate: the view closed (no view process, no reader), the
 four times over, in the same run. Two cases:
 
 - as deployed (SCHED_FIFO): `hand-service view` streaming to the page in headless
-  Chromium, drawing its 15 plots;
+  Chromium, drawing its 20 plots;
 - without realtime (the normal scheduler, as a test daemon runs): `hand-service view`
   streaming to a reader that parses every frame but draws nothing, so that what is
   measured is the view's own cost, not a browser's rendering competing for two cores

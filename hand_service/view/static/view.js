@@ -8,11 +8,16 @@
 const WINDOW_S = 10;
 const DRAW_HZ = 30;
 const PLOTS = [  // per finger: a plot per quantity, its series (wire name, label, colour, dash, width)
+  // drawn in this order: the wide filtered line under the thin measured one, the dotted
+  // truth and the dashed reference on top, so that four nearly equal traces stay apart
   {key: "angle", unit: "deg", series: [
-    ["angle_ref_deg", "reference", "#555", [6, 4]],
-    ["angle_filt_deg", "filtered", "#ff7f0e", null, 2.5],
+    ["angle_filt_deg", "filtered", "#ffbb78", null, 5],
     ["angle_deg", "measured", "#1f77b4", null, 1],
-    ["angle_true_deg", "true (simulated)", "#2ca02c", [2, 3], 1.5]]},
+    ["angle_true_deg", "true (simulated)", "#2ca02c", [2, 3], 2],
+    ["angle_ref_deg", "reference", "#000", [8, 5], 1.5]]},
+  {key: "tracking error", label: "error", unit: "deg", series: [  // computed here from the two columns
+    ["error_deg", "reference − measured", "#d62728", null, 1.5],
+    ["error_true_deg", "reference − true", "#2ca02c", [2, 3], 1.5]]},
   {key: "pressure", unit: "kPa", series: [
     ["pressure_cmd_kpa", "command", "#9467bd", null],
     ["pressure_meas_kpa", "measured", "#2ca02c", null]]},
@@ -24,6 +29,11 @@ const PLOTS = [  // per finger: a plot per quantity, its series (wire name, labe
 const view = {  // also read by the browser test (tests/browser)
   token: null, auth: "unknown", frames: 0, lastT: null, state: null, draws: 0,
   fingers: [], data: {}, plots: [], arrivedAt: 0, ratePeriodS: 0.01,
+  buttons: null,  // state -> the buttons it accepts (the daemon's state machine, via the status)
+};
+const DERIVED = {  // the tracking error's series: reference minus a measured angle
+  error_deg: ["angle_ref_deg", "angle_deg"],
+  error_true_deg: ["angle_ref_deg", "angle_true_deg"],
 };
 window.hsView = view;
 
@@ -122,6 +132,15 @@ function showState(state) {
   const s = $("state");
   s.textContent = state;
   s.className = "state " + state;
+  enableButtons();
+}
+
+function enableButtons() {  // only what the state accepts; the E-stop always
+  const accepted = view.buttons && view.buttons[view.state];
+  document.querySelectorAll("#buttons [data-button]").forEach((b) => {
+    b.disabled = !accepted || !accepted.includes(b.dataset.button);
+    b.title = b.disabled ? b.dataset.button + " is not accepted in " + (view.state || "this state") : "";
+  });
 }
 
 function fixed(x, digits) {
@@ -129,6 +148,7 @@ function fixed(x, digits) {
 }
 
 function showStatus(st) {
+  if (st.buttons) view.buttons = st.buttons;
   if (st.state) showState(st.state);
   if (st.rate_hz) view.ratePeriodS = 1 / st.rate_hz;
   $("t").textContent = fixed(st.t_s, 1) + " s";
@@ -173,7 +193,8 @@ function buildPlots(fingers) {
         width, height: 130, legend: {show: true, live: false},
         cursor: {show: false}, pxAlign: 0,
         scales: {x: {time: false}},
-        axes: [{size: 28}, {size: 46, label: spec.key + " (" + spec.unit + ")", labelSize: 14}],
+        axes: [{size: 30, label: "t (s)", labelSize: 14},
+               {size: 46, label: (spec.label || spec.key) + " (" + spec.unit + ")", labelSize: 14}],
         series: [{label: "t (s)"}].concat(spec.series.map(([, label, stroke, dash, width]) =>
           ({label, stroke, width: width || 1.5, dash: dash || undefined, points: {show: false}}))),
       };
@@ -192,6 +213,10 @@ function append(signals) {
     if (!columns || !given) continue;
     columns.t.push(...t);
     for (const name in given) if (columns[name]) columns[name].push(...given[name]);
+    for (const [name, [ref, angle]] of Object.entries(DERIVED)) {
+      const r = given[ref], a = given[angle];
+      columns[name].push(...t.map((_, i) => (r && a && r[i] !== null && a[i] !== null ? r[i] - a[i] : null)));
+    }
     const keepFrom = t[t.length - 1] - WINDOW_S - 1;
     let drop = 0;
     while (drop < columns.t.length && columns.t[drop] < keepFrom) drop++;
