@@ -272,13 +272,19 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append("so no effect is named (see partial_effects)")
             verdict, notes = "unexplained", []
     if verdict == "missing_physics":  # named only where the augmented model follows the raw angle better
-        as_fitted, refitted = raw_error.effects_follow(problem, nominal_angle, refit, final, fitted,
-                                                           scored_held)
-        judged = refitted or as_fitted
-        if refitted is not None:
+        as_fitted, raw_refit = raw_error.effects_follow(problem, nominal_angle, refit, final, fitted,
+                                                        scored_held)
+        judged = raw_refit.judgement if raw_refit is not None else as_fitted
+        if raw_refit is not None:
             warnings.append(judged.sentence([e.name for e in found], as_fitted))
         if not judged.follows:
             verdict, notes = "unexplained", []
+        elif raw_refit is not None:  # the name stands on the raw refit: report and write that pair
+            refit, final, errors = raw_refit.plain, raw_refit.augmented, raw_refit.errors
+            rmse = errors.heldout_deg
+            raw_selection = replace(selection, final=final)
+            pair = (refit.angle_deg, final.angle_deg)
+            found = [found_effect(problem, c, raw_selection, (fitted, scored_held), pair) for c in kept]
     if lost:
         warnings.append(lost)
         verdict, notes = "unexplained", []
@@ -325,8 +331,10 @@ def posture_advice(pair: tuple[Candidate, Candidate], angle_deg: np.ndarray) -> 
 
 
 def found_effect(problem: Problem, c: Candidate, selection: Selection,
-                 scored: tuple[np.ndarray, np.ndarray]) -> FoundEffect:
-    """`scored`: the fitting and held-out samples of the raw figures."""
+                 scored: tuple[np.ndarray, np.ndarray],
+                 without_with: tuple[np.ndarray, np.ndarray] | None = None) -> FoundEffect:
+    """`scored`: the fitting and held-out samples of the raw figures; `without_with`: the
+    angles the raw figures compare (default: the round's base and the candidate's fit)."""
     final = selection.final
     assert final is not None
     value = final.value(c.name)
@@ -334,9 +342,10 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
     angle = final.angle_deg
     context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
                       final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
-    base_angle = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
+    if without_with is None:
+        base = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
+        without_with = (base, c.fit.angle_deg)
     # without and with the effect, against the raw angle, a constant offset each
-    errors = raw_error.raw_errors(problem, *scored,
-                                  {"before": base_angle, "after": c.fit.angle_deg})
+    errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
     text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain)
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)

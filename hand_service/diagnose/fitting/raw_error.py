@@ -153,15 +153,27 @@ class RawJudgement:
                 "so no effect is named (see partial_effects)")
 
 
+@dataclass(frozen=True)
+class RawRefit:
+    """The plain and augmented models refitted on the raw angle (a constant offset alone),
+    their figures, and the judgement on them."""
+
+    plain: Fit
+    augmented: Fit
+    errors: RawErrors
+    judgement: RawJudgement
+
+
 def effects_follow(problem: Problem, nominal_angle_deg: np.ndarray, refit: Fit, final: Fit,
-                   fitting: np.ndarray, held: np.ndarray) -> tuple[RawJudgement, RawJudgement | None]:
+                   fitting: np.ndarray, held: np.ndarray) -> tuple[RawJudgement, RawRefit | None]:
     """The augmented model against the refitted plain one (and, held out, the nominal) on
     the raw angle, each simulated from the recorded command alone with a constant offset of
     its own. The fits ran on innovations, where a drift term can take what a model does
     slowly wrong; where the augmented model as fitted does not follow the raw angle better,
     the plain and the augmented model are refitted on the raw angle (a constant offset, no
     drift, no correlated noise) from their fitted values, and compared again: (as fitted,
-    refitted or None)."""
+    the raw refit or None). Where the raw refit is what follows, it is the pair to report
+    and to write: the figures printed are the ones the name stands on."""
     angles = {"nominal": nominal_angle_deg, "before": refit.angle_deg, "after": final.angle_deg}
     first = RawJudgement.of(raw_errors(problem, fitting, held, angles))
     if first.follows:
@@ -169,6 +181,8 @@ def effects_follow(problem: Problem, nominal_angle_deg: np.ndarray, refit: Fit, 
     raw_problem = dataclasses.replace(problem, noise=offset_only(problem.measured_deg.size))
     plain = fit(raw_problem, refit.params, refit.values)
     augmented = fit(raw_problem, final.params, final.values)
-    again = raw_errors(problem, fitting, held, {"nominal": nominal_angle_deg, "before": plain.angle_deg,
-                                                 "after": augmented.angle_deg})
-    return first, RawJudgement.of(again, refitted=True)
+    named = {"nominal": nominal_angle_deg, "refit": plain.angle_deg, "augmented": augmented.angle_deg}
+    errors = raw_errors(problem, fitting, held, named)
+    again = RawJudgement(errors.raw_deg["refit"], errors.raw_deg["augmented"], errors.heldout_deg["nominal"],
+                         errors.heldout_deg["augmented"], refitted=True)
+    return first, RawRefit(plain, augmented, errors, again)
