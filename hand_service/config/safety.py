@@ -41,6 +41,10 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
         "sample periods)", "float", "ms", 100.0, 1.0, 10000.0),
     Key("sample_loss_max_percent", "share of the board's samples that may be lost (dropped, or "
         "failed their CRC) over any 0.5 s", "float", "%", 10.0, 0.0, 100.0, True),
+    Key("latency_max_ms", "the link's command -> sensor round trip on the host's clock (the "
+        "smallest over any 0.25 s) may be this long: a command out, the board's next sample, the "
+        "sample back. Longer is a fault named latency, whatever the board's clock does", "float", "ms",
+        50.0, 1.0, 10000.0),
     Key("clock_drift_max_ppm", "the board's clock may run this much faster or slower than the "
         "host's", "float", "ppm", 5000.0, 0.0, 1e6, True),
     Key("bus_error_frames_max", "CAN error frames in any second before a fault (bus-off and "

@@ -164,6 +164,7 @@ class LinkTransport(Transport):
         with self._lock:
             self._command_sequence += 1
             self._command = ValveCommand(self._command_sequence, command)
+        self.monitor.checks.command_sent(self._command_sequence, time.monotonic())
         self._wake.set()
 
     @property
@@ -187,6 +188,14 @@ class LinkTransport(Transport):
 
     def link_problem(self) -> LinkProblem | None:
         return self.monitor.checks.problem
+
+    def link_estimates(self) -> dict[str, float | None]:
+        checks = self.monitor.checks
+        trip_s = checks.round_trip_s
+        return {"round_trip_ms": None if trip_s is None else round(trip_s * 1e3, 2),
+                "round_trip_max_ms": round(checks.worst_round_trip_s * 1e3, 2),
+                "latency_max_ms": round(checks.limits.latency_max_s * 1e3, 2),
+                "clock_drift_ppm": None if checks.drift_ppm is None else round(checks.drift_ppm)}
 
     def inject_fault(self, kind: FaultKind | str, finger_index: int = ALL_FINGERS, duration_ms: int = 0,
                      value: int = 0) -> None:

@@ -103,11 +103,11 @@ class SampleMonitor:
                              f"(stale after {self.stale_s * 1e3:.0f} ms)")
         self._last_sequence = report.sequence
         self._last_sample_s = now
-        self.checks.sample(self._sequence, lost, now)
-        mv = np.array(report.sensor_mv, dtype=np.float64)
-        self._check_sensors(mv)
         acked = (last_command - sequence_delta(last_command, report.command_sequence)
                  if last_command > 0 else -1)
+        self.checks.sample(self._sequence, lost, now, acked)
+        mv = np.array(report.sensor_mv, dtype=np.float64)
+        self._check_sensors(mv)
         return SensorSample(self._sequence, now, mv, np.array(report.pressure_meas_kpa, dtype=np.float64),
                             acked, lost)
 

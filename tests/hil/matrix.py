@@ -60,7 +60,10 @@ CASES = [
     # run of lost samples can outlast sample_age_max_ms (sample_late, 0.12 s in a CI run)
     # before stale_sensor has counted its ticks
     case("drop", FaultKind.DROP, "sample_loss stale_sensor sample_late", 1.0, value=30),
-    case("delay", FaultKind.DELAY, "sample_late", 0.5, value=250),
+    case("delay", FaultKind.DELAY, "sample_late latency", 0.5, value=250),
+    # under sample_age_max_ms: the round trip names them (once clock_drift, 1.6-1.8 s late)
+    case("latency_60", FaultKind.DELAY, "latency", 0.5, value=60),
+    case("latency_80", FaultKind.DELAY, "latency", 0.5, value=80),
     case("corrupt", FaultKind.CORRUPT, "sample_loss stale_sensor sample_late", 1.0, value=30),
     case("stuck_sensor", FaultKind.STUCK_SENSOR, "implausible", 0.5, finger=INDEX),
     case("sensor_out_of_range", FaultKind.SENSOR_OUT_OF_RANGE, "angle_out_of_range sensor_rejected",
@@ -310,6 +313,7 @@ class QuietRun:
     bound_deg: np.ndarray  # and its bound
     worst_age_ms: float | None = None  # bus only: the oldest sample on the board's clock
     drift_ppm: float | None = None  # the board's clock against the host's, at the end
+    worst_round_trip_ms: float | None = None  # the largest command -> sample round trip estimate
     lost: int = 0  # samples that never arrived
 
     def describe(self) -> str:
@@ -317,6 +321,7 @@ class QuietRun:
         i = int(np.argmax(ratio))
         age = "" if self.worst_age_ms is None else (
             f"; oldest sample {self.worst_age_ms:.1f} ms, drift {self.drift_ppm or 0:.0f} ppm, "
+            f"round trip up to {self.worst_round_trip_ms or 0:.1f} ms, "
             f"{self.lost} samples lost")
         return (f"{self.profile}: {self.seconds:.0f} s, faults {self.faults or 'none'}; model check: "
                 f"largest |innovation|/bound {ratio.max():.2f} (finger {i}: {self.innovation_deg[i]:+.2f} "
@@ -356,6 +361,7 @@ def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
         if rig is not None:
             links = host.transport.monitor.checks
             run.worst_age_ms, run.drift_ppm = links.worst_age_s * 1e3, links.drift_ppm
+            run.worst_round_trip_ms = links.worst_round_trip_s * 1e3
             run.lost = host.transport.health().sequence_gaps
         return run
     finally:
