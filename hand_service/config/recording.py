@@ -15,6 +15,7 @@ from typing import Any
 from hand_service.config.schema import Key, Section, expect_mapping, validate
 
 ON_FAILURE = ("warning", "fault")
+FILE_MODES = ("0600", "0640", "0660", "0644", "0664")
 
 RECORDING_SECTION = Section(
     "Recording", "`recording:` — what the daemon does when a recording stops reaching its file "
@@ -23,6 +24,9 @@ RECORDING_SECTION = Section(
             "error and shows it in `status` while control goes on; `fault` latches FAULT, which "
             "vents, and faults again at every arm until the recording is stopped (docs/service.md)",
             "choice", default="warning", choices=ON_FAILURE),
+        Key("file_mode", "the permissions a recording's file is created with, whatever the "
+            "daemon's umask: owner read-write, the group read (`0640`), nobody else unless the lab "
+            "says so", "choice", default="0640", choices=FILE_MODES),
     ))
 
 
@@ -31,6 +35,7 @@ class RecordingSettings:
     """The validated `recording:` block (RECORDING_SECTION documents each key)."""
 
     on_failure: str = "warning"  # warning | fault
+    file_mode: str = "0640"  # octal, one of FILE_MODES
 
     @classmethod
     def from_values(cls, values: dict[str, Any]) -> RecordingSettings:
@@ -44,9 +49,13 @@ class RecordingSettings:
         return cls.from_values(validate(block, RECORDING_SECTION, source, "recording"))
 
     @property
+    def file_mode_bits(self) -> int:
+        return int(self.file_mode, 8)
+
+    @property
     def faults(self) -> bool:
         """A recording failure latches FAULT."""
         return self.on_failure == "fault"
 
 
-__all__ = ["ON_FAILURE", "RECORDING_SECTION", "RecordingSettings"]
+__all__ = ["FILE_MODES", "ON_FAILURE", "RECORDING_SECTION", "RecordingSettings"]
