@@ -118,7 +118,11 @@ void board_sample(struct board *b)
     const struct inject_fault *wild = inject_active(in, INJECT_SENSOR_OUT_OF_RANGE);
     const struct inject_fault *flex_nan = inject_active(in, INJECT_SENSOR_NAN);
     const struct inject_fault *pressure_nan = inject_active(in, INJECT_PRESSURE_NAN);
+    const struct inject_fault *drift = inject_active(in, INJECT_SENSOR_DRIFT);
     for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
+        if (inject_hits(drift, i)) { /* `value` mV/s, signed 16-bit, from the request on */
+            flex_mv[i] += (float)(int16_t)drift->value * (float)(uint32_t)(b->now_us - drift->since_us) * 1e-6f;
+        }
         if (inject_hits(wild, i)) {
             flex_mv[i] = wild->value ? (float)wild->value : OPEN_CIRCUIT_MV;
         }

@@ -45,6 +45,7 @@ class Case:
     # the sweep's top the fault comes at: the first (0.38 s after the start), or a later one
     # where a check needs a longer past (the drift, judged over at least 3 s: the fourth, 2.6 s)
     top: int = 1
+    drift_deg_per_s: float = 0.0  # SENSOR_DRIFT: the angle's drift, sent as mV/s for the finger
 
     def on(self, link: str) -> bool:
         return link in self.links
@@ -81,6 +82,9 @@ CASES = [
     case("bus_off", FaultKind.BUS_OFF, "bus_error sample_late", 0.5, links=("virtual", "slcan"),
          not_on=CAN_ONLY),
     case("clock_drift", FaultKind.CLOCK_DRIFT, "clock_drift", 4.0, value=20000, top=4),
+    # -5 deg/s on the angle (value: in mV/s through the finger's calibration): caught before
+    # 10 deg of sensor error, 2 s (the model check's level alone took 6 s, 30 deg)
+    case("sensor_drift", FaultKind.SENSOR_DRIFT, "implausible", 2.0, finger=INDEX, drift_deg_per_s=-5.0),
     case("sensor_nan", FaultKind.SENSOR_NAN, "non_finite", 0.25, finger=INDEX, links=("serial",),
          not_on="can-v1's flex_mv has no value for a missing reading: a NaN cannot cross"),
 ]
@@ -206,7 +210,10 @@ class MatrixHost:
 
         self.watch = watch
         onset = time.monotonic()
-        self.transport.inject_fault(c.kind, c.finger, 0, c.value)
+        value = c.value
+        if c.drift_deg_per_s:
+            value = round(c.drift_deg_per_s / self.rig.profile.fingers[c.finger].sensor_gain_deg_per_mv)
+        self.transport.inject_fault(c.kind, c.finger, 0, value)
         self.tick_until(lambda: sup.state is State.FAULT, WAIT_S)
         fault_at = time.monotonic()
         self.tick_until(lambda: time.monotonic() > fault_at + AFTER_S, 2 * AFTER_S)
@@ -314,6 +321,8 @@ class QuietRun:
     worst_age_ms: float | None = None  # bus only: the oldest sample on the board's clock
     drift_ppm: float | None = None  # the board's clock against the host's, at the end
     worst_round_trip_ms: float | None = None  # the largest command -> sample round trip estimate
+    worst_trend_deg_per_s: float = 0.0  # the model check's trend test: its steepest trend judged
+    trend_limit_deg_per_s: float = 0.0
     lost: int = 0  # samples that never arrived
 
     def describe(self) -> str:
@@ -325,7 +334,9 @@ class QuietRun:
             f"{self.lost} samples lost")
         return (f"{self.profile}: {self.seconds:.0f} s, faults {self.faults or 'none'}; model check: "
                 f"largest |innovation|/bound {ratio.max():.2f} (finger {i}: {self.innovation_deg[i]:+.2f} "
-                f"deg against {self.bound_deg[i]:.2f} deg; per finger {np.round(ratio, 2).tolist()}){age}")
+                f"deg against {self.bound_deg[i]:.2f} deg; per finger {np.round(ratio, 2).tolist()}); "
+                f"steepest trend {self.worst_trend_deg_per_s:.2f} deg/s (limit "
+                f"{self.trend_limit_deg_per_s:g}){age}")
 
 
 def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
@@ -357,7 +368,9 @@ def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
         check = sup.model_check
         run = QuietRun(profile_name, seconds, [f"{f.cause.value}: {f.detail}" for f in sup.faults.faults],
                        check.worst_ratio.copy(), check.worst_innovation_deg.copy(),
-                       check.worst_bound_deg.copy())
+                       check.worst_bound_deg.copy(),
+                       worst_trend_deg_per_s=float(check.trend.worst_deg_per_s.max()),
+                       trend_limit_deg_per_s=check.trend.limit_deg_per_s)
         if rig is not None:
             links = host.transport.monitor.checks
             run.worst_age_ms, run.drift_ppm = links.worst_age_s * 1e3, links.drift_ppm
