@@ -84,8 +84,6 @@ class ModelCheck:
         self.persist_samples = max(1, math.ceil(safety["model_mismatch_ms"] / 1e3 * rate_hz - 1e-9))
         self.trend = SensorTrend(n, dt, float(safety["sensor_drift_max_deg_per_s"]), self.persist_samples)
         self._innovation_deg = np.zeros(n)
-        self._after_gap = False  # the prediction stopped for a gap in the samples while driving
-        self._trend_armed = np.zeros(n, dtype=bool)  # fingers whose trend fit holds a past
         self.pressure_measured = bool(safety["pressure_measured"])
         self._effects(models)
         self.noise_rad = np.array([s.noise_rad(safety["angle_noise_deg"] * DEG, safety["pressure_noise_kpa"])
@@ -153,7 +151,6 @@ class ModelCheck:
         """Every finger's prediction starts again from its next measurement (a handshake)."""
         self.armed[:] = False
         self._steady = False
-        self._after_gap = False
         self.run[:] = 0
         self._running = False
         self.sequence = self.newest = None
@@ -196,9 +193,6 @@ class ModelCheck:
                 return Mismatch("pressure_lost", i, "the board reports no chamber pressure (NaN) where "
                                 "it measures one (safety.pressure_measured)")
         checked = self._checked_modes(mode) if active and steps <= MAX_STEPS else None
-        if checked is None:  # a gap while it drives: the trend's past holds; else it starts anew
-            self._after_gap = active and (self._after_gap or bool(self.armed.any()))
-            self.trend.skip(steps)
         if checked is None or not self._n_checked:
             self.armed[:] = False
             self._steady = False
@@ -215,13 +209,9 @@ class ModelCheck:
             start = checked & ~self.armed
             self.state[start, :STATE] = 0.0
             self.state[start, THETA] = self.state[start, SUM] = angle_deg[start] * DEG
-            if self._after_gap:  # the host was late or samples were lost: the trend's past holds
-                self.trend.settle(start & self._trend_armed)
-                self.trend.restart(start & ~self._trend_armed)
-            else:
-                self.trend.restart(start)
-            self._trend_armed[:] = checked
-            self._after_gap = False
+            # the restarted prediction moves the innovation by what the model's error had made
+            # of it before: a step the trend's past would read as a trend
+            self.trend.restart(start)
             self.armed[:] = checked
             self._steady = True
         self._chamber(steps, pressure_kpa, nan, command_kpa, predict=True)

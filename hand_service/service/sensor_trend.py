@@ -18,11 +18,12 @@ damping (a parameter error, to first order, is such a combination; plausibility.
 c1 is the innovation's trend in deg/s with what the state explains taken out. Beyond
 safety.sensor_drift_max_deg_per_s, either way, for model_mismatch_ms in a row: a fault
 (`implausible`, the finger named). A finger's fit starts again whenever its prediction
-does (arming, leaving force mode, a gap in the samples): it takes no sample for
-TREND_SETTLE_S (a prediction started at rest from a finger that was not at rest, released
-from an object, leaves an innovation that dies away with the model's own dynamics, a
-trend for a while that no parameter explains), and is judged once it holds TREND_WARMUP
-windows of samples after that.
+does (arming, leaving force mode, a gap in the samples: the restarted prediction moves
+the innovation by what the model's error had made of it, a step the old fit would read
+as a trend). It takes no sample for TREND_SETTLE_S (a prediction started at rest from a
+finger that was not at rest, released from an object, leaves an innovation that dies
+away with the model's own dynamics, a trend for a while that no parameter explains), and
+is judged once it holds TREND_WARMUP windows of samples after that.
 
 The sums are kept about the present: as time moves on by dt, the time regressor of every
 sample before is dt further in the past, a linear map of the sums (no growing t²).
@@ -59,7 +60,6 @@ class SensorTrend:
         self.run = np.zeros(n_fingers, dtype=np.int64)  # samples in a row beyond the limit
         self.trend_deg_per_s = np.zeros(n_fingers)
         self.worst_deg_per_s = np.zeros(n_fingers)  # the largest |trend| judged, for the statistics
-        self._quiet = np.zeros(n_fingers, dtype=np.int64)  # samples still not taken after a gap
         self._x = np.zeros((n_fingers, TERMS))
         self._x[:, 0] = 1.0
         self._eye = np.eye(TERMS)
@@ -72,12 +72,6 @@ class SensorTrend:
         self.samples[fingers] = 0
         self.run[fingers] = 0
         self.trend_deg_per_s[fingers] = 0.0
-
-    def settle(self, fingers: np.ndarray) -> None:
-        """These fingers' predictions started again after a gap in the samples (the host
-        late, samples lost): the fit keeps its past, and takes no sample for TREND_SETTLE_S."""
-        self._quiet[fingers] = self.settle_samples
-        self.run[fingers] = 0
 
     def skip(self, steps: int) -> None:
         """`steps` sample periods pass: the past moves that much further back and is forgotten
@@ -102,12 +96,10 @@ class SensorTrend:
         x[:, 2:5] = sensitive_rad
         x[:, 5] = rate_rad_s * RATE_S
         self.samples += checked
-        quiet = self._quiet > 0
-        self._quiet -= quiet
-        weight = (checked & ~quiet & (self.samples > self.settle_samples)).astype(float)
+        weight = (checked & (self.samples > self.settle_samples)).astype(float)
         sums += weight[:, None, None] * x[:, :, None] * x[:, None, :]
         cross += weight[:, None] * x * innovation_deg[:, None]
-        judged = checked & ~quiet & (self.samples >= self.warmup_samples)
+        judged = checked & (self.samples >= self.warmup_samples)
         if not judged.any():
             self.run[:] = 0
             return None

@@ -300,3 +300,19 @@ def test_steps_and_holds_on_a_model_off_by_its_uncertainty_are_no_trend() -> Non
     assert rig.sup.state is State.RUNNING, rig.sup.faults.faults
     trend = rig.sup.model_check.trend
     assert 0.0 < trend.worst_deg_per_s.max() < 0.8 * trend.limit_deg_per_s, trend.worst_deg_per_s
+
+
+def test_gaps_in_the_samples_start_the_trend_again_not_a_false_drift() -> None:
+    """The host late, samples lost: the prediction starts again from the measurement, which
+    moves the innovation by what the model's error had made of it. Kept in the trend's fit
+    that step read as a drift (-4.4 deg/s after a 60 ms stall over serial-v1); a gap every
+    0.7 s for 8 s on a hand the model gets 8 % wrong raises no fault."""
+    profile = load_profile(None)
+    rig = TruthRig(profile, scaled_hand(profile, stiffness_nm_per_rad=1.08, pressure_gain_nm_per_kpa=0.92))
+    sweeping(rig)
+    for _ in range(11):
+        rig.transport.silent = True
+        rig.tick(4)
+        rig.transport.silent = False
+        rig.tick(66)
+    assert rig.sup.state is State.RUNNING, rig.sup.faults.faults
