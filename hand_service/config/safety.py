@@ -45,6 +45,10 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
         "smallest over any 0.25 s) may be this long: a command out, the board's next sample, the "
         "sample back. Longer is a fault named latency, whatever the board's clock does", "float", "ms",
         50.0, 1.0, 10000.0),
+    Key("host_stall_max_ms", "a stall of the host itself (its link reader not run) this long at most "
+        "is ridden through: counted, logged, shown in status; the samples it made late or lost are "
+        "not the link's. Shorter than firmware_watchdog_ms: the board kept the last command "
+        "(docs/safety.md)", "float", "ms", 80.0, 0.0, 10000.0),
     Key("clock_drift_max_ppm", "the board's clock may run this much faster or slower than the "
         "host's", "float", "ppm", 5000.0, 0.0, 1e6, True),
     Key("bus_error_frames_max", "CAN error frames in any second before a fault (bus-off and "
@@ -83,6 +87,10 @@ def check_safety(safety: dict[str, Any], rate_hz: float, source: str | Path, blo
     if safety["target_force_min_n"] < -safety["target_force_max_n"]:
         raise fail(source, block, "target_force_min_n",
                    "safety.target_force_min_n must not be below -target_force_max_n")
+    if safety["host_stall_max_ms"] >= safety["firmware_watchdog_ms"]:
+        raise fail(source, block, "host_stall_max_ms", f"safety.host_stall_max_ms = "
+                   f"{safety['host_stall_max_ms']:g} ms must be shorter than firmware_watchdog_ms "
+                   f"({safety['firmware_watchdog_ms']:g} ms): a longer stall of the host lets the board vent")
     period_ms = 1e3 / rate_hz
     for key, periods in (("model_mismatch_ms", 1), ("sample_age_max_ms", 2)):
         if safety[key] < periods * period_ms:

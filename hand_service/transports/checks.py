@@ -16,7 +16,9 @@ one reference.
                       safety.bus_error_frames_max error frames in any second
     protocol_changed  the board announced another protocol version mid-run
 
-The first problem stays until the link is opened again (begin()).
+The first problem stays until the link is opened again (begin()). A stall of the host
+itself, shorter than safety.host_stall_max_ms, is not the link's: the samples it made
+late or lost are excused (host_stall.HostStalls).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import can
 from hand_service.config.safety import SAFETY_SECTION
 from hand_service.transports.base import LinkProblem
 from hand_service.transports.board_clock import ClockDrift, SampleAge
+from hand_service.transports.host_stall import READ_TIMEOUT_S, HostStalls, Stall
 from hand_service.transports.round_trip import RoundTrip
 from hand_service.wire import can_errors
 
@@ -52,13 +55,14 @@ class LinkLimits:
     clock_drift_max_ppm: float
     bus_error_frames_max: int
     latency_max_s: float
+    host_stall_max_s: float
 
     @staticmethod
     def from_profile(safety: dict[str, Any], rate_hz: float) -> LinkLimits:
         return LinkLimits(1.0 / rate_hz, int(safety["stale_sensor_ticks"]),
                           safety["sample_age_max_ms"] / 1e3, float(safety["sample_loss_max_percent"]),
                           float(safety["clock_drift_max_ppm"]), int(safety["bus_error_frames_max"]),
-                          safety["latency_max_ms"] / 1e3)
+                          safety["latency_max_ms"] / 1e3, safety["host_stall_max_ms"] / 1e3)
 
     @staticmethod
     def defaults(rate_hz: float = DEFAULT_RATE_HZ) -> LinkLimits:
@@ -73,6 +77,7 @@ class LinkChecks:
         self.age = SampleAge(limits.period_s)
         self.drift = ClockDrift()
         self.round_trip = RoundTrip()
+        self.stalls = HostStalls(READ_TIMEOUT_S, limits.host_stall_max_s, limits.period_s)
         self.loss_window = max(1, round(LOSS_WINDOW_S / limits.period_s))
         self._losses: deque[tuple[int, int]] = deque()  # (sample index, samples lost before it)
         self._lost = 0
@@ -99,6 +104,7 @@ class LinkChecks:
         self.drift_ppm = None
         self.round_trip.reset()
         self.round_trip_s = None
+        self.stalls.reset()
         self._losses.clear()
         self._lost = 0
         self._first_index = None
@@ -115,12 +121,25 @@ class LinkChecks:
         """The host counted command `sequence` (unwrapped) to go out at host_s."""
         self.round_trip.sent(sequence, host_s)
 
+    def reader_turn(self, host_s: float) -> Stall | None:
+        """The reader thread turns at host_s (before it reads): the host's stall before it."""
+        return self.stalls.turn(host_s)
+
+    def excused(self, host_s: float) -> bool:
+        """A host stall ridden through excuses what arrives at host_s."""
+        return self.stalls.excused_s(host_s) > 0.0
+
     def sample(self, index: int, lost: int, host_s: float, echoed: int = -1) -> None:
         """The board's index-th sample (unwrapped) arrived at host_s; `lost` never did before it;
         it echoes command `echoed` (unwrapped; -1: none yet)."""
         self._same_sequence = 0
         age_s = self.age.sample(index, host_s)
         self.worst_age_s = max(self.worst_age_s, age_s)
+        excused_s = self.stalls.excused_s(host_s)
+        if excused_s:  # the host's own stall: its part of the age, and its losses, are not the link's
+            age_s -= excused_s
+            self.stalls.lost += lost
+            lost = 0
         if age_s > self.limits.sample_age_max_s:
             self.found("sample_late", f"a sample arrived {age_s * 1e3:.0f} ms after the board took it "
                        f"(sample_age_max_ms {self.limits.sample_age_max_s * 1e3:g})")
@@ -164,6 +183,8 @@ class LinkChecks:
     def watch(self, host_s: float) -> None:
         """Every turn of the reader: the newest sample grows old while nothing arrives."""
         age_s = self.age.age_now(host_s)
+        if age_s is not None:
+            age_s -= self.stalls.excused_s(host_s)
         if age_s is not None and age_s > self.limits.sample_age_max_s:
             self.found("sample_late", f"no sample newer than {age_s * 1e3:.0f} ms on the board's "
                        f"clock (sample_age_max_ms {self.limits.sample_age_max_s * 1e3:g})")

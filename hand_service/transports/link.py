@@ -32,6 +32,7 @@ from hand_service.transports.base import (
     TransportHealth,
 )
 from hand_service.transports.checks import LinkLimits
+from hand_service.transports.host_stall import READ_TIMEOUT_S
 from hand_service.transports.monitor import SampleMonitor
 from hand_service.transports.priority import below_tick
 from hand_service.wire.messages import (
@@ -51,7 +52,6 @@ from hand_service.wire.messages import (
 
 log = logging.getLogger("hand_service.transports")
 
-READ_TIMEOUT_S = 0.01
 HANDSHAKE_RETRY_S = 0.1
 
 
@@ -192,7 +192,10 @@ class LinkTransport(Transport):
     def link_estimates(self) -> dict[str, float | None]:
         checks = self.monitor.checks
         trip_s = checks.round_trip_s
-        return {"round_trip_ms": None if trip_s is None else round(trip_s * 1e3, 2),
+        stalls = checks.stalls
+        return {"host_stalls": stalls.count, "host_stall_worst_ms": round(stalls.worst_s * 1e3, 1),
+                "host_stall_max_ms": round(checks.limits.host_stall_max_s * 1e3, 1),
+                "round_trip_ms": None if trip_s is None else round(trip_s * 1e3, 2),
                 "round_trip_max_ms": round(checks.worst_round_trip_s * 1e3, 2),
                 "latency_max_ms": round(checks.limits.latency_max_s * 1e3, 2),
                 "clock_drift_ppm": None if checks.drift_ppm is None else round(checks.drift_ppm)}
@@ -256,6 +259,8 @@ class LinkTransport(Transport):
                     log.debug("reconnecting to %s: %s", self.link.description, exc)
                     self._back_off()
                     continue
+            if self._phase == "running":
+                self.monitor.turn(time.monotonic())
             try:
                 units = self.link.read(READ_TIMEOUT_S)
             except Exception as exc:

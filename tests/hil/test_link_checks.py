@@ -232,3 +232,56 @@ def test_a_drifting_clock_leaves_the_round_trip_alone() -> None:
     clean = checks()
     assert _run_board(clean, 9.0, 0.0, 0.0) is None
     assert clean.round_trip_s is not None and clean.worst_round_trip_s < 0.015
+
+
+# -- the host's own stalls ------------------------------------------------------------------
+
+def _stalled_reader(stall_s: float, kept: int) -> tuple[SampleMonitor, list[int]]:
+    """A board at 100 Hz; the host's reader turns every 5 ms but for one stall of stall_s at
+    2 s, over which the board's queue keeps only its newest `kept` samples (a small port
+    buffer: the rest never arrive). Each turn reads what arrived since the last. The
+    samples' lost_in_a_row handed to the tick."""
+    profile = load_profile(None)
+    settings = {"sensor_min_mv": 0.0, "sensor_max_mv": 5000.0, "stuck_samples": 0}
+    monitor = SampleMonitor(profile.finger_names, settings, 0.05, TransportHealth(), LIMITS)
+    monitor.begin()
+    taken = [i * PERIOD_S + 0.001 for i in range(400)]  # arrival, were the reader running
+    turns = [k * 0.005 for k in range(401)]
+    stall_from, stall_to = 2.0, 2.0 + stall_s
+    turns = [t for t in turns if not stall_from < t < stall_to] + [stall_to]
+    turns.sort()
+    lost_in_a_row = []
+    i = 0
+    for now in turns:
+        monitor.turn(now)
+        due = []
+        while i < len(taken) and taken[i] <= now:
+            due.append(i)
+            i += 1
+        if now == stall_to:
+            due = due[-kept:]  # the queue kept only the newest
+        for index in due:
+            sample = monitor.sample(SensorReport(index % 256, 0, [1000.0] * 5, [0.0] * 5), now, 0)
+            assert sample is not None
+            lost_in_a_row.append(sample.lost_in_a_row)
+        monitor.watch(now)
+    return monitor, lost_in_a_row
+
+
+def test_a_host_stall_shorter_than_the_watchdog_is_ridden_through() -> None:
+    """A 70 ms stall of the host's reader, the board's queue keeping two samples: five lost
+    (10 % of the loss window: sample_loss before) and five in a row (stale_sensor at the
+    tick before). Counted, logged once, in the health; no problem, nothing lost in a row."""
+    monitor, lost_in_a_row = _stalled_reader(0.07, 2)
+    assert monitor.checks.problem is None, monitor.checks.problem
+    assert monitor.health.extra["host_stalls"] == 1
+    assert monitor.health.extra["host_stall_lost_samples"] == 5
+    assert max(lost_in_a_row) == 0
+    assert monitor.checks.stalls.worst_s == pytest.approx(0.075, abs=0.006)
+
+
+def test_a_host_stall_past_host_stall_max_ms_is_judged_as_before() -> None:
+    monitor, lost_in_a_row = _stalled_reader(0.12, 2)
+    assert kind(monitor.checks) in ("sample_late", "sample_loss"), monitor.checks.problem
+    assert monitor.health.extra["host_stalls"] == 0
+    assert max(lost_in_a_row) >= LIMITS.stale_sensor_ticks
