@@ -40,10 +40,17 @@ enum inject_broken {
     INJECT_BROKEN_SILENT_REBOOT = 5,  /* does not announce itself (VersionInfo) when it boots */
     INJECT_BROKEN_QUIET_IDLE = 6,     /* sends no samples unless RUNNING */
     INJECT_BROKEN_COUNTS_RUBBISH = 7, /* counts rubbish bytes and other nodes' frames in rx_errors */
-    INJECT_BROKEN_ZERO_VENTS = 8      /* takes a command of 0 kPa on every finger for a vent: leaves
+    INJECT_BROKEN_ZERO_VENTS = 8,     /* takes a command of 0 kPa on every finger for a vent: leaves
                                        * RUNNING for WATCHDOG_VENTED (0 kPa is a valid setpoint) */
+    INJECT_BROKEN_VALVES_DEAD = 9,    /* no valve ever opens: no chamber follows its setpoint */
+    INJECT_BROKEN_VALVE_STUCK = 10,   /* INJECT_BROKEN_FINGER's valves never open */
+    INJECT_BROKEN_PRESSURE_NAN = 11,  /* reports NaN (not measured) for every chamber */
+    INJECT_BROKEN_PRESSURE_X2 = 12,   /* reports every chamber at twice its pressure */
+    INJECT_BROKEN_FLEX_STUCK = 13,    /* INJECT_BROKEN_FINGER's flex reading never moves */
+    INJECT_BROKEN_FLEX_X2 = 14        /* INJECT_BROKEN_FINGER's flex reading is twice its mV */
 };
-#define INJECT_BROKEN_RULES 9u
+#define INJECT_BROKEN_RULES 15u
+#define INJECT_BROKEN_FINGER 1u /* the finger a one-finger rule breaks (the hand's second) */
 
 /* One outgoing frame: serial-v1 bytes, or a CAN frame (id, up to 8 bytes). */
 struct board_unit {

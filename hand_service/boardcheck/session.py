@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from hand_service.boardcheck.link import BoardLink, Received
+from hand_service.boardcheck.sense import FingerSense
 from hand_service.wire.messages import (
     SEQUENCE_MODULO,
     FirmwareState,
@@ -39,6 +40,8 @@ class Settings:
     window_s: float  # how long the stream check listens
     pressure_kpa: float  # the setpoint the valve checks command
     latency_ms: float  # what the link and this host may add to any time the board keeps
+    pressure_measured: bool = True  # the profile's safety.pressure_measured
+    fingers: tuple[FingerSense, ...] = ()  # what each finger's sensors and model say (plant check)
 
     @property
     def period_s(self) -> float:
