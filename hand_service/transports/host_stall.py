@@ -43,6 +43,8 @@ class HostStalls:
         self.count = 0  # stalls ridden through
         self.worst_s = 0.0  # the longest ridden through
         self.lost = 0  # board samples lost in ridden stalls' grace
+        self.beyond = 0  # stalls longer than host_stall_max_ms: not ridden through
+        self.worst_beyond_s = 0.0
         self._last_turn_s: float | None = None
         self._grace_until_s = -1.0
         self._excused_s = 0.0  # the stall the grace excuses, subtracted from ages
@@ -61,7 +63,10 @@ class HostStalls:
         if gap_s <= self.expected_s:
             return None
         stall = Stall(last, gap_s, gap_s <= self.ride_max_s)
-        if stall.ridden:
+        if not stall.ridden:
+            self.beyond += 1
+            self.worst_beyond_s = max(self.worst_beyond_s, gap_s)
+        else:
             self.count += 1
             self.worst_s = max(self.worst_s, gap_s)
             self._excused_s = gap_s

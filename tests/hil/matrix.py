@@ -322,6 +322,10 @@ class QuietRun:
     drift_ppm: float | None = None  # the board's clock against the host's, at the end
     worst_round_trip_ms: float | None = None  # the largest command -> sample round trip estimate
     worst_trend_deg_per_s: float = 0.0  # the model check's trend test: its steepest trend judged
+    host_stalls: int = 0  # bus only: the host's stalls ridden through (transports/host_stall.py)
+    host_stall_worst_ms: float = 0.0
+    stalls_beyond: int = 0  # ... and those past host_stall_max_ms, judged by the checks
+    stall_beyond_worst_ms: float = 0.0
     trend_limit_deg_per_s: float = 0.0
     lost: int = 0  # samples that never arrived
 
@@ -330,7 +334,9 @@ class QuietRun:
         i = int(np.argmax(ratio))
         age = "" if self.worst_age_ms is None else (
             f"; oldest sample {self.worst_age_ms:.1f} ms, drift {self.drift_ppm or 0:.0f} ppm, "
-            f"round trip up to {self.worst_round_trip_ms or 0:.1f} ms, "
+            f"round trip up to {self.worst_round_trip_ms or 0:.1f} ms, host stalls ridden through "
+            f"{self.host_stalls} (longest {self.host_stall_worst_ms:.0f} ms), beyond "
+            f"{self.stalls_beyond} (longest {self.stall_beyond_worst_ms:.0f} ms), "
             f"{self.lost} samples lost")
         return (f"{self.profile}: {self.seconds:.0f} s, faults {self.faults or 'none'}; model check: "
                 f"largest |innovation|/bound {ratio.max():.2f} (finger {i}: {self.innovation_deg[i]:+.2f} "
@@ -375,6 +381,9 @@ def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
             links = host.transport.monitor.checks
             run.worst_age_ms, run.drift_ppm = links.worst_age_s * 1e3, links.drift_ppm
             run.worst_round_trip_ms = links.worst_round_trip_s * 1e3
+            stalls = links.stalls
+            run.host_stalls, run.host_stall_worst_ms = stalls.count, stalls.worst_s * 1e3
+            run.stalls_beyond, run.stall_beyond_worst_ms = stalls.beyond, stalls.worst_beyond_s * 1e3
             run.lost = host.transport.health().sequence_gaps
         return run
     finally:
