@@ -55,7 +55,9 @@ def _echo_ms(session: Session, got: list[Received], sent: set[int]) -> list[floa
     first: dict[int, float] = {}
     for t, s in samples(got):
         first.setdefault(s.command_sequence, t)
-    return [1e3 * (t - session.sent_s[seq]) for seq, t in first.items() if seq in sent]
+    # less this process's own stalls in between: the board did not make them
+    return [1e3 * (t - session.sent_s[seq] - session.stalled_s(session.sent_s[seq], t))
+            for seq, t in first.items() if seq in sent]
 
 
 def echo(session: Session) -> tuple[CheckResult, float]:
@@ -216,8 +218,9 @@ def watchdog(session: Session) -> CheckResult:
         return failed(name, f"no watchdog_vented Status within {cfg.watchdog_ms + 1000:.0f} ms of the last "
                       f"valid command (watchdog {cfg.watchdog_ms:g} ms); state stayed "
                       f"{'/'.join(states) or 'silent'}", **values)
-    vent_ms = 1e3 * (vent[0] - last_valid_s)
-    values["vent_ms"] = vent_ms
+    own_ms = 1e3 * session.stalled_s(last_valid_s, vent[0])  # this process's stalls: not the board's
+    vent_ms = 1e3 * (vent[0] - last_valid_s) - own_ms
+    values["vent_ms"], values["own_stall_ms"] = vent_ms, own_ms
     problems = []
     if not samples([r for r in got if r.t_s > vent[0]]):
         problems.append(f"no sample in the {HOLD_S:g} s after the vent (a vented board keeps reporting)")
@@ -234,8 +237,9 @@ def watchdog(session: Session) -> CheckResult:
                       "same)" if fell_ms is None and math.isnan(held_kpa) else "")
             problems.append(f"vented {vent_ms:.0f} ms after the last valid command, limit {limit_ms:.0f} ms"
                             f"{unseen}")
-    if vent_ms < cfg.watchdog_ms - 1e3 * cfg.period_s:
-        problems.append(f"vented after {vent_ms:.0f} ms, before its watchdog time of {cfg.watchdog_ms:g} ms")
+    if vent_ms + own_ms < cfg.watchdog_ms - 1e3 * cfg.period_s:  # early: on the host's clock alone
+        problems.append(f"vented after {vent_ms + own_ms:.0f} ms, before its watchdog time of "
+                        f"{cfg.watchdog_ms:g} ms")
     vented_kpa = _vented_kpa(cfg.pressure_kpa)
     if math.isfinite(after_kpa) and after_kpa > vented_kpa:
         problems.append(f"chambers still at {after_kpa:.1f} kPa {HOLD_S:g} s after the vent")
