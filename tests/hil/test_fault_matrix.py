@@ -81,7 +81,10 @@ def test_a_minute_of_sweeping_raises_no_fault(profile: str, tmp_path: Path) -> N
             with Rig(link, workdir) as rig:
                 run = quiet_run(rig, profile, QUIET_S)
         print(f"\n{run.describe()}")
-        if not run.faults or not all(f.startswith(STALL_CAUSES) for f in run.faults):
+        # a stall ridden through (transports/host_stall.py) raises no fault now, but the samples
+        # it held back still reach the model check late: judged like one that faulted
+        stalled = run.host_stalls > 0 and run.innovation_ratio.max() >= 1.0
+        if not stalled and (not run.faults or not all(f.startswith(STALL_CAUSES) for f in run.faults)):
             break
     # a minute the machine stalled in is judged by its second run alone: the board's watchdog
     # vented in it, which no model predicts, so its model check's margin says nothing
