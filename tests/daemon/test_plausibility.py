@@ -244,6 +244,9 @@ def test_the_check_runs_only_where_the_model_holds() -> None:
     ("sample_age_max_ms", 15, r"safety.sample_age_max_ms = 15 ms is shorter than 2 sample periods"),
     ("model_uncertainty_percent", 150, r"safety.model_uncertainty_percent = 150 % is out of range"),
     ("model_margin_deg", 0, r"safety.model_margin_deg = 0 deg is out of range"),
+    # a host stall ridden through must be one the board's watchdog rides through too
+    ("firmware_watchdog_ms", 50, r"safety.host_stall_max_ms = 80 ms must be shorter than "
+                                 r"firmware_watchdog_ms \(50 ms\)"),
 ])
 def test_the_profile_refuses_bad_values(tmp_path: Path, key: str, value: float, message: str) -> None:
     text, count = re.subn(rf"(?m)^  {key}: .*$", f"  {key}: {value}", (PROFILE_DIR / "sim.yaml").read_text())
