@@ -110,6 +110,16 @@ class LinkChecks:
         self._first_index = None
         self._same_sequence = 0
 
+    def estimates(self) -> dict[str, float | None]:
+        """What `status` shows of the link (Transport.link_estimates)."""
+        trip_s, stalls, limits = self.round_trip_s, self.stalls, self.limits
+        return {"host_stalls": stalls.count, "host_stall_worst_ms": round(stalls.worst_s * 1e3, 1),
+                "host_stall_max_ms": round(limits.host_stall_max_s * 1e3, 1),
+                "round_trip_ms": None if trip_s is None else round(trip_s * 1e3, 2),
+                "round_trip_max_ms": round(self.worst_round_trip_s * 1e3, 2),
+                "latency_max_ms": round(limits.latency_max_s * 1e3, 2),
+                "clock_drift_ppm": None if self.drift_ppm is None else round(self.drift_ppm)}
+
     def found(self, kind: str, detail: str) -> None:
         if self.problem is None:
             self.problem = LinkProblem(kind, detail)
@@ -122,7 +132,8 @@ class LinkChecks:
         self.round_trip.sent(sequence, host_s)
 
     def reader_turn(self, host_s: float) -> Stall | None:
-        """The reader thread turns at host_s (before it reads): the host's stall before it."""
+        """The reader thread turns at host_s (before it handles what it read): the host's stall
+        since its last turn."""
         return self.stalls.turn(host_s)
 
     def excused(self, host_s: float) -> bool:

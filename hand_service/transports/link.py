@@ -1,13 +1,11 @@
 """The machinery the bus transports share: I/O threads, handshake, reconnect, health.
 
-A reader thread decodes everything the board sends, keeps the newest complete sample
-and watches the stream (SampleMonitor); a writer thread encodes and sends. The tick
-only swaps a reference in latest() and drops the newest command into a one-slot
-mailbox in send(), so neither ever waits on the bus: a slow or dead port stalls an I/O
-thread, never the tick. Losing the board (no frame within safety.transport_timeout_ms,
-or an I/O error) closes the link and reconnects with exponential backoff, shaking
-hands again before any command goes out.
-"""
+A reader thread decodes all the board sends, keeps the newest complete sample and watches
+the stream (SampleMonitor); a writer thread encodes and sends. The tick only swaps a reference
+in latest() and drops the newest command into a one-slot mailbox in send(): a slow or dead
+port stalls an I/O thread, never the tick. Losing the board (no frame within
+safety.transport_timeout_ms, or an I/O error) closes the link and reconnects with exponential
+backoff, shaking hands again before any command goes out."""
 
 from __future__ import annotations
 
@@ -31,8 +29,7 @@ from hand_service.transports.base import (
     Transport,
     TransportHealth,
 )
-from hand_service.transports.checks import LinkLimits
-from hand_service.transports.host_stall import READ_TIMEOUT_S
+from hand_service.transports.checks import READ_TIMEOUT_S, LinkLimits
 from hand_service.transports.monitor import SampleMonitor
 from hand_service.transports.priority import below_tick
 from hand_service.wire.messages import (
@@ -190,15 +187,7 @@ class LinkTransport(Transport):
         return self.monitor.checks.problem
 
     def link_estimates(self) -> dict[str, float | None]:
-        checks = self.monitor.checks
-        trip_s = checks.round_trip_s
-        stalls = checks.stalls
-        return {"host_stalls": stalls.count, "host_stall_worst_ms": round(stalls.worst_s * 1e3, 1),
-                "host_stall_max_ms": round(checks.limits.host_stall_max_s * 1e3, 1),
-                "round_trip_ms": None if trip_s is None else round(trip_s * 1e3, 2),
-                "round_trip_max_ms": round(checks.worst_round_trip_s * 1e3, 2),
-                "latency_max_ms": round(checks.limits.latency_max_s * 1e3, 2),
-                "clock_drift_ppm": None if checks.drift_ppm is None else round(checks.drift_ppm)}
+        return self.monitor.checks.estimates()
 
     def inject_fault(self, kind: FaultKind | str, finger_index: int = ALL_FINGERS, duration_ms: int = 0,
                      value: int = 0) -> None:
@@ -259,14 +248,13 @@ class LinkTransport(Transport):
                     log.debug("reconnecting to %s: %s", self.link.description, exc)
                     self._back_off()
                     continue
-            if self._phase == "running":
-                self.monitor.turn(time.monotonic())
             try:
                 units = self.link.read(READ_TIMEOUT_S)
             except Exception as exc:
                 self._lose(f"{self.link.description}: read failed ({exc})")
                 continue
             now = time.monotonic()
+            self.monitor.turn(now)  # a stall of this host since the last turn: not the link's
             if units:
                 self._record(units, received=True)
                 self._last_rx_s = now

@@ -133,8 +133,8 @@ class SampleMonitor:
         self._previous_mv = mv
 
     def turn(self, now: float) -> None:
-        """Every turn of the reader thread, before it reads: a stall of the host before it is
-        counted and logged, once (transports/host_stall.py)."""
+        """Every turn of the reader thread, after its read and before it handles what came: a
+        stall of the host since the last turn is counted and logged, once (host_stall.py)."""
         stall = self.checks.reader_turn(now)
         if stall is None:
             return
