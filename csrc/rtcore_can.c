@@ -153,7 +153,7 @@ static int32_t decode_single(rtcore_can *can, int32_t kind, const uint8_t *data,
     if (kind == RTCORE_CAN_STATUS) {
         struct rtcore_can_v1_status_t m;
         (void)rtcore_can_v1_status_unpack(&m, data, (size_t)len);
-        if (m.state > RTCORE_CAN_V1_STATUS_STATE_FAULT_CHOICE || m.fault_active > RTCORE_CAN_V1_STATUS_FAULT_ACTIVE_SENSOR_NAN_CHOICE) {
+        if (m.state > RTCORE_CAN_V1_STATUS_STATE_FAULT_CHOICE || m.fault_active > RTCORE_CAN_V1_STATUS_FAULT_ACTIVE_SENSOR_DRIFT_CHOICE) {
             return bad(can, kind);
         }
         out->state = m.state;
@@ -176,7 +176,7 @@ static int32_t decode_single(rtcore_can *can, int32_t kind, const uint8_t *data,
     } else {
         struct rtcore_can_v1_fault_inject_t m;
         (void)rtcore_can_v1_fault_inject_unpack(&m, data, (size_t)len);
-        if (m.fault > RTCORE_CAN_V1_FAULT_INJECT_FAULT_SENSOR_NAN_CHOICE) {
+        if (m.fault > RTCORE_CAN_V1_FAULT_INJECT_FAULT_SENSOR_DRIFT_CHOICE) {
             return bad(can, kind);
         }
         out->fault = m.fault;

@@ -105,6 +105,8 @@ struct board {
     uint32_t vent_us;               /* hal time of the newest watchdog vent */
 #ifdef BOARD_TEST_IMAGE
     struct inject inject;
+    float broken_flex_mv;           /* INJECT_BROKEN_FLEX_STUCK: the reading it froze at */
+    uint8_t broken_flex_held;
 #endif
 };
 

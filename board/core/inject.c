@@ -48,6 +48,7 @@ void inject_request(struct inject *in, uint8_t kind, uint8_t finger, uint16_t du
     f->value = value;
     f->forever = duration_ms == 0u;
     f->until_us = now_us + (uint32_t)duration_ms * 1000u;
+    f->since_us = now_us;
     f->order = ++in->order;
 }
 

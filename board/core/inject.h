@@ -13,7 +13,7 @@
 
 #include "serial_v1.h"
 
-#define INJECT_KINDS 18u      /* FaultKind 0..17 (hand_service/wire/messages.py) */
+#define INJECT_KINDS 19u      /* FaultKind 0..18 (hand_service/wire/messages.py) */
 #ifndef INJECT_QUEUE_UNITS
 #define INJECT_QUEUE_UNITS 48u /* DELAY holds this many frames at most (then drops) */
 #endif
@@ -24,7 +24,8 @@ enum inject_kind {
     INJECT_SENSOR_OUT_OF_RANGE = 5, INJECT_SILENCE = 6, INJECT_REBOOT = 7, INJECT_FIRMWARE_FAULT = 8,
     INJECT_PRESSURE_NAN = 9, INJECT_PRESSURE_STUCK = 10, INJECT_VALVES_IGNORED = 11,
     INJECT_PROTOCOL_CHANGE = 12, INJECT_SEQUENCE_STUCK = 13, INJECT_CAN_ERROR_FRAMES = 14,
-    INJECT_BUS_OFF = 15, INJECT_CLOCK_DRIFT = 16, INJECT_SENSOR_NAN = 17
+    INJECT_BUS_OFF = 15, INJECT_CLOCK_DRIFT = 16, INJECT_SENSOR_NAN = 17,
+    INJECT_SENSOR_DRIFT = 18
 };
 
 /* A rule of the protocol a test image breaks on purpose for as long as it runs
@@ -39,10 +40,17 @@ enum inject_broken {
     INJECT_BROKEN_SILENT_REBOOT = 5,  /* does not announce itself (VersionInfo) when it boots */
     INJECT_BROKEN_QUIET_IDLE = 6,     /* sends no samples unless RUNNING */
     INJECT_BROKEN_COUNTS_RUBBISH = 7, /* counts rubbish bytes and other nodes' frames in rx_errors */
-    INJECT_BROKEN_ZERO_VENTS = 8      /* takes a command of 0 kPa on every finger for a vent: leaves
+    INJECT_BROKEN_ZERO_VENTS = 8,     /* takes a command of 0 kPa on every finger for a vent: leaves
                                        * RUNNING for WATCHDOG_VENTED (0 kPa is a valid setpoint) */
+    INJECT_BROKEN_VALVES_DEAD = 9,    /* no valve ever opens: no chamber follows its setpoint */
+    INJECT_BROKEN_VALVE_STUCK = 10,   /* INJECT_BROKEN_FINGER's valves never open */
+    INJECT_BROKEN_PRESSURE_NAN = 11,  /* reports NaN (not measured) for every chamber */
+    INJECT_BROKEN_PRESSURE_X2 = 12,   /* reports every chamber at twice its pressure */
+    INJECT_BROKEN_FLEX_STUCK = 13,    /* INJECT_BROKEN_FINGER's flex reading never moves */
+    INJECT_BROKEN_FLEX_X2 = 14        /* INJECT_BROKEN_FINGER's flex reading is twice its mV */
 };
-#define INJECT_BROKEN_RULES 9u
+#define INJECT_BROKEN_RULES 15u
+#define INJECT_BROKEN_FINGER 1u /* the finger a one-finger rule breaks (the hand's second) */
 
 /* One outgoing frame: serial-v1 bytes, or a CAN frame (id, up to 8 bytes). */
 struct board_unit {
@@ -57,6 +65,7 @@ struct inject_fault {
     uint16_t value;
     uint8_t forever;          /* duration 0: until a clear */
     uint32_t until_us;
+    uint32_t since_us;        /* when it was asked for (SENSOR_DRIFT ramps from here) */
     uint32_t order;           /* the newest request is the one the status names */
     uint8_t held_valid;       /* STUCK_SENSOR, PRESSURE_STUCK: the readings it froze */
     float held[8];

@@ -86,8 +86,10 @@ void board_inner_tick(struct board *b)
         } else {
             regulator_vent(r);
         }
-        hal_valve_pwm(i, HAL_VALVE_INLET, r->inlet_permille);
-        hal_valve_pwm(i, HAL_VALVE_EXHAUST, r->exhaust_permille);
+        const int dead = board_breaks(b, INJECT_BROKEN_VALVES_DEAD)
+                         || (board_breaks(b, INJECT_BROKEN_VALVE_STUCK) && i == INJECT_BROKEN_FINGER);
+        hal_valve_pwm(i, HAL_VALVE_INLET, dead ? 0u : r->inlet_permille);
+        hal_valve_pwm(i, HAL_VALVE_EXHAUST, dead ? 0u : r->exhaust_permille);
     }
 }
 
@@ -129,7 +131,11 @@ void board_sample(struct board *b)
     const struct inject_fault *wild = inject_active(in, INJECT_SENSOR_OUT_OF_RANGE);
     const struct inject_fault *flex_nan = inject_active(in, INJECT_SENSOR_NAN);
     const struct inject_fault *pressure_nan = inject_active(in, INJECT_PRESSURE_NAN);
+    const struct inject_fault *drift = inject_active(in, INJECT_SENSOR_DRIFT);
     for (uint8_t i = 0; i < b->cfg.n_fingers; i++) {
+        if (inject_hits(drift, i)) { /* `value` mV/s, signed 16-bit, from the request on */
+            flex_mv[i] += (float)(int16_t)drift->value * (float)(uint32_t)(b->now_us - drift->since_us) * 1e-6f;
+        }
         if (inject_hits(wild, i)) {
             flex_mv[i] = wild->value ? (float)wild->value : OPEN_CIRCUIT_MV;
         }
@@ -138,6 +144,24 @@ void board_sample(struct board *b)
         }
         if (inject_hits(pressure_nan, i)) {
             pressure_kpa[i] = NAN;
+        }
+    }
+    for (uint8_t i = 0; i < b->cfg.n_fingers; i++) { /* the sensors a broken image misreports */
+        if (board_breaks(b, INJECT_BROKEN_PRESSURE_NAN)) {
+            pressure_kpa[i] = NAN;
+        } else if (board_breaks(b, INJECT_BROKEN_PRESSURE_X2)) {
+            pressure_kpa[i] *= 2.0f;
+        }
+    }
+    if (b->cfg.n_fingers > INJECT_BROKEN_FINGER) {
+        if (board_breaks(b, INJECT_BROKEN_FLEX_STUCK)) {
+            if (!b->broken_flex_held) {
+                b->broken_flex_mv = flex_mv[INJECT_BROKEN_FINGER];
+                b->broken_flex_held = 1u;
+            }
+            flex_mv[INJECT_BROKEN_FINGER] = b->broken_flex_mv;
+        } else if (board_breaks(b, INJECT_BROKEN_FLEX_X2)) {
+            flex_mv[INJECT_BROKEN_FINGER] *= 2.0f;
         }
     }
 #endif

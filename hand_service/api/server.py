@@ -27,6 +27,7 @@ from hand_service.api.listen import (
     tcp_listener,
     unix_listener,
 )
+from hand_service.api.refusal_log import RefusalLog
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +52,7 @@ class ApiServer(Clients):
             token_file = token_path(socket_path or default_socket_path())
         self.token_file = token_file
         self.token: str | None = None
+        self._refusals = RefusalLog(log)
         super().__init__()
         self.listeners: list[socket.socket] = []
         self._turn = 0
@@ -200,7 +202,7 @@ class ApiServer(Clients):
             if not client.over_cap:
                 client.deadline_ns = None
             return True
-        log.warning("refused %s: no valid token in its first request", client.name)
+        self._refusals.refused(client.name)
         self._refuse(client, with_id(request, {"ok": False, "error": TOKEN_ERROR}))
         return False
 

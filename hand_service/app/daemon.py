@@ -54,7 +54,7 @@ class Daemon:
         self.profile, self.options = profile, options
         self.out = out or sys.stdout
         recorder = Recorder(profile.finger_names, profile.control.rate_hz, options.recorder,
-                            options.record_sync_s)
+                            options.record_sync_s, profile.recording.file_mode_bits)
         self.transport = transport
         self.sup: TickLoop = supervisor(profile, transport, recorder, spin_us=options.spin_us)
         self.api = Api(self.sup, self.metadata)

@@ -61,8 +61,16 @@ def handshake(session: Session) -> CheckResult:
         return failed(name, f"the board drives {version.finger_count} fingers; the profile has "
                       f"{cfg.n_fingers}", **values)
     if not status_first:
-        return failed(name, "VersionInfo came without a Status before it (the answer is Status, then "
-                      "VersionInfo)", **values)
+        # a Status late, or after the VersionInfo, is a wrong order, not a missing Status
+        wait_s = (2e3 * cfg.period_s + cfg.latency_ms) / 1e3
+        later = [r.t_s for r in session.pump(wait_s) if isinstance(r.message, Status)]
+        values["status_after_version_ms"] = 1e3 * (later[0] - asked - answer_s) if later else None
+        if later:
+            return failed(name, f"the answer's Status came {values['status_after_version_ms']:.1f} ms after "
+                          "its VersionInfo: the answer is Status, then VersionInfo, in that order", **values)
+        return failed(name, f"VersionInfo came with no Status before it or within {wait_s * 1e3:.0f} ms "
+                      "after"
+                      " (the answer is Status, then VersionInfo)", **values)
     return passed(name, f"protocol {version.protocol_version}, firmware {version.firmware_text}, "
                   f"{version.finger_count} fingers; Status then VersionInfo, {answer_s * 1e3:.1f} ms "
                   "after the request", **values)

@@ -9,6 +9,7 @@ import can
 import serial
 
 from hand_service.boardcheck.link import BoardLink, CanBoardLink, SerialBoardLink
+from hand_service.boardcheck.sense import FingerSense
 from hand_service.boardcheck.session import Settings
 from hand_service.config.profile import Profile, load_profile
 from hand_service.errors import UserError
@@ -60,7 +61,9 @@ def settings_for(profile: Profile, window_s: float, pressure_kpa: float, latency
                     stale_ms=1e3 * safety["stale_sensor_ticks"] / rate_hz,
                     loss_max_percent=float(safety["sample_loss_max_percent"]),
                     clock_drift_max_ppm=float(safety["clock_drift_max_ppm"]),
-                    window_s=window_s, pressure_kpa=pressure_kpa, latency_ms=latency_ms)
+                    window_s=window_s, pressure_kpa=pressure_kpa, latency_ms=latency_ms,
+                    pressure_measured=bool(safety["pressure_measured"]),
+                    fingers=tuple(FingerSense.of(f) for f in profile.fingers))
 
 
 def open_link(profile: Profile, port: str | None, can_spec: str | None) -> BoardLink:

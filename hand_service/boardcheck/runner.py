@@ -2,9 +2,10 @@
 
 Order: the handshake (nothing else can run without it), the refusal of another protocol,
 the stream with no command (rate and jitter, sequence numbers, heartbeat), the command
-echo, the vent on a zero command, bad frames and rubbish, the watchdog, and last the
-reboot (it resets the board). The board is left vented: the last valid command the
-check sends is 0 kPa on every finger, and the watchdog vents it after that anyway.
+echo, the vent on a zero command, the plant through the board (plant.py), bad frames and
+rubbish, the watchdog, and last the reboot (it resets the board). The board is left
+vented: the last valid command the check sends is 0 kPa on every finger, and the
+watchdog vents it after that anyway.
 """
 
 from __future__ import annotations
@@ -12,14 +13,14 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from hand_service.boardcheck import handshake, reboot, stream, valves
+from hand_service.boardcheck import handshake, plant, reboot, stream, valves
 from hand_service.boardcheck.link import BoardLink
 from hand_service.boardcheck.results import CheckResult
 from hand_service.boardcheck.session import Session, Settings
 from hand_service.errors import UserError
 
 CHECKS = ("handshake", "version-refusal", "report-rate", "sequence", "heartbeat", "command-echo",
-          "zero-vent", "crc-and-garbage", "watchdog", "reboot-announce")
+          "zero-vent", "plant", "crc-and-garbage", "watchdog", "reboot-announce")
 
 
 @dataclass
@@ -71,6 +72,8 @@ def run_checks(link: BoardLink, settings: Settings, reboot_mode: str = "debug",
             add(echo)
         if "zero-vent" in wanted:
             add(valves.zero_vent(session, reached_kpa))
+    if "plant" in wanted:
+        add(plant.plant(session))
     if "crc-and-garbage" in wanted:
         add(valves.invalid_input(session))
     if "watchdog" in wanted:

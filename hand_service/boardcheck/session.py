@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from hand_service.boardcheck.link import BoardLink, Received
+from hand_service.boardcheck.sense import FingerSense
 from hand_service.wire.messages import (
     SEQUENCE_MODULO,
     FirmwareState,
@@ -22,6 +23,8 @@ from hand_service.wire.messages import (
     ValveCommand,
     VersionInfo,
 )
+
+STALL_MIN_S = 0.005  # a wait for the link this much longer than asked: this process stalled
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,8 @@ class Settings:
     window_s: float  # how long the stream check listens
     pressure_kpa: float  # the setpoint the valve checks command
     latency_ms: float  # what the link and this host may add to any time the board keeps
+    pressure_measured: bool = True  # the profile's safety.pressure_measured
+    fingers: tuple[FingerSense, ...] = ()  # what each finger's sensors and model say (plant check)
 
     @property
     def period_s(self) -> float:
@@ -62,6 +67,9 @@ class Session:
     log: list[Received] = field(default_factory=list)
     last_status: Status | None = None
     command_times_s: list[float] = field(default_factory=list)  # when each valid command left
+    # this process's own stalls: (from, to) where a wait for the link overran what it asked for
+    # by more than STALL_MIN_S (a busy machine); what arrived late through them is not the board's
+    stalls: list[tuple[float, float]] = field(default_factory=list)
 
     def command(self, pressure_kpa: float) -> ValveCommand:
         """Send a valve command of `pressure_kpa` on every finger."""
@@ -100,8 +108,15 @@ class Session:
                 if next_command < now:  # this process stalled: no burst of stale commands
                     next_command = now + self.settings.period_s
             wait = end - now if pressure_kpa is None else min(end, next_command) - now
+            # in slices of a sample period at most: a slice that overran by more than STALL_MIN_S is
+            # this process's own stall, measured to within a period
+            wait = min(max(wait, 0.0), self.settings.period_s)
             done = False
-            for item in self.link.receive(min(max(wait, 0.0), 0.05 if pressure_kpa is None else wait)):
+            received = self.link.receive(wait)
+            woke = time.monotonic()
+            if woke - now - wait > STALL_MIN_S:
+                self.stalls.append((now + wait, woke))
+            for item in received:
                 self.log.append(item)
                 got.append(item)
                 if isinstance(item.message, Status):
@@ -116,6 +131,10 @@ class Session:
         then the board is right to vent."""
         times = self.command_times_s[max(0, since - 1):]
         return max((1e3 * (b - a) for a, b in itertools.pairwise(times)), default=0.0)
+
+    def stalled_s(self, start_s: float, end_s: float) -> float:
+        """How long this process itself stalled between start_s and end_s."""
+        return sum(max(0.0, min(b, end_s) - max(a, start_s)) for a, b in self.stalls)
 
     def state(self) -> FirmwareState | None:
         return None if self.last_status is None else self.last_status.state

@@ -25,6 +25,7 @@ VENTED_FLOOR_KPA = 2.0  # ...or this, whichever is more (sensor noise)
 RISEN_FRACTION = 0.5  # the setpoint showed in the pressure: the vent can be seen
 RX_ERRORS_MAX = 255  # rx_errors saturates
 WARM_S = 0.3  # commanded before the bad frames: long enough for two 10 Hz heartbeats
+FELL_FRACTION = 0.8  # the watchdog's vent seen in the chambers: every one below this of what it held
 
 
 def _max_pressure_kpa(got: list[Received], last: int = 3) -> float:
@@ -54,7 +55,9 @@ def _echo_ms(session: Session, got: list[Received], sent: set[int]) -> list[floa
     first: dict[int, float] = {}
     for t, s in samples(got):
         first.setdefault(s.command_sequence, t)
-    return [1e3 * (t - session.sent_s[seq]) for seq, t in first.items() if seq in sent]
+    # less this process's own stalls in between: the board did not make them
+    return [1e3 * (t - session.sent_s[seq] - session.stalled_s(session.sent_s[seq], t))
+            for seq, t in first.items() if seq in sent]
 
 
 def echo(session: Session) -> tuple[CheckResult, float]:
@@ -100,6 +103,18 @@ def echo(session: Session) -> tuple[CheckResult, float]:
             f"{values['final_state']}, chamber {pressure}")
     result = verdict(name, not problems, "; ".join([*problems, text]) if problems else text, **values)
     return result, reached_kpa
+
+
+def _chambers_fell_ms(got: list[Received], since_s: float, held_kpa: float) -> float | None:
+    """When, after since_s, every chamber began to fall: below FELL_FRACTION of what it held
+    (ms after since_s); None if they did not, or are not measured."""
+    if not math.isfinite(held_kpa) or held_kpa <= VENTED_FLOOR_KPA:
+        return None
+    for t, s in samples(got):
+        finite = [p for p in s.pressure_meas_kpa if math.isfinite(p)]
+        if t > since_s and finite and max(finite) < FELL_FRACTION * held_kpa:
+            return 1e3 * (t - since_s)
+    return None
 
 
 def _vented_kpa(cfg_pressure_kpa: float) -> float:
@@ -203,15 +218,28 @@ def watchdog(session: Session) -> CheckResult:
         return failed(name, f"no watchdog_vented Status within {cfg.watchdog_ms + 1000:.0f} ms of the last "
                       f"valid command (watchdog {cfg.watchdog_ms:g} ms); state stayed "
                       f"{'/'.join(states) or 'silent'}", **values)
-    vent_ms = 1e3 * (vent[0] - last_valid_s)
-    values["vent_ms"] = vent_ms
+    own_ms = 1e3 * session.stalled_s(last_valid_s, vent[0])  # this process's stalls: not the board's
+    vent_ms = 1e3 * (vent[0] - last_valid_s) - own_ms
+    values["vent_ms"], values["own_stall_ms"] = vent_ms, own_ms
     problems = []
     if not samples([r for r in got if r.t_s > vent[0]]):
         problems.append(f"no sample in the {HOLD_S:g} s after the vent (a vented board keeps reporting)")
     if vent_ms > limit_ms:
-        problems.append(f"vented {vent_ms:.0f} ms after the last valid command, limit {limit_ms:.0f} ms")
-    if vent_ms < cfg.watchdog_ms - 1e3 * cfg.period_s:
-        problems.append(f"vented after {vent_ms:.0f} ms, before its watchdog time of {cfg.watchdog_ms:g} ms")
+        fell_ms = _chambers_fell_ms(got, last_valid_s, held_kpa)
+        values["chambers_fell_ms"] = fell_ms
+        if fell_ms is not None and fell_ms <= limit_ms:
+            problems.append(f"the chambers fell {fell_ms:.0f} ms after the last valid command (in time), "
+                            f"but the watchdog_vented Status came only {vent_ms:.0f} ms after it (limit "
+                            f"{limit_ms:.0f} ms): a board sends a Status at once on every change of state, "
+                            "not with the next heartbeat")
+        else:
+            unseen = (" (the chambers' pressure is not measured: a Status sent late on the change reads the "
+                      "same)" if fell_ms is None and math.isnan(held_kpa) else "")
+            problems.append(f"vented {vent_ms:.0f} ms after the last valid command, limit {limit_ms:.0f} ms"
+                            f"{unseen}")
+    if vent_ms + own_ms < cfg.watchdog_ms - 1e3 * cfg.period_s:  # early: on the host's clock alone
+        problems.append(f"vented after {vent_ms + own_ms:.0f} ms, before its watchdog time of "
+                        f"{cfg.watchdog_ms:g} ms")
     vented_kpa = _vented_kpa(cfg.pressure_kpa)
     if math.isfinite(after_kpa) and after_kpa > vented_kpa:
         problems.append(f"chambers still at {after_kpa:.1f} kPa {HOLD_S:g} s after the vent")

@@ -24,6 +24,12 @@ was measured and PASS or FAIL (N/A: the check cannot be made on this board, with
   command-echo     every command echoed in command_sequence within 2 sample periods +
                    --latency-ms; state running while commands come
   zero-vent        0 kPa on every finger (the vent) empties the chambers; still running
+  plant            vented, then --pressure-kpa on every finger for 1.2 s: where the
+                   profile says pressure is measured, every chamber reported (no NaN) and
+                   within the larger of 3 kPa and 25 % of the setpoint; every flex sensor
+                   (the profile's calibration) moves by the finger model's static bend
+                   (pressure_gain / stiffness x the step) within 0.67-1.5x, not under
+                   0.25x (stuck); each failure names its finger. Needs the supply on
   crc-and-garbage  a bad CRC and a wrong finger count are not applied and count in
                    rx_errors; rubbish is not counted; a good frame right behind it is found
   watchdog         with only bad commands coming, the board vents (Status watchdog_vented)
@@ -31,8 +37,8 @@ was measured and PASS or FAIL (N/A: the check cannot be made on this board, with
   reboot-announce  after a reset: VersionInfo unasked, uptime from 0, idle, sequence 0
 
 The checks command --pressure-kpa (default 20) into every chamber: run it on a hand that
-may inflate, or with the supply off (then zero-vent is N/A). The rates, times and finger
-count come from --profile (default: serial-v1.yaml, can-v1-slcan.yaml for slcan,
+may inflate (with the supply off zero-vent is N/A and plant fails: no chamber moves).
+The rates, times and finger count come from --profile (default: serial-v1.yaml, can-v1-slcan.yaml for slcan,
 can-v1-virtual.yaml for virtual, can-v1.yaml for other CAN interfaces). Progress goes to
 stderr: a bar on a terminal, a plain line at most every 2 s in a log, nothing with
 --quiet. Exit status: 0 if no check failed, 1 if one did, 2 on bad input.

@@ -15,6 +15,7 @@ from typing import Any
 from hand_service.config.schema import Key, Section, expect_mapping, validate
 
 ON_FAILURE = ("warning", "fault")
+FILE_MODES = ("0600", "0640", "0660", "0644", "0664")
 
 RECORDING_SECTION = Section(
     "Recording", "`recording:` — what the daemon does when a recording stops reaching its file "
@@ -27,6 +28,9 @@ RECORDING_SECTION = Section(
             "record-start` writes in, relative to the profile's own directory; `run --data-dir` "
             "overrides it (default: the directory of `run --record`, else "
             "$XDG_DATA_HOME/hand-service/recordings, docs/api.md)", "str", default=None),
+        Key("file_mode", "the permissions a recording's file is created with, whatever the "
+            "daemon's umask: owner read-write, the group read (`0640`), nobody else unless the lab "
+            "says so", "choice", default="0640", choices=FILE_MODES),
     ))
 
 
@@ -36,6 +40,7 @@ class RecordingSettings:
 
     on_failure: str = "warning"  # warning | fault
     data_dir: Path | None = None  # the profile's data directory, made absolute against its own
+    file_mode: str = "0640"  # octal, one of FILE_MODES
 
     @classmethod
     def from_values(cls, values: dict[str, Any]) -> RecordingSettings:
@@ -52,9 +57,13 @@ class RecordingSettings:
         return cls.from_values(values)
 
     @property
+    def file_mode_bits(self) -> int:
+        return int(self.file_mode, 8)
+
+    @property
     def faults(self) -> bool:
         """A recording failure latches FAULT."""
         return self.on_failure == "fault"
 
 
-__all__ = ["ON_FAILURE", "RECORDING_SECTION", "RecordingSettings"]
+__all__ = ["FILE_MODES", "ON_FAILURE", "RECORDING_SECTION", "RecordingSettings"]

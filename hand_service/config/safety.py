@@ -41,6 +41,14 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
         "sample periods)", "float", "ms", 100.0, 1.0, 10000.0),
     Key("sample_loss_max_percent", "share of the board's samples that may be lost (dropped, or "
         "failed their CRC) over any 0.5 s", "float", "%", 10.0, 0.0, 100.0, True),
+    Key("latency_max_ms", "the link's command -> sensor round trip on the host's clock (the "
+        "smallest over any 0.25 s) may be this long: a command out, the board's next sample, the "
+        "sample back. Longer is a fault named latency, whatever the board's clock does", "float", "ms",
+        50.0, 1.0, 10000.0),
+    Key("host_stall_max_ms", "a stall of the host itself (its link reader not run) this long at most "
+        "is ridden through: counted, logged, shown in status; the samples it made late or lost are "
+        "not the link's. Shorter than firmware_watchdog_ms: the board kept the last command "
+        "(docs/safety.md)", "float", "ms", 80.0, 0.0, 10000.0),
     Key("clock_drift_max_ppm", "the board's clock may run this much faster or slower than the "
         "host's", "float", "ppm", 5000.0, 0.0, 1e6, True),
     Key("bus_error_frames_max", "CAN error frames in any second before a fault (bus-off and "
@@ -57,6 +65,10 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
     Key("model_margin_deg", "added to the model check's bound beyond the parameters' uncertainty "
         "and the noise: what the model leaves out (hysteresis, a sensor's calibration)", "float",
         "deg", 1.0, 0.0, 90.0, True),
+    Key("sensor_drift_max_deg_per_s", "the model check's trend test: the innovation's trend, with "
+        "what the prediction and its sensitivities explain taken out (fitted over about 0.5 s), may "
+        "be this steep either way for model_mismatch_ms (docs/safety.md)", "float", "deg/s", 2.5, 0.0,
+        1000.0, True),
     Key("model_mismatch_ms", "the measured angle may stay outside the model's bound this long "
         "before a fault (at least one sample period)", "float", "ms", 100.0, 1.0, 10000.0),
 ))
@@ -75,6 +87,10 @@ def check_safety(safety: dict[str, Any], rate_hz: float, source: str | Path, blo
     if safety["target_force_min_n"] < -safety["target_force_max_n"]:
         raise fail(source, block, "target_force_min_n",
                    "safety.target_force_min_n must not be below -target_force_max_n")
+    if safety["host_stall_max_ms"] >= safety["firmware_watchdog_ms"]:
+        raise fail(source, block, "host_stall_max_ms", f"safety.host_stall_max_ms = "
+                   f"{safety['host_stall_max_ms']:g} ms must be shorter than firmware_watchdog_ms "
+                   f"({safety['firmware_watchdog_ms']:g} ms): a longer stall of the host lets the board vent")
     period_ms = 1e3 / rate_hz
     for key, periods in (("model_mismatch_ms", 1), ("sample_age_max_ms", 2)):
         if safety[key] < periods * period_ms:

@@ -32,7 +32,8 @@ SERIAL_CHUNK_BYTES = 4096
 STATES = ("booting", "idle", "running", "watchdog_vented", "fault")
 # what the C board breaks on purpose (board/core/inject.h, enum inject_broken); board-check's tests
 BROKEN = {"no-watchdog": 1, "wrong-crc": 2, "stuck-sequence": 3, "echo-version": 4, "silent-reboot": 5,
-          "quiet-idle": 6, "counts-rubbish": 7, "zero-vents": 8}
+          "quiet-idle": 6, "counts-rubbish": 7, "zero-vents": 8, "valves-dead": 9, "valve-stuck": 10,
+          "pressure-nan": 11, "pressure-x2": 12, "flex-stuck": 13, "flex-x2": 14}
 _LOCK = threading.Lock()  # the C HAL runs one instance at a time (board/inprocess/inprocess.h)
 
 

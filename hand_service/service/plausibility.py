@@ -44,6 +44,7 @@ from hand_service.config.effects import effect_value
 from hand_service.config.model import FingerModel
 from hand_service.config.profile import Profile
 from hand_service.service.model_step import OMEGA, STATE, SUM, THETA, discretize
+from hand_service.service.sensor_trend import SensorTrend
 from rtcore import MODE_POSITION, MODE_PRESSURE, Hand
 
 # samples the prediction runs through without a measurement (the board holding the command
@@ -81,6 +82,8 @@ class ModelCheck:
         self.uncertainty = safety["model_uncertainty_percent"] / 100.0
         self.margin_rad = safety["model_margin_deg"] * DEG
         self.persist_samples = max(1, math.ceil(safety["model_mismatch_ms"] / 1e3 * rate_hz - 1e-9))
+        self.trend = SensorTrend(n, dt, float(safety["sensor_drift_max_deg_per_s"]), self.persist_samples)
+        self._innovation_deg = np.zeros(n)
         self.pressure_measured = bool(safety["pressure_measured"])
         self._effects(models)
         self.noise_rad = np.array([s.noise_rad(safety["angle_noise_deg"] * DEG, safety["pressure_noise_kpa"])
@@ -199,16 +202,35 @@ class ModelCheck:
             self._chamber(steps, pressure_kpa, nan, command_kpa, predict=False)
             return None
         if self._steady and steps == 1 and nan is None:  # the common sample: its own short path
-            return self._next_sample(angle_deg, pressure_kpa, command_kpa)
+            level = self._next_sample(angle_deg, pressure_kpa, command_kpa)
+            return level or self._trend(1, angle_deg, checked)
         start = None
         if not self._steady:
             start = checked & ~self.armed
             self.state[start, :STATE] = 0.0
             self.state[start, THETA] = self.state[start, SUM] = angle_deg[start] * DEG
+            # the restarted prediction moves the innovation by what the model's error had made
+            # of it before: a step the trend's past would read as a trend
+            self.trend.restart(start)
             self.armed[:] = checked
             self._steady = True
         self._chamber(steps, pressure_kpa, nan, command_kpa, predict=True)
-        return self._compare(start, angle_deg, nan, steps)
+        return self._compare(start, angle_deg, nan, steps) or self._trend(steps, angle_deg, checked)
+
+    def _trend(self, steps: int, angle_deg: np.ndarray, checked: np.ndarray) -> Mismatch | None:
+        """The innovation's trend (sensor_trend.py): a sensor drifting from the model."""
+        innovation = self._innovation_deg
+        np.multiply(self._theta, 1.0 / DEG, out=innovation)
+        np.subtract(angle_deg, innovation, out=innovation)
+        trend = self.trend
+        i = trend.sample(steps, innovation, self.state[:, :SUM], self.state[:, OMEGA], checked)
+        if i is None:
+            return None
+        return Mismatch("implausible", i, (
+            f"the sensor drifts from the model at {trend.trend_deg_per_s[i]:+.1f} deg/s for "
+            f"{trend.run[i] * self.period_s * 1e3:.0f} ms (sensor_drift_max_deg_per_s "
+            f"{trend.limit_deg_per_s:g}; it reads {angle_deg[i]:.1f} deg, the model predicts "
+            f"{self._theta[i] / DEG:.1f} deg): a drifting or loosening flex sensor"))
 
     def _next_sample(self, angle_deg: np.ndarray, pressure_kpa: np.ndarray,
                      command_kpa: np.ndarray) -> Mismatch | None:

@@ -55,6 +55,7 @@ __all__ = ["SHUTDOWN_STATE", "Recorder"]
 STOP_TIMEOUT_S = 0.5  # how long the daemon's shutdown waits for the writer
 KINDS = ("process", "thread")
 WRITER_CHECK_S = 0.05  # how often check() asks whether the writer still lives
+FILE_MODE = 0o640  # a new recording: owner read-write, the group read (recording.file_mode)
 MAY_PRESSURISE = frozenset({State.ARMED, State.RUNNING, State.HOLD})  # a failed recording faults again
 
 
@@ -92,15 +93,17 @@ class Recorder:
     stop, then wait at most STOP_TIMEOUT_S."""
 
     def __init__(self, fingers: list[str], rate_hz: float, kind: str = "process",
-                 sync_every_s: float | None = None) -> None:
+                 sync_every_s: float | None = None, file_mode: int = FILE_MODE) -> None:
         """sync_every_s: the writer also fdatasyncs that often (default: on faults, signals
-        and at the end only; recorder_writer)."""
+        and at the end only; recorder_writer). file_mode: the new file's permissions, whatever
+        the umask (a profile's recording.file_mode)."""
         if kind not in KINDS:
             raise UserError(f"recorder must be one of {', '.join(KINDS)}, not {kind!r}")
         if sync_every_s is not None and not 0 < sync_every_s < math.inf:
             raise UserError(f"the recording's sync interval must be a positive number of seconds, "
                             f"not {sync_every_s:g}")
         self.fingers, self.kind, self.sync_every_s = fingers, kind, sync_every_s
+        self.file_mode = file_mode
         self.n_cols = ring_columns(len(fingers))
         self.capacity = max(1024, int(RING_SECONDS * rate_hz))
         self._check_every = max(1, round(WRITER_CHECK_S * rate_hz))
@@ -157,7 +160,9 @@ class Recorder:
         ring, ring_path = allocate_ring(self.n_cols, self.capacity)  # before the file: nothing left
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            with open(path, "x") as f:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_CLOEXEC, self.file_mode)
+            with os.fdopen(fd, "w") as f:
+                os.fchmod(fd, self.file_mode)  # the umask only ever takes bits away
                 f.write("\n".join(lines) + "\n")
         except OSError as exc:
             ring.close()

@@ -46,6 +46,7 @@ class Cause(str, enum.Enum):
     SAMPLE_LATE = "sample_late"
     SAMPLE_LOSS = "sample_loss"
     SEQUENCE_STUCK = "sequence_stuck"
+    LATENCY = "latency"
     CLOCK_DRIFT = "clock_drift"
     BUS_ERROR = "bus_error"
     PROTOCOL_CHANGED = "protocol_changed"

@@ -42,4 +42,5 @@ def transport_status(transport: Transport, link_open: bool) -> TransportStatus:
         health=transport.health().as_dict() if link_open else None,
         firmware=None if firmware is None else FirmwareSummary(
             protocol_version=firmware.protocol_version, firmware_version=firmware.firmware_version,
-            vented=firmware.vented, fault_code=firmware.fault_code, fault_text=firmware.fault_text))
+            vented=firmware.vented, fault_code=firmware.fault_code, fault_text=firmware.fault_text),
+        link=transport.link_estimates() if link_open else {})

@@ -13,7 +13,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -67,6 +67,9 @@ class TransportStatus:
     open: bool
     health: dict[str, int] | None  # None while the link is closed
     firmware: FirmwareSummary | None
+    # what the link's checks estimate (Transport.link_estimates: round_trip_ms, clock_drift_ppm,
+    # ...), None where not known yet; empty for a link without such checks
+    link: dict[str, float | None] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -137,6 +137,12 @@ class Transport(ABC):
         checks run in the transport's I/O threads. A link without such checks has none."""
         return None
 
+    def link_estimates(self) -> dict[str, float | None]:
+        """What the transport's own checks estimate of the link now, for `status`: the
+        command -> sensor round trip (round_trip_ms), the board's clock against the host's
+        (clock_drift_ppm). None where not known yet; a link without such checks has none."""
+        return {}
+
     def on_tick(self, tick_index: int) -> None:
         """The supervisor's schedule index for the tick about to read. A board on a bus
         keeps its own clock and has no use for it; the in-process simulated hand uses it

@@ -160,6 +160,7 @@ class CanTransport(LinkTransport, BusTickInC):
         """The sequence of the command the tick is about to encode (unwrapped; the first is 1).
         No lock: the supervisor's thread alone counts commands (here and in send())."""
         self._command_sequence += 1
+        self.monitor.checks.command_sent(self._command_sequence, time.monotonic())
         return self._command_sequence
 
     def wake_writer(self) -> None:

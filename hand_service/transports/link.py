@@ -1,13 +1,11 @@
 """The machinery the bus transports share: I/O threads, handshake, reconnect, health.
 
-A reader thread decodes everything the board sends, keeps the newest complete sample
-and watches the stream (SampleMonitor); a writer thread encodes and sends. The tick
-only swaps a reference in latest() and drops the newest command into a one-slot
-mailbox in send(), so neither ever waits on the bus: a slow or dead port stalls an I/O
-thread, never the tick. Losing the board (no frame within safety.transport_timeout_ms,
-or an I/O error) closes the link and reconnects with exponential backoff, shaking
-hands again before any command goes out.
-"""
+A reader thread decodes all the board sends, keeps the newest complete sample and watches
+the stream (SampleMonitor); a writer thread encodes and sends. The tick only swaps a reference
+in latest() and drops the newest command into a one-slot mailbox in send(): a slow or dead
+port stalls an I/O thread, never the tick. Losing the board (no frame within
+safety.transport_timeout_ms, or an I/O error) closes the link and reconnects with exponential
+backoff, shaking hands again before any command goes out."""
 
 from __future__ import annotations
 
@@ -31,7 +29,7 @@ from hand_service.transports.base import (
     Transport,
     TransportHealth,
 )
-from hand_service.transports.checks import LinkLimits
+from hand_service.transports.checks import READ_TIMEOUT_S, LinkLimits
 from hand_service.transports.monitor import SampleMonitor
 from hand_service.transports.priority import below_tick
 from hand_service.wire.messages import (
@@ -51,7 +49,6 @@ from hand_service.wire.messages import (
 
 log = logging.getLogger("hand_service.transports")
 
-READ_TIMEOUT_S = 0.01
 HANDSHAKE_RETRY_S = 0.1
 
 
@@ -164,6 +161,7 @@ class LinkTransport(Transport):
         with self._lock:
             self._command_sequence += 1
             self._command = ValveCommand(self._command_sequence, command)
+        self.monitor.checks.command_sent(self._command_sequence, time.monotonic())
         self._wake.set()
 
     @property
@@ -187,6 +185,9 @@ class LinkTransport(Transport):
 
     def link_problem(self) -> LinkProblem | None:
         return self.monitor.checks.problem
+
+    def link_estimates(self) -> dict[str, float | None]:
+        return self.monitor.checks.estimates()
 
     def inject_fault(self, kind: FaultKind | str, finger_index: int = ALL_FINGERS, duration_ms: int = 0,
                      value: int = 0) -> None:
@@ -253,6 +254,7 @@ class LinkTransport(Transport):
                 self._lose(f"{self.link.description}: read failed ({exc})")
                 continue
             now = time.monotonic()
+            self.monitor.turn(now)  # a stall of this host since the last turn: not the link's
             if units:
                 self._record(units, received=True)
                 self._last_rx_s = now

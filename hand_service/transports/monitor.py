@@ -52,7 +52,8 @@ class SampleMonitor:
         self.stale_s = stale_s
         self.health = health
         self.log = RateLimitedLog()
-        for key in ("late_samples", "duplicate_samples", "sensor_out_of_range", "stuck_sensor",
+        for key in ("host_stalls", "host_stall_lost_samples",
+                    "late_samples", "duplicate_samples", "sensor_out_of_range", "stuck_sensor",
                     "firmware_reboots", "firmware_vents", "firmware_faults"):
             health.extra.setdefault(key, 0)
         n = len(finger_names)
@@ -103,11 +104,15 @@ class SampleMonitor:
                              f"(stale after {self.stale_s * 1e3:.0f} ms)")
         self._last_sequence = report.sequence
         self._last_sample_s = now
-        self.checks.sample(self._sequence, lost, now)
-        mv = np.array(report.sensor_mv, dtype=np.float64)
-        self._check_sensors(mv)
         acked = (last_command - sequence_delta(last_command, report.command_sequence)
                  if last_command > 0 else -1)
+        excused = self.checks.excused(now)
+        self.checks.sample(self._sequence, lost, now, acked)
+        if excused:  # the host's own stall, ridden through: not the link's loss
+            h.extra["host_stall_lost_samples"] += lost
+            lost = 0
+        mv = np.array(report.sensor_mv, dtype=np.float64)
+        self._check_sensors(mv)
         return SensorSample(self._sequence, now, mv, np.array(report.pressure_meas_kpa, dtype=np.float64),
                             acked, lost)
 
@@ -126,6 +131,22 @@ class SampleMonitor:
                 log.warning("finger %s: sensor stuck at %.1f mV for %d samples", self.names[i], mv[i],
                             self.stuck_samples + 1)
         self._previous_mv = mv
+
+    def turn(self, now: float) -> None:
+        """Every turn of the reader thread, after its read and before it handles what came: a
+        stall of the host since the last turn is counted and logged, once (host_stall.py)."""
+        stall = self.checks.reader_turn(now)
+        if stall is None:
+            return
+        limit_ms = self.checks.limits.host_stall_max_s * 1e3
+        if stall.ridden:
+            self.health.extra["host_stalls"] += 1
+            self.log.warning("stall", f"the host stalled {stall.length_s * 1e3:.0f} ms (its reader did not "
+                             f"run): ridden through, within host_stall_max_ms {limit_ms:g}; "
+                             f"{self.health.extra['host_stalls']} so far")
+        else:
+            log.warning("the host stalled %.0f ms (its reader did not run), beyond host_stall_max_ms %g: "
+                        "the link's checks judge what it made late", stall.length_s * 1e3, limit_ms)
 
     def watch(self, now: float) -> None:
         """Every turn of the reader thread while the link runs."""

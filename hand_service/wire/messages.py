@@ -65,6 +65,7 @@ class FaultKind(IntEnum):
     BUS_OFF = 15  # the CAN controller reports bus-off, then nothing crosses either way
     CLOCK_DRIFT = 16  # the board's clock runs fast by `value` ppm (signed 16-bit: above 32767 is slow)
     SENSOR_NAN = 17  # the finger's flex sensor reads NaN (serial-v1 only: can-v1 cannot carry it)
+    SENSOR_DRIFT = 18  # the finger's flex sensor drifts by `value` mV/s (signed 16-bit) from the request on
 
 
 FAULT_VALUE_MODULO = 1 << 16  # `value` is 16 bits on the wire

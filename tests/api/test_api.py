@@ -236,6 +236,24 @@ def test_tcp_is_loopback_only(tmp_path: Path) -> None:
         running.stop()
 
 
+def test_wrong_tokens_are_logged_once_per_interval(tmp_path: Path,
+                                                   caplog: pytest.LogCaptureFixture) -> None:
+    """Any local user may knock on the TCP port as fast as it likes: one WARNING line for a
+    burst of wrong tokens, not one each (about 100 a second flooded the log)."""
+    running = Running(tmp_path, tcp=True)
+    try:
+        port = running.daemon.server.tcp_port
+        with caplog.at_level("WARNING", logger="hand_service.api.server"):
+            for _ in range(20):
+                with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
+                    s.sendall(b'{"cmd": "status", "token": "%s"}\n' % (b"0" * 64))
+                    assert b"refused" in s.makefile("rb").readline()
+    finally:
+        running.stop()
+    lines = [r.getMessage() for r in caplog.records if "no valid token" in r.getMessage()]
+    assert len(lines) == 1, lines
+
+
 def test_second_daemon_on_the_same_socket_is_refused(daemon: Running) -> None:
     from hand_service.api.server import ApiServer
     from hand_service.errors import UserError

@@ -16,6 +16,13 @@ CASES = [
     ("no-watchdog", "virtual", "watchdog", "watchdog", "no watchdog_vented Status within"),
     ("wrong-crc", "serial", None, "handshake", "came with a bad CRC"),
     ("stuck-sequence", "virtual", "sequence", "sequence", "must go up by one with every sample"),
+    # the plant through the board, each failure naming its finger (INJECT_BROKEN_FINGER: index)
+    ("valves-dead", "virtual", "plant", "plant", "every finger: the valve did not move the chamber"),
+    ("valve-stuck", "serial", "plant", "plant", "index: the valve did not move the chamber (index 0."),
+    ("pressure-nan", "virtual", "plant", "plant", "every finger: chamber pressure NaN (not measured) where"),
+    ("pressure-x2", "slcan", "plant", "plant", "the chamber reads at another scale than the setpoint"),
+    ("flex-stuck", "virtual", "plant", "plant", "index: flex sensor did not move with the pressure step"),
+    ("flex-x2", "serial", "plant", "plant", "index: flex sensor moved at another scale"),
     # the others with make test-boardcheck (make test keeps the three)
     pytest.param("wrong-crc", "virtual", None, "handshake", "came with a bad CRC",
                  marks=pytest.mark.boardcheck),

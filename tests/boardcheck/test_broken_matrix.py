@@ -22,7 +22,17 @@ FAILS = {  # the variant -> the checks it must fail (with every check run)
     "quiet-idle": {"report-rate", "sequence", "watchdog"},  # silent idle, and silent once vented
     "counts-rubbish": {"crc-and-garbage"},
     "zero-vents": {"zero-vent"},  # a zero command taken for a vent request
+    # the plant through the board (zero-vent cannot see a vent where nothing rose: N/A)
+    "valves-dead": {"plant"},
+    "valve-stuck": {"plant"},
+    "pressure-nan": {"plant"},
+    "pressure-x2": {"plant"},
+    "flex-stuck": {"plant"},
+    "flex-x2": {"plant"},
 }
+# checks a variant may fail too, by chance: a doubled pressure reading of a chamber still
+# venting can sit above zero-vent's 2 kPa after its 0.5 s
+MAY_FAIL = {"pressure-x2": {"zero-vent"}}
 
 
 @pytest.mark.boardcheck
@@ -35,4 +45,4 @@ def test_each_broken_rule_fails_its_check_on_each_link(variant: str, link: str, 
     out = capsys.readouterr().out
     assert status == 1, out
     failed = {line.split()[1] for line in out.splitlines() if line.startswith("FAIL  ")} - {"stopped"}
-    assert failed == FAILS[variant], out
+    assert FAILS[variant] <= failed <= FAILS[variant] | MAY_FAIL.get(variant, set()), out

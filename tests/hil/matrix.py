@@ -45,6 +45,7 @@ class Case:
     # the sweep's top the fault comes at: the first (0.38 s after the start), or a later one
     # where a check needs a longer past (the drift, judged over at least 3 s: the fourth, 2.6 s)
     top: int = 1
+    drift_deg_per_s: float = 0.0  # SENSOR_DRIFT: the angle's drift, sent as mV/s for the finger
 
     def on(self, link: str) -> bool:
         return link in self.links
@@ -60,7 +61,10 @@ CASES = [
     # run of lost samples can outlast sample_age_max_ms (sample_late, 0.12 s in a CI run)
     # before stale_sensor has counted its ticks
     case("drop", FaultKind.DROP, "sample_loss stale_sensor sample_late", 1.0, value=30),
-    case("delay", FaultKind.DELAY, "sample_late", 0.5, value=250),
+    case("delay", FaultKind.DELAY, "sample_late latency", 0.5, value=250),
+    # under sample_age_max_ms: the round trip names them (once clock_drift, 1.6-1.8 s late)
+    case("latency_60", FaultKind.DELAY, "latency", 0.5, value=60),
+    case("latency_80", FaultKind.DELAY, "latency", 0.5, value=80),
     case("corrupt", FaultKind.CORRUPT, "sample_loss stale_sensor sample_late", 1.0, value=30),
     case("stuck_sensor", FaultKind.STUCK_SENSOR, "implausible", 0.5, finger=INDEX),
     case("sensor_out_of_range", FaultKind.SENSOR_OUT_OF_RANGE, "angle_out_of_range sensor_rejected",
@@ -78,6 +82,9 @@ CASES = [
     case("bus_off", FaultKind.BUS_OFF, "bus_error sample_late", 0.5, links=("virtual", "slcan"),
          not_on=CAN_ONLY),
     case("clock_drift", FaultKind.CLOCK_DRIFT, "clock_drift", 4.0, value=20000, top=4),
+    # -5 deg/s on the angle (value: in mV/s through the finger's calibration): caught before
+    # 10 deg of sensor error, 2 s (the model check's level alone took 6 s, 30 deg)
+    case("sensor_drift", FaultKind.SENSOR_DRIFT, "implausible", 2.0, finger=INDEX, drift_deg_per_s=-5.0),
     case("sensor_nan", FaultKind.SENSOR_NAN, "non_finite", 0.25, finger=INDEX, links=("serial",),
          not_on="can-v1's flex_mv has no value for a missing reading: a NaN cannot cross"),
 ]
@@ -203,7 +210,10 @@ class MatrixHost:
 
         self.watch = watch
         onset = time.monotonic()
-        self.transport.inject_fault(c.kind, c.finger, 0, c.value)
+        value = c.value
+        if c.drift_deg_per_s:
+            value = round(c.drift_deg_per_s / self.rig.profile.fingers[c.finger].sensor_gain_deg_per_mv)
+        self.transport.inject_fault(c.kind, c.finger, 0, value)
         self.tick_until(lambda: sup.state is State.FAULT, WAIT_S)
         fault_at = time.monotonic()
         self.tick_until(lambda: time.monotonic() > fault_at + AFTER_S, 2 * AFTER_S)
@@ -310,6 +320,13 @@ class QuietRun:
     bound_deg: np.ndarray  # and its bound
     worst_age_ms: float | None = None  # bus only: the oldest sample on the board's clock
     drift_ppm: float | None = None  # the board's clock against the host's, at the end
+    worst_round_trip_ms: float | None = None  # the largest command -> sample round trip estimate
+    worst_trend_deg_per_s: float = 0.0  # the model check's trend test: its steepest trend judged
+    host_stalls: int = 0  # bus only: the host's stalls ridden through (transports/host_stall.py)
+    host_stall_worst_ms: float = 0.0
+    stalls_beyond: int = 0  # ... and those past host_stall_max_ms, judged by the checks
+    stall_beyond_worst_ms: float = 0.0
+    trend_limit_deg_per_s: float = 0.0
     lost: int = 0  # samples that never arrived
 
     def describe(self) -> str:
@@ -317,10 +334,15 @@ class QuietRun:
         i = int(np.argmax(ratio))
         age = "" if self.worst_age_ms is None else (
             f"; oldest sample {self.worst_age_ms:.1f} ms, drift {self.drift_ppm or 0:.0f} ppm, "
+            f"round trip up to {self.worst_round_trip_ms or 0:.1f} ms, host stalls ridden through "
+            f"{self.host_stalls} (longest {self.host_stall_worst_ms:.0f} ms), beyond "
+            f"{self.stalls_beyond} (longest {self.stall_beyond_worst_ms:.0f} ms), "
             f"{self.lost} samples lost")
         return (f"{self.profile}: {self.seconds:.0f} s, faults {self.faults or 'none'}; model check: "
                 f"largest |innovation|/bound {ratio.max():.2f} (finger {i}: {self.innovation_deg[i]:+.2f} "
-                f"deg against {self.bound_deg[i]:.2f} deg; per finger {np.round(ratio, 2).tolist()}){age}")
+                f"deg against {self.bound_deg[i]:.2f} deg; per finger {np.round(ratio, 2).tolist()}); "
+                f"steepest trend {self.worst_trend_deg_per_s:.2f} deg/s (limit "
+                f"{self.trend_limit_deg_per_s:g}){age}")
 
 
 def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
@@ -352,10 +374,16 @@ def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
         check = sup.model_check
         run = QuietRun(profile_name, seconds, [f"{f.cause.value}: {f.detail}" for f in sup.faults.faults],
                        check.worst_ratio.copy(), check.worst_innovation_deg.copy(),
-                       check.worst_bound_deg.copy())
+                       check.worst_bound_deg.copy(),
+                       worst_trend_deg_per_s=float(check.trend.worst_deg_per_s.max()),
+                       trend_limit_deg_per_s=check.trend.limit_deg_per_s)
         if rig is not None:
             links = host.transport.monitor.checks
             run.worst_age_ms, run.drift_ppm = links.worst_age_s * 1e3, links.drift_ppm
+            run.worst_round_trip_ms = links.worst_round_trip_s * 1e3
+            stalls = links.stalls
+            run.host_stalls, run.host_stall_worst_ms = stalls.count, stalls.worst_s * 1e3
+            run.stalls_beyond, run.stall_beyond_worst_ms = stalls.beyond, stalls.worst_beyond_s * 1e3
             run.lost = host.transport.health().sequence_gaps
         return run
     finally:

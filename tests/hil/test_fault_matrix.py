@@ -10,6 +10,7 @@ prints what it measured.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,7 @@ from hand_service.firmware.rig import RIG_PROFILES, Rig
 from tests.hil.matrix import CASES, LINKS, Outcome, problems, quiet_run, run_session, table
 
 QUIET_S = 60.0
+SOAK_S = float(os.environ.get("HAND_SOAK_S", "600"))  # the loaded soak: 10 minutes unless told
 DEMO_PROFILES = ("sim.yaml", *sorted(RIG_PROFILES.values()))
 
 
@@ -27,7 +29,7 @@ def _check(outcomes: list[Outcome], link: str, expected: int) -> None:
     assert len(outcomes) == expected, [o.case for o in outcomes]
     assert problems(outcomes) == [], table(outcomes)
     angle_max_deg = load_profile(RIG_PROFILES[link]).safety["angle_max_deg"]
-    late = [o for o in outcomes if o.case == "delay"]
+    late = [o for o in outcomes if o.case == "delay" or o.case.startswith("latency")]
     for o in late:  # a late link is caught before the finger overshoots (truth on the virtual bus)
         assert o.max_angle_deg <= angle_max_deg, table(outcomes)
 
@@ -79,9 +81,28 @@ def test_a_minute_of_sweeping_raises_no_fault(profile: str, tmp_path: Path) -> N
             with Rig(link, workdir) as rig:
                 run = quiet_run(rig, profile, QUIET_S)
         print(f"\n{run.describe()}")
-        if not run.faults or not all(f.startswith(STALL_CAUSES) for f in run.faults):
+        # a stall ridden through (transports/host_stall.py) raises no fault now, but the samples
+        # it held back still reach the model check late: judged like one that faulted
+        stalled = run.host_stalls > 0 and run.innovation_ratio.max() >= 1.0
+        if not stalled and (not run.faults or not all(f.startswith(STALL_CAUSES) for f in run.faults)):
             break
     # a minute the machine stalled in is judged by its second run alone: the board's watchdog
     # vented in it, which no model predicts, so its model check's margin says nothing
     assert run.innovation_ratio.max() < 1.0, run.describe()
     assert run.faults == [], run.describe()
+
+
+@pytest.mark.faults
+@pytest.mark.parametrize("link", LINKS)
+def test_a_loaded_soak_raises_no_fault_from_host_stalls(link: str, tmp_path: Path) -> None:
+    """Issue 40's soak: run it beside the test suite (`make test` in another shell) on a
+    2-core machine; HAND_SOAK_S sets its length (600 s). Every finger sweeps with nothing
+    injected: a stall of the host under host_stall_max_ms is ridden through, so no FAULT
+    may come unless a stall went past it (when the board's watchdog may have vented too)."""
+    with Rig(link, tmp_path) as rig:
+        run = quiet_run(rig, RIG_PROFILES[link], SOAK_S)
+    print(f"\n{run.describe()}")
+    if run.stalls_beyond == 0:
+        assert run.faults == [], run.describe()
+    else:  # the machine stalled past the watchdog: only what such a stall raises
+        assert all(f.startswith(STALL_CAUSES) for f in run.faults), run.describe()

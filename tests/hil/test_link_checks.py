@@ -172,3 +172,116 @@ def test_the_monitor_feeds_the_checks() -> None:
     for i in range(LIMITS.stale_sensor_ticks):
         assert monitor.sample(report, 0.01 * (i + 1), 0) is None  # a duplicate: no sample
     assert kind(monitor.checks) == "sequence_stuck"
+
+
+# -- the link's latency, apart from the board's clock ---------------------------------------
+
+def _run_board(link: LinkChecks, seconds: float, added_s: float, onset_s: float,
+               board_rate: float = 1.0, seed: int = 3) -> float | None:
+    """A board at 100 Hz on its own clock (board_rate: its seconds per host second), the host
+    commanding every 10 ms; the link adds up to 2 ms of jitter each way, and `added_s` to
+    everything the board sends from onset_s. The host time the first problem was found."""
+    rng = random.Random(seed)
+    events: list[tuple[float, str, int]] = []  # (host arrival s, what, value)
+    command_arrivals: list[tuple[float, int]] = []
+    for k in range(1, round(seconds / PERIOD_S)):
+        sent_s = k * PERIOD_S + 0.0003
+        events.append((sent_s, "command", k))
+        command_arrivals.append((sent_s + rng.uniform(0.0005, 0.002), k))
+    held, c = 0, 0
+    for i in range(round(seconds * board_rate / PERIOD_S)):
+        taken_s = i * PERIOD_S / board_rate  # host time the board took its i-th sample
+        while c < len(command_arrivals) and command_arrivals[c][0] <= taken_s:
+            held = command_arrivals[c][1]
+            c += 1
+        delay_s = rng.uniform(0.0005, 0.002) + (added_s if taken_s >= onset_s else 0.0)
+        events.append((taken_s + delay_s, "sample", i * 1000 + held))
+        if i % 10 == 0:
+            events.append((taken_s + delay_s, "status", round(i * PERIOD_S * 1e3)))
+    for host_s, what, value in sorted(events):
+        if what == "command":
+            link.command_sent(value, host_s)
+        elif what == "sample":
+            link.sample(value // 1000, 0, host_s, value % 1000 if value % 1000 else -1)
+        else:
+            link.status(value, host_s)
+        if link.problem is not None:
+            return host_s
+    return None
+
+
+@pytest.mark.parametrize("added_ms", [60.0, 80.0])
+def test_an_added_latency_is_named_latency_within_half_a_second(added_ms: float) -> None:
+    """Under sample_age_max_ms, a constant delay of the board's stream used to go unnamed,
+    then read as the board's clock running 32 000-40 000 ppm slow (a clock_drift 1.6-1.8 s
+    later): the round trip on the host's clock alone names it."""
+    link = checks()
+    onset_s = 5.0  # the drift's windows span 3 s by then: a clock_drift could be found
+    found_s = _run_board(link, 9.0, added_ms / 1e3, onset_s)
+    assert kind(link) == "latency", link.problem
+    assert found_s is not None and found_s - onset_s < 0.5
+    assert "latency_max_ms 50" in link.problem.detail
+
+
+def test_a_drifting_clock_leaves_the_round_trip_alone() -> None:
+    """A board clock 2 % slow is clock_drift, never latency; a clean link is neither."""
+    link = checks()
+    _run_board(link, 9.0, 0.0, 0.0, board_rate=0.98)
+    assert kind(link) == "clock_drift", link.problem
+    assert link.round_trip_s is not None and link.round_trip_s < 0.015
+    clean = checks()
+    assert _run_board(clean, 9.0, 0.0, 0.0) is None
+    assert clean.round_trip_s is not None and clean.worst_round_trip_s < 0.015
+
+
+# -- the host's own stalls ------------------------------------------------------------------
+
+def _stalled_reader(stall_s: float, kept: int) -> tuple[SampleMonitor, list[int]]:
+    """A board at 100 Hz; the host's reader turns every 5 ms but for one stall of stall_s at
+    2 s, over which the board's queue keeps only its newest `kept` samples (a small port
+    buffer: the rest never arrive). Each turn reads what arrived since the last. The
+    samples' lost_in_a_row handed to the tick."""
+    profile = load_profile(None)
+    settings = {"sensor_min_mv": 0.0, "sensor_max_mv": 5000.0, "stuck_samples": 0}
+    monitor = SampleMonitor(profile.finger_names, settings, 0.05, TransportHealth(), LIMITS)
+    monitor.begin()
+    taken = [i * PERIOD_S + 0.001 for i in range(400)]  # arrival, were the reader running
+    turns = [k * 0.005 for k in range(401)]
+    stall_from, stall_to = 2.0, 2.0 + stall_s
+    turns = [t for t in turns if not stall_from < t < stall_to] + [stall_to]
+    turns.sort()
+    lost_in_a_row = []
+    i = 0
+    for now in turns:
+        monitor.turn(now)
+        due = []
+        while i < len(taken) and taken[i] <= now:
+            due.append(i)
+            i += 1
+        if now == stall_to:
+            due = due[-kept:]  # the queue kept only the newest
+        for index in due:
+            sample = monitor.sample(SensorReport(index % 256, 0, [1000.0] * 5, [0.0] * 5), now, 0)
+            assert sample is not None
+            lost_in_a_row.append(sample.lost_in_a_row)
+        monitor.watch(now)
+    return monitor, lost_in_a_row
+
+
+def test_a_host_stall_shorter_than_the_watchdog_is_ridden_through() -> None:
+    """A 70 ms stall of the host's reader, the board's queue keeping two samples: five lost
+    (10 % of the loss window: sample_loss before) and five in a row (stale_sensor at the
+    tick before). Counted, logged once, in the health; no problem, nothing lost in a row."""
+    monitor, lost_in_a_row = _stalled_reader(0.07, 2)
+    assert monitor.checks.problem is None, monitor.checks.problem
+    assert monitor.health.extra["host_stalls"] == 1
+    assert monitor.health.extra["host_stall_lost_samples"] == 5
+    assert max(lost_in_a_row) == 0
+    assert monitor.checks.stalls.worst_s == pytest.approx(0.075, abs=0.006)
+
+
+def test_a_host_stall_past_host_stall_max_ms_is_judged_as_before() -> None:
+    monitor, lost_in_a_row = _stalled_reader(0.12, 2)
+    assert kind(monitor.checks) in ("sample_late", "sample_loss"), monitor.checks.problem
+    assert monitor.health.extra["host_stalls"] == 0
+    assert max(lost_in_a_row) >= LIMITS.stale_sensor_ticks

@@ -75,6 +75,8 @@ def test_supervisor_holds_a_target_through_the_bus(rig: Rig, tmp_path: Path) -> 
             sup.run_one(schedule)
             angles.append(sup.hand.outputs.angle_filt_deg[index])
         assert sup.state is State.RUNNING, sup.faults.faults
+        link = sup.status().transport.link  # the round trip on the host's clock, in `status`
+        assert link["round_trip_ms"] is not None and 0.0 < link["round_trip_ms"] < link["latency_max_ms"]
         sup.request_stop("test done")
         sup.shutdown()
         assert abs(np.mean(angles[-100:]) - TARGET_DEG) < 2.0
@@ -92,6 +94,8 @@ def test_supervisor_holds_a_target_through_the_bus(rig: Rig, tmp_path: Path) -> 
             time.sleep(3.0)
             status = client.status()
             assert status["state"] == "RUNNING", client.faults()
+            link = status["transport"]["link"]
+            assert link["round_trip_ms"] is not None and 0.0 < link["round_trip_ms"] < link["latency_max_ms"]
         assert daemon.terminate() == 0, daemon.stderr.read_text()[-2000:]
     finally:
         daemon.close()

@@ -24,6 +24,7 @@ class FaultyTransport(SimTransport):
         self.fail_handshake = 0  # this many open() calls fail
         self.sensor_override: np.ndarray | None = None  # replaces the sensor mV
         self.pressure_override: np.ndarray | None = None  # replaces the measured kPa
+        self.sensor_offset_mv: np.ndarray | None = None  # added to the sensor mV (a drift, moved by the test)
         self.fault_code = 0
         self.firmware_vents = 0  # vents the firmware reports having done on its own
         self._lost = 0  # samples swallowed while silent, in a row
@@ -52,6 +53,8 @@ class FaultyTransport(SimTransport):
         sample.lost_in_a_row, self._lost = self._lost, 0
         if self.sensor_override is not None:
             sample.sensor_mv = self.sensor_override.copy()
+        if self.sensor_offset_mv is not None:
+            sample.sensor_mv = sample.sensor_mv + self.sensor_offset_mv
         if self.pressure_override is not None:
             sample.pressure_meas_kpa = self.pressure_override.copy()
         return sample

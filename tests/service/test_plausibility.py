@@ -244,6 +244,9 @@ def test_the_check_runs_only_where_the_model_holds() -> None:
     ("sample_age_max_ms", 15, r"safety.sample_age_max_ms = 15 ms is shorter than 2 sample periods"),
     ("model_uncertainty_percent", 150, r"safety.model_uncertainty_percent = 150 % is out of range"),
     ("model_margin_deg", 0, r"safety.model_margin_deg = 0 deg is out of range"),
+    # a host stall ridden through must be one the board's watchdog rides through too
+    ("firmware_watchdog_ms", 50, r"safety.host_stall_max_ms = 80 ms must be shorter than "
+                                 r"firmware_watchdog_ms \(50 ms\)"),
 ])
 def test_the_profile_refuses_bad_values(tmp_path: Path, key: str, value: float, message: str) -> None:
     text, count = re.subn(rf"(?m)^  {key}: .*$", f"  {key}: {value}", (PROFILE_DIR / "sim.yaml").read_text())
@@ -251,3 +254,68 @@ def test_the_profile_refuses_bad_values(tmp_path: Path, key: str, value: float, 
     (tmp_path / "bad.yaml").write_text(text)
     with pytest.raises(UserError, match=r"bad.yaml:\d+: " + message):
         load_profile(tmp_path / "bad.yaml")
+
+
+def _drifting(rig: TruthRig, finger: int, deg_per_s: float, ticks: int) -> float:
+    """The finger's sensor drifts at deg_per_s for up to `ticks`, until a fault: the sensor's
+    error then (deg)."""
+    gain = rig.profile.fingers[finger].sensor_gain_deg_per_mv
+    offset = np.zeros(len(rig.profile.fingers))
+    rig.transport.sensor_offset_mv = offset
+    for k in range(1, ticks + 1):
+        offset[finger] = deg_per_s * k / 100.0 / gain
+        rig.tick()
+        if rig.sup.state is State.FAULT:
+            break
+    return float(offset[finger] * gain)
+
+
+@pytest.mark.parametrize("deg_per_s", [-5.0, 5.0])
+def test_a_drifting_sensor_is_caught_by_the_innovation_s_trend_before_10_deg(deg_per_s: float) -> None:
+    """At -5 deg/s the level alone waited for about 30 deg of error (the bound on a sweep to
+    100 deg at 10 % uncertainty): the trend test faults before 10 deg, the finger named,
+    on a hand the model gets 8 % wrong."""
+    profile = load_profile(None)
+    rig = TruthRig(profile, scaled_hand(profile, stiffness_nm_per_rad=1.08, pressure_gain_nm_per_kpa=0.92))
+    sweeping(rig)
+    assert rig.sup.state is State.RUNNING, rig.sup.faults.faults
+    error_deg = _drifting(rig, INDEX, deg_per_s, 600)
+    assert rig.sup.state is State.FAULT
+    fault = rig.sup.faults.faults[0]
+    assert (fault.cause.value, fault.finger) == ("implausible", "index"), fault
+    assert "drifts from the model" in fault.detail and "sensor_drift_max_deg_per_s 2.5" in fault.detail
+    assert abs(error_deg) < 10.0, error_deg
+
+
+def test_steps_and_holds_on_a_model_off_by_its_uncertainty_are_no_trend() -> None:
+    """A parameter error moves the innovation with the state (a step to 100 deg on a model
+    8 % off: several degrees), never with time: steps and holds for 8 s raise no fault, and
+    the trend stays under four fifths of its limit."""
+    profile = load_profile(None)
+    rig = TruthRig(profile, scaled_hand(profile, stiffness_nm_per_rad=1.08, pressure_gain_nm_per_kpa=0.92))
+    rig.tick()
+    rig.sup.fire(Event.ARM)
+    rig.sup.targets.mode[:] = MODE_POSITION
+    rig.sup.fire(Event.START)
+    for target_deg in (20.0, 100.0, 60.0, 100.0, 20.0, 80.0, 30.0, 90.0):
+        rig.sup.targets.angle_deg[:] = target_deg
+        rig.tick(100)
+    assert rig.sup.state is State.RUNNING, rig.sup.faults.faults
+    trend = rig.sup.model_check.trend
+    assert 0.0 < trend.worst_deg_per_s.max() < 0.8 * trend.limit_deg_per_s, trend.worst_deg_per_s
+
+
+def test_gaps_in_the_samples_start_the_trend_again_not_a_false_drift() -> None:
+    """The host late, samples lost: the prediction starts again from the measurement, which
+    moves the innovation by what the model's error had made of it. Kept in the trend's fit
+    that step read as a drift (-4.4 deg/s after a 60 ms stall over serial-v1); a gap every
+    0.7 s for 8 s on a hand the model gets 8 % wrong raises no fault."""
+    profile = load_profile(None)
+    rig = TruthRig(profile, scaled_hand(profile, stiffness_nm_per_rad=1.08, pressure_gain_nm_per_kpa=0.92))
+    sweeping(rig)
+    for _ in range(11):
+        rig.transport.silent = True
+        rig.tick(4)
+        rig.transport.silent = False
+        rig.tick(66)
+    assert rig.sup.state is State.RUNNING, rig.sup.faults.faults

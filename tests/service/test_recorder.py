@@ -254,3 +254,25 @@ def test_the_ring_keeps_its_name_while_recording_and_a_dead_daemons_ring_goes(
     finally:
         rec.close(wait_s=5.0)
     assert rec.last is not None and rec.last["rows_written"] == 5
+
+
+@pytest.mark.parametrize(("file_mode", "umask"), [(None, 0o022), (0o600, 0o022), (0o664, 0o077)])
+def test_a_recording_is_created_with_its_file_mode_whatever_the_umask(
+        tmp_path: Path, file_mode: int | None, umask: int) -> None:
+    """0640 by default (it was 0644: every local user could read the lab's runs); the
+    profile's recording.file_mode otherwise, the daemon's umask not taken from it."""
+    profile = load_profile()
+    hand = rtcore.Hand(profile.hand_config())
+    extra = {} if file_mode is None else {"file_mode": file_mode}
+    rec = Recorder(profile.finger_names, 100.0, kind="thread", **extra)
+    rec.bind(hand.c_inputs, hand.c_outputs, np.zeros(len(profile.fingers)))
+    old = os.umask(umask)
+    try:
+        rec.start(tmp_path / "rec.csv", {})
+        rec.stop(wait_s=5.0)
+    finally:
+        os.umask(old)
+        rec.close(wait_s=5.0)
+    expected = 0o640 if file_mode is None else file_mode
+    assert (tmp_path / "rec.csv").stat().st_mode & 0o777 == expected
+    assert load_profile().recording.file_mode_bits == 0o640

@@ -1,0 +1,115 @@
+"""The model check's trend test: a flex sensor drifting away from the model.
+
+The model check (plausibility.py) faults when the innovation (measured angle less
+predicted) leaves a bound, and the bound must hold every error the model's parameters may
+have, ±29° on a sweep to 100° at 10 %. A sensor that drifts slowly stays inside it for
+seconds (at −5°/s: 6 s, the true angle 27° past its target). What tells a drift from a
+model that is a little off is time: a parameter error is a function of the state, the
+same innovation whenever the finger passes the same angle, pressure and speed again; a
+drift grows with time whatever the finger does.
+
+So the innovation e of each finger is fitted, by least squares with exponential
+forgetting (time constant TREND_WINDOW_S), as
+
+    e ≈ c0 + c1·(t − now) + a·θ + b·s_k + d·s_B
+
+where θ, s_k and s_B are the prediction and its sensitivities to the stiffness and the
+damping (a parameter error, to first order, is such a combination; plausibility.py).
+c1 is the innovation's trend in deg/s with what the state explains taken out. Beyond
+safety.sensor_drift_max_deg_per_s, either way, for model_mismatch_ms in a row: a fault
+(`implausible`, the finger named). A finger's fit starts again whenever its prediction
+does (arming, leaving force mode, a gap in the samples: the restarted prediction moves
+the innovation by what the model's error had made of it, a step the old fit would read
+as a trend). It takes no sample for TREND_SETTLE_S (a prediction started at rest from a
+finger that was not at rest, released from an object, leaves an innovation that dies
+away with the model's own dynamics, a trend for a while that no parameter explains), and
+is judged once it holds TREND_WARMUP windows of samples after that.
+
+The sums are kept about the present: as time moves on by dt, the time regressor of every
+sample before is dt further in the past, a linear map of the sums (no growing t²).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+TREND_WINDOW_S = 0.5  # the forgetting's time constant
+TREND_SETTLE_S = 0.5  # a fit takes no sample this soon after its prediction started again
+TREND_WARMUP = 2.0  # windows of samples a fit holds before it is judged
+TERMS = 6  # 1, t − now, θ, s_k, s_B, θ'·RATE_S
+RATE_S = 0.05  # the angular rate's regressor, scaled to an angle's size
+RIDGE = 1e-6  # of the weights' sum, on the diagonal: a finger at rest makes θ, s_k, s_B constants
+
+
+class SensorTrend:
+    """Per finger, the innovation's trend in deg/s with the state's part taken out."""
+
+    def __init__(self, n_fingers: int, period_s: float, limit_deg_per_s: float, persist_samples: int,
+                 window_s: float = TREND_WINDOW_S) -> None:
+        self.period_s = period_s
+        self.limit_deg_per_s = limit_deg_per_s
+        self.persist_samples = persist_samples
+        self.forget = math.exp(-period_s / window_s)
+        self.settle_samples = math.ceil(TREND_SETTLE_S / period_s)
+        self.warmup_samples = self.settle_samples + math.ceil(TREND_WARMUP * window_s / period_s)
+        self.sums = np.zeros((n_fingers, TERMS, TERMS))  # Σ w·x·xᵀ
+        self.cross = np.zeros((n_fingers, TERMS))  # Σ w·x·e
+        self.samples = np.zeros(n_fingers, dtype=np.int64)  # since the fit started
+        self.run = np.zeros(n_fingers, dtype=np.int64)  # samples in a row beyond the limit
+        self.trend_deg_per_s = np.zeros(n_fingers)
+        self.worst_deg_per_s = np.zeros(n_fingers)  # the largest |trend| judged, for the statistics
+        self._x = np.zeros((n_fingers, TERMS))
+        self._x[:, 0] = 1.0
+        self._eye = np.eye(TERMS)
+
+    def restart(self, fingers: np.ndarray) -> None:
+        """These fingers' fits start again (their prediction did, on arming or out of force
+        mode: what the finger did before is another story)."""
+        self.sums[fingers] = 0.0
+        self.cross[fingers] = 0.0
+        self.samples[fingers] = 0
+        self.run[fingers] = 0
+        self.trend_deg_per_s[fingers] = 0.0
+
+    def skip(self, steps: int) -> None:
+        """`steps` sample periods pass: the past moves that much further back and is forgotten
+        by as much (x_time -> x_time − dt·x_const, a linear map of the sums)."""
+        dt = steps * self.period_s
+        sums, cross = self.sums, self.cross
+        sums[:, 1, :] -= dt * sums[:, 0, :]
+        sums[:, :, 1] -= dt * sums[:, :, 0]
+        cross[:, 1] -= dt * cross[:, 0]
+        forget = self.forget ** steps
+        sums *= forget
+        cross *= forget
+
+    def sample(self, steps: int, innovation_deg: np.ndarray, sensitive_rad: np.ndarray,
+               rate_rad_s: np.ndarray, checked: np.ndarray) -> int | None:
+        """A new sample, `steps` periods after the last: the innovation (deg) of every finger
+        and its prediction θ, s_k, s_B (rad). Only `checked` fingers count. The finger whose
+        trend stayed beyond the limit for persist_samples, or None."""
+        self.skip(steps)
+        sums, cross = self.sums, self.cross
+        x = self._x
+        x[:, 2:5] = sensitive_rad
+        x[:, 5] = rate_rad_s * RATE_S
+        self.samples += checked
+        weight = (checked & (self.samples > self.settle_samples)).astype(float)
+        sums += weight[:, None, None] * x[:, :, None] * x[:, None, :]
+        cross += weight[:, None] * x * innovation_deg[:, None]
+        judged = checked & (self.samples >= self.warmup_samples)
+        if not judged.any():
+            self.run[:] = 0
+            return None
+        ridge = RIDGE * (sums[:, 0, 0] + 1.0)
+        coef = np.linalg.solve(sums + ridge[:, None, None] * self._eye, cross[:, :, None])[:, :, 0]
+        trend = np.where(judged, coef[:, 1], 0.0)
+        self.trend_deg_per_s = trend
+        np.maximum(self.worst_deg_per_s, np.abs(trend), out=self.worst_deg_per_s)
+        beyond = np.abs(trend) > self.limit_deg_per_s
+        self.run = np.where(beyond, self.run + steps, 0)
+        if not (self.run >= self.persist_samples).any():
+            return None
+        return int(np.argmax(self.run))

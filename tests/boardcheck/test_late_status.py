@@ -1,0 +1,86 @@
+"""A board whose Status frames come late (held 30 ms behind what it sends after them): the
+handshake's answer then reads VersionInfo first. board-check says that the Status came after
+its VersionInfo, not that there was none."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import can
+import pytest
+from cantools.database import load_file
+
+from hand_service import cli
+from hand_service.config.profile import PROFILE_DIR
+from hand_service.firmware.ports import FirmwarePort
+from tests.boardcheck.conftest import board
+
+HOLD_S = 0.03
+STATUS_ID = load_file(str(PROFILE_DIR / "can-v1.dbc")).get_message_by_name("Status").frame_id
+
+
+class LateStatus(FirmwarePort):
+    """Every Status frame the board sends goes out HOLD_S late, behind what follows it."""
+
+    def __init__(self, port: FirmwarePort) -> None:
+        self.port = port
+        self.carries_error_frames = port.carries_error_frames
+        self._held: list[tuple[float, can.Message]] = []
+
+    def read(self, timeout_s: float) -> list[Any]:
+        self._release()
+        return self.port.read(timeout_s)
+
+    def write(self, units: list[Any]) -> None:
+        now = time.monotonic()
+        self._held += [(now + HOLD_S, u) for u in units if u.arbitration_id == STATUS_ID]
+        self.port.write([u for u in units if u.arbitration_id != STATUS_ID])
+        self._release()
+
+    def _release(self) -> None:
+        now = time.monotonic()
+        due = [u for t, u in self._held if t <= now]
+        self._held = [(t, u) for t, u in self._held if t > now]
+        if due:
+            self.port.write(due)
+
+    def close(self) -> None:
+        self.port.close()
+
+
+def test_a_late_status_is_named_as_out_of_order(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with board("virtual", tmp_path, link_between=LateStatus) as target:
+        code = cli.main(["board-check", *target, "--seconds", "1", "--latency-ms", "100",
+                         "--only", "sequence", "--reboot", "skip"])
+    out = capsys.readouterr().out
+    assert code == 1, out
+    line = next(line for line in out.splitlines() if line.split()[1:2] == ["handshake"])
+    assert line.startswith("FAIL") and "Status came" in line and "after its VersionInfo" in line, out
+
+
+class HeartbeatOnlyVent(LateStatus):
+    """The board vents on its watchdog in time, but says so only 150 ms later (as if with a
+    later heartbeat, not at once on the change)."""
+
+    DB = load_file(str(PROFILE_DIR / "can-v1.dbc"))
+
+    def write(self, units: list[Any]) -> None:
+        now = time.monotonic()
+        late = [u for u in units if u.arbitration_id == STATUS_ID
+                and self.DB.decode_message(STATUS_ID, u.data, decode_choices=False)["state"] == 3]
+        self._held += [(now + 0.15, u) for u in late]
+        self.port.write([u for u in units if u not in late])
+        self._release()
+
+
+def test_a_vent_status_sent_late_is_not_a_late_vent(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    with board("virtual", tmp_path, link_between=HeartbeatOnlyVent) as target:
+        code = cli.main(["board-check", *target, "--seconds", "1", "--latency-ms", "20",
+                         "--only", "watchdog", "--reboot", "skip"])
+    out = capsys.readouterr().out
+    assert code == 1, out
+    line = next(line for line in out.splitlines() if line.split()[1:2] == ["watchdog"])
+    assert line.startswith("FAIL") and "the chambers fell" in line and "Status at once" in line, out
