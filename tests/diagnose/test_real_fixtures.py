@@ -114,7 +114,6 @@ def diagnosed(cache: Cache, rig: str, rate: float | None,
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="diagnose engine work of issue 44")
 @pytest.mark.parametrize(("rig", "rate"), RUNS)
 def test_diagnose_is_never_confidently_wrong(rig: str, rate: float | None, tmp_path: Path,
                                              diagnoses: Cache) -> None:
@@ -123,9 +122,17 @@ def test_diagnose_is_never_confidently_wrong(rig: str, rate: float | None, tmp_p
     assert not verdict.control_failed, verdict
 
 
+# rawcheck's figure has no offset at all; diagnose's, a constant one per model. On EMPS, a
+# springless axis, the two disagree (docs/results.md §12.8): offset-free, the named friction
+# leaves the raw error larger than the nominal's.
+OFFSET_FREE_DISAGREES = pytest.mark.xfail(strict=True, reason="EMPS: offset-free, the augmented "
+                                          "model misses the raw angle by more than the nominal")
+RAW_RUNS = [pytest.param(rig, rate, marks=OFFSET_FREE_DISAGREES) if rig == "emps" else (rig, rate)
+            for rig, rate in RUNS]
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="diagnose engine work of issue 44")
-@pytest.mark.parametrize(("rig", "rate"), RUNS)
+@pytest.mark.parametrize(("rig", "rate"), RAW_RUNS)
 def test_a_named_effect_lowers_the_raw_error(rig: str, rate: float | None, tmp_path: Path,
                                              diagnoses: Cache) -> None:
     """Issue 44: named only when the model with it, simulated from the command alone, misses
@@ -138,7 +145,6 @@ def test_a_named_effect_lowers_the_raw_error(rig: str, rate: float | None, tmp_p
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="diagnose engine work of issue 44")
 @pytest.mark.parametrize("rig", TWO_RATES)
 def test_verdict_class_does_not_change_with_the_rate(rig: str, tmp_path: Path,
                                                      diagnoses: Cache) -> None:
