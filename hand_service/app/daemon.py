@@ -16,6 +16,7 @@ from typing import Any, TextIO
 from hand_service.api.paths import SETS_IT, choose_data_dir, prepare_record_dir
 from hand_service.api.requests import Api
 from hand_service.api.server import ApiServer
+from hand_service.app.status_line import EndBeforeLog, StatusLine
 from hand_service.config.profile import Profile
 from hand_service.service.factory import supervisor
 from hand_service.service.recorder import Recorder
@@ -63,7 +64,7 @@ class Daemon:
         self.realtime = Realtime()
         self._status_every = max(1, round(STATUS_EVERY_S * self.sup.rate_hz))
         self._notify_every = max(1, round(1.0 * self.sup.rate_hz))
-        self._line_shown = False
+        self.line = StatusLine(self.out)
         self._ready_sent = False
         self._estop_signalled = False  # SIGUSR1: ESTOP in the slack after the next tick
         self.sup.add_slack(self._slack)
@@ -107,6 +108,8 @@ class Daemon:
 
     def run(self, duration_s: float | None = None, install_signals: bool = True) -> dict[str, Any]:
         old_usr1 = None
+        end_before_log = EndBeforeLog(self.line)
+        end_before_log.attach()
         if install_signals:
             self.sup.install_signal_handlers()
             old_usr1 = signal.signal(signal.SIGUSR1, self._sigusr1)
@@ -118,8 +121,8 @@ class Daemon:
                 signal.signal(signal.SIGUSR1, old_usr1)
             self.notifier.stopping()
             self.server.close()
-            if self._line_shown:
-                self.out.write("\n")
+            end_before_log.detach()
+            self.line.end()
             self.notifier.close()
         return self.summary()
 
@@ -148,9 +151,7 @@ class Daemon:
         ticks = self.sup.ticks_run
         self.notifier.watchdog(clock.now_ns())
         if ticks % self._status_every == 0 and self.options.status_line:
-            self.out.write("\r" + self.status_text() + "\x1b[K")
-            self.out.flush()
-            self._line_shown = True
+            self.line.show(self.status_text())
         if ticks % self._notify_every == 0 and self.notifier.enabled:
             self.notifier.status(self.status_text())
 
