@@ -42,10 +42,14 @@ class Plausible:
     zero_ok: bool = False
 
     def holds(self, value: float) -> bool:
+        value = as_float(value)
         return (self.zero_ok and value == 0.0) or self.lower <= value <= self.upper
 
     def slip(self, value: float) -> Slip | None:
-        """The first unit slip that would bring `value` into range."""
+        """The first unit slip that would bring `value` into range (none for a number past
+        any float, an integer of hundreds of digits)."""
+        if not math.isfinite(as_float(value)):
+            return None
         for slip in self.slips:
             if self.holds(value / slip.per_unit):
                 return slip
@@ -53,6 +57,7 @@ class Plausible:
 
     def message(self, value: float) -> str:
         """One line: the value, its range and the unit slip that explains it, if one does."""
+        value = as_float(value)
         ratio = value / self.upper if value > self.upper else self.lower / value if value > 0 else math.inf
         side = "above" if value > self.upper else "below"
         text = (f"{self.symbol} = {value:.4g} {self.unit} is {ratio:.3g}× {side} the range "
@@ -61,6 +66,14 @@ class Plausible:
         if slip is None:
             return text
         return f"{text}: {slip.unit}? ({value:.4g} {slip.unit} = {value / slip.per_unit:.4g} {self.unit})"
+
+
+def as_float(value: float) -> float:
+    """`value` as a float; an integer too large for one is infinite."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 MM, CM, G = Slip("mm", 1e3), Slip("cm", 1e2), Slip("g", 1e3)
