@@ -40,9 +40,17 @@ FLEX_MIN_DEG = 3.0  # a smaller expected bend cannot tell a scale
 NAN_PRESSURE = ("chamber pressure NaN (not measured) where the profile measures it "
                 "(safety.pressure_measured): the daemon faults pressure_lost")
 DEAD_VALVE = "the valve did not move the chamber"
+
+
 PRESSURE_SCALE = "the chamber reads at another scale than the setpoint it follows"
 FLEX_STUCK = "flex sensor did not move with the pressure step"
 FLEX_SCALE = "flex sensor moved at another scale than the profile's calibration and model"
+
+
+
+def unsigned_zero(value: float, digits: int) -> float:
+    """`value` rounded, with a noise-negative zero printed as 0 (not "-0.0 kPa")."""
+    return round(value, digits) + 0.0
 
 
 def _tail(got: list[Received], seconds: float) -> tuple[np.ndarray, np.ndarray, int]:
@@ -95,7 +103,8 @@ def plant(session: Session) -> CheckResult:
             if abs(kpa1[i] - setpoint_kpa) > tol_kpa:
                 kind = DEAD_VALVE if abs(kpa1[i] - kpa0[i]) < tol_kpa else PRESSURE_SCALE
                 problems.setdefault(kind, []).append(
-                    (finger.name, f"{kpa1[i]:.1f} kPa, {kpa1[i] / setpoint_kpa:.2f}x"))
+                    (finger.name, f"{unsigned_zero(kpa1[i], 1):.1f} kPa, "
+                                  f"{unsigned_zero(kpa1[i] / setpoint_kpa, 2):.2f}x"))
                 continue
             step_kpa = float(kpa1[i] - kpa0[i])
         expected_deg = finger.bend_deg_per_kpa * step_kpa
