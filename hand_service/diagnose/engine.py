@@ -86,6 +86,15 @@ def refit_with_prior(problem: Problem, params: list[Param], refit: Fit,
                key=lambda f: f.cost_deg2)
 
 
+def refit_distance(model: FingerModel, refit: Fit) -> str:
+    """How far the refit moved k, B and N from the nominal, in words: "with k 0.0031, B 0.0029
+    and N 0.0034 times the nominal's"."""
+    ratios = [f"{label} {refit.value(name) / getattr(model, name):.2g}"
+              for label, name in (("k", "stiffness_nm_per_rad"), ("B", "damping_nms_per_rad"),
+                                  ("N", "pressure_gain_nm_per_kpa")) if getattr(model, name)]
+    return f"(with {', '.join(ratios)} times the nominal's)" if ratios else ""
+
+
 def models(nominal_angle_deg: np.ndarray, refit: Fit, final: Fit) -> dict[str, np.ndarray]:
     """The three models' simulated angles, by the names the figures use."""
     return {"nominal": nominal_angle_deg, "refit": refit.angle_deg, "augmented": final.angle_deg}
@@ -275,9 +284,16 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         as_fitted, raw_refit = raw_error.effects_follow(problem, nominal_angle, refit, final, fitted,
                                                         scored_held)
         judged = raw_refit.judgement if raw_refit is not None else as_fitted
-        if raw_refit is not None:
-            warnings.append(judged.sentence([e.name for e in found], as_fitted))
-        if not judged.follows:
+        names = [e.name for e in found]
+        # a tie at the noise, where the effect's evidence is the refit's distance from the
+        # nominal (its prior): the raw angle does not contradict the name
+        tie = (not judged.follows and any(c.prior_gain > 0.0 for c in kept)
+               and judged.ties_at_noise(sigma))
+        if tie:
+            warnings.append(judged.tie_sentence(names, refit_distance(model, refit)))
+        elif raw_refit is not None:
+            warnings.append(judged.sentence(names, as_fitted))
+        if not judged.follows and not tie:
             verdict, notes = "unexplained", []
         elif raw_refit is not None:  # the name stands on the raw refit: report and write that pair
             refit, final, errors = raw_refit.plain, raw_refit.augmented, raw_refit.errors

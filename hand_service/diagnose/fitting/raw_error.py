@@ -35,6 +35,10 @@ FOLLOW_SHARE = 0.5
 # ... judged only where the misfit stands this many times above the sensor's white noise
 # (a finger that barely moves leaves a misfit of noise, which says nothing of the model).
 NOISE_MARGIN = 3.0
+# A tie on the raw angle: both models within this many times the sensor's noise, the
+# augmented one within this share of the plain one.
+TIE_NOISE = 1.25
+TIE_SHARE = 0.02
 
 
 @dataclass(frozen=True)
@@ -133,6 +137,20 @@ class RawJudgement:
     @property
     def follows(self) -> bool:
         return self.after_deg < self.before_deg and self.after_held_deg < self.nominal_held_deg
+
+    def ties_at_noise(self, noise_deg: float) -> bool:
+        """Both models follow the raw angle to the sensor's noise, the augmented one no worse
+        (within TIE_SHARE), and it predicts the held-out samples better than the nominal: the
+        raw angle alone cannot choose between the effect and the plain model's moved k, B, N."""
+        at_noise = self.before_deg <= TIE_NOISE * noise_deg
+        no_worse = self.after_deg <= (1.0 + TIE_SHARE) * self.before_deg
+        return at_noise and no_worse and self.after_held_deg < self.nominal_held_deg
+
+    def tie_sentence(self, names: list[str], how_far: str) -> str:
+        said = ", ".join(names)
+        return (f"on the raw angle alone the model with {said} and the plain model refitted {how_far} "
+                f"follow the recording equally, both at the sensor's noise ({self.numbers()}): the name "
+                "rests on the nominal model's uncertainty (±25 %), which the plain model leaves far behind")
 
     def numbers(self) -> str:
         return (f"raw RMS error {self.after_deg:.3g} against the plain model's {self.before_deg:.3g} deg, "
