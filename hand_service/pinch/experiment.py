@@ -13,7 +13,7 @@ import numpy as np
 from hand_service.config.profile import Profile
 from hand_service.pinch.objects import OBJECTS, PinchObject, Placements
 from hand_service.pinch.plant import HELD, OUTCOME_NAMES
-from hand_service.pinch.stats import wilson_interval
+from hand_service.pinch.stats import Paired, fisher_p, wilson_interval
 from hand_service.pinch.trials import CONTROLLERS, PAIRS, Cell, Traces, run_cells
 from hand_service.pinch.tuning import HAND_RULE, Rule, Tuned, tune
 
@@ -36,6 +36,17 @@ PAPER_PINCH: dict[str, dict[tuple[str, str], tuple[int, int]]] = {
 }
 
 
+def paper_counts(obj: str, finger: str | None = None) -> dict[str, Any] | None:
+    """The paper's force and constant-pressure counts for one pair (or pooled over the four,
+    finger None) and Fisher's exact test between them: its trials were not paired."""
+    fingers = [finger] if finger else ["index", "middle", "ring", "little"]
+    if any((f, obj) not in PAPER_PINCH["force"] for f in fingers):
+        return None
+    sf, nf = (sum(PAPER_PINCH["force"][(f, obj)][k] for f in fingers) for k in (0, 1))
+    sp, n_p = (sum(PAPER_PINCH["pressure"][(f, obj)][k] for f in fingers) for k in (0, 1))
+    return {"force": [sf, nf], "pressure": [sp, n_p], "fisher_exact_p": fisher_p(sf, nf, sp, n_p)}
+
+
 @dataclass
 class CellResult:
     pair: tuple[str, str]
@@ -45,6 +56,7 @@ class CellResult:
     trials: int
     failures: dict[str, int]
     held_force_n: float  # median true normal force over the hold, trials held
+    held: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # per placement, in order
 
     @property
     def rate(self) -> float:
@@ -82,6 +94,18 @@ class PinchResult:
         return next(c for c in self.cells
                     if c.controller == controller and c.pair[1] == finger and c.obj == obj)
 
+    def paired(self, obj: str, finger: str | None = None) -> Paired:
+        """Force control against constant pressure on the same placements: one pair's
+        cell, or (finger None) every pair's pooled."""
+        total = Paired(0, 0, 0, 0)
+        for force in self.cells:
+            if force.controller != "force" or force.obj != obj or finger not in (None, force.pair[1]):
+                continue
+            pressure = next(c for c in self.cells
+                            if c.controller == "pressure" and c.obj == obj and c.pair == force.pair)
+            total = total + Paired.of(force.held, pressure.held)
+        return total
+
     def pooled(self, controller: str, obj: str) -> tuple[int, int]:
         mine = [c for c in self.cells if c.controller == controller and c.obj == obj]
         return sum(c.successes for c in mine), sum(c.trials for c in mine)
@@ -93,10 +117,19 @@ class PinchResult:
                 s, n = self.pooled(controller, obj)
                 pooled[f"{controller}/{obj}"] = {"successes": s, "trials": n, "rate": s / n if n else None,
                                                  "wilson95": list(wilson_interval(s, n))}
+        paired = []
+        for obj in (o.name for o in OBJECTS):
+            fingers = [c.pair[1] for c in self.cells if c.controller == "force" and c.obj == obj]
+            for finger in [*fingers, None]:
+                row = {"object": obj, "finger": finger or "all", **self.paired(obj, finger).to_json()}
+                paper = paper_counts(obj, finger)
+                if paper is not None:
+                    row["paper"] = paper
+                paired.append(row)
         return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
                 "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned.values()],
                 "cells": [c.to_json() for c in self.cells],
-                "pooled": pooled}
+                "pooled": pooled, "paired": paired}
 
 
 def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int, seed: int,
@@ -142,7 +175,7 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
         held = batch.held_force_n[mine]
         held_force = float(np.nanmedian(held)) if np.any(np.isfinite(held)) else float("nan")
         results.append(CellResult(cell.pair, cell.obj.name, cell.controller, successes, trials, failures,
-                                  held_force))
+                                  held_force, outcome == HELD))
     traces = {key: [batch.traces[i] for i in rows] for key, rows in record.items()}
     held = {key: [bool(batch.outcome[i] == HELD) for i in rows] for key, rows in record.items()}
     return PinchResult(trials_per_cell, seed, tuned, results, rule, traces, held,

@@ -1,9 +1,10 @@
-"""The pinch run's markdown: Tables 3 and 4 beside the paper's, and the pooled rates with
-their 95 % Wilson intervals."""
+"""The pinch run's markdown: Tables 3 and 4 beside the paper's, the pooled rates with
+their 95 % Wilson intervals, and the paired comparison (McNemar's exact test, Newcombe's
+interval on the difference) beside the paper's counts with Fisher's exact test."""
 
 from __future__ import annotations
 
-from hand_service.pinch.experiment import PAPER_PINCH, PinchResult
+from hand_service.pinch.experiment import PAPER_PINCH, PinchResult, paper_counts
 from hand_service.pinch.objects import OBJECT_NAMES, PAPER_LABELS
 from hand_service.pinch.stats import wilson_interval
 from hand_service.pinch.trials import CONTROLLERS, PAIRS
@@ -72,6 +73,32 @@ def comparison_table(result: PinchResult) -> str:
     return "\n".join(lines)
 
 
+def _p(p: float) -> str:
+    return f"{p:.2g}" if p >= 1e-4 else "< 1e-4"
+
+
+def paired_table(result: PinchResult) -> str:
+    header = ["object", "finger pair", "both held", "force only", "pressure only", "neither",
+              "difference (points, 95 % CI)", "McNemar exact p", "paper: force / pressure", "Fisher exact p"]
+    lines = ["### Paired: both controllers on the same placements", "", _row(header),
+             _row(["---"] * len(header))]
+    for obj in OBJECT_NAMES:
+        fingers = [pair[1] for pair in PAIRS if any(c.pair == pair and c.obj == obj for c in result.cells)]
+        for finger in [*fingers, None] if fingers else []:
+            paired = result.paired(obj, finger)
+            low, high = paired.interval
+            paper = paper_counts(obj, finger)
+            paper_cells = (["-", "-"] if paper is None else
+                           [f"{_pct(*paper['force'])} / {_pct(*paper['pressure'])}",
+                            _p(paper["fisher_exact_p"])])
+            lines.append(_row([PAPER_LABELS[obj], f"thumb & {finger}" if finger else "all pairs",
+                               str(paired.both), str(paired.force_only), str(paired.pressure_only),
+                               str(paired.neither),
+                               f"{100 * paired.difference:+.1f} [{100 * low:+.1f}, {100 * high:+.1f}]",
+                               _p(paired.mcnemar_p), *paper_cells]))
+    return "\n".join(lines)
+
+
 def tuning_table(result: PinchResult) -> str:
     header = ["object", "controller", "holds from", "to", "set to"]
     lines = [f"### Setpoints tuned once per object (thumb & index, centred; {result.rule.describe()})",
@@ -85,4 +112,4 @@ def tuning_table(result: PinchResult) -> str:
 
 def markdown(result: PinchResult) -> str:
     return "\n\n".join([controller_table(result, "force"), controller_table(result, "pressure"),
-                        comparison_table(result), tuning_table(result)]) + "\n"
+                        comparison_table(result), paired_table(result), tuning_table(result)]) + "\n"
