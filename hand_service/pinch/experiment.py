@@ -77,7 +77,7 @@ class CellResult:
 class PinchResult:
     trials_per_cell: int
     seed: int
-    tuned: dict[tuple[str, str], Tuned]
+    tuned: dict[tuple[str, str, str], Tuned]  # (finger, object, controller)
     cells: list[CellResult]
     rule: Rule = HAND_RULE
     # (object, controller): the first trials of the first pair, the same placements for both
@@ -106,6 +106,10 @@ class PinchResult:
             total = total + Paired.of(force.held, pressure.held)
         return total
 
+    def tuned_once(self) -> list[Tuned]:
+        """Each tuning once (a setpoint tuned on thumb and index serves every pair)."""
+        return list(dict.fromkeys(self.tuned.values()))
+
     def pooled(self, controller: str, obj: str) -> tuple[int, int]:
         mine = [c for c in self.cells if c.controller == controller and c.obj == obj]
         return sum(c.successes for c in mine), sum(c.trials for c in mine)
@@ -127,7 +131,7 @@ class PinchResult:
                     row["paper"] = paper
                 paired.append(row)
         return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
-                "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned.values()],
+                "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned_once()],
                 "cells": [c.to_json() for c in self.cells],
                 "pooled": pooled, "paired": paired}
 
@@ -139,12 +143,11 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
     say = progress or (lambda _: None)
     started = time.perf_counter()
     tune_seed, place_seed, run_seed = (int(s) for s in np.random.SeedSequence([seed, 18]).generate_state(3))
-    say(f"pinch: tuning each controller's setpoint once per object (thumb and index, centred; "
-        f"{rule.describe()})")
-    tuned = tune(truth, controller_profile, tune_seed, objects, rule)
-    for t in tuned.values():
+    say(f"pinch: tuning each controller's setpoint ({rule.where}; {rule.describe()})")
+    tuned = tune(truth, controller_profile, tune_seed, objects, rule, pairs)
+    for t in dict.fromkeys(tuned.values()):
         low, high, chosen = t.in_own_unit()
-        say(f"pinch: {t.obj} {t.controller}: holds from {low:g} to {high:g} {t.unit}, "
+        say(f"pinch: {t.obj} {t.controller} (thumb & {t.finger}): holds from {low:g} to {high:g} {t.unit}, "
             f"set to {chosen:g} {t.unit}")
     rng = np.random.default_rng(place_seed)
     placements = {(pair, obj.name): Placements.draw(obj, trials_per_cell, rng)
@@ -158,7 +161,7 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
                 if pair == pairs[0]:
                     first = sum(c.n for c in cells)
                     record[(obj.name, controller)] = list(range(first, first + shown))
-                setpoint = tuned[(obj.name, controller)].in_own_unit()[2]
+                setpoint = tuned[(pair[1], obj.name, controller)].in_own_unit()[2]
                 cells.append(Cell(pair, obj, controller, np.full(trials_per_cell, setpoint),
                                   placements[(pair, obj.name)]))
     total = sum(c.n for c in cells)

@@ -63,8 +63,10 @@ def comparison_table(result: PinchResult) -> str:
                         counts[name] = counts.get(name, 0) + k
             failures.append(", ".join(f"{k} {name}" for name, k in sorted(counts.items())) or "none")
         diff = 100.0 * (sf / nf - sp / np_) if nf and np_ else float("nan")
-        setpoints = (f"{result.tuned[(obj, 'force')].setpoint_n:g}; "
-                     f"{result.tuned[(obj, 'pressure')].setpoint_kpa:g}")
+        fingers = [pair[1] for pair in PAIRS if any(c.pair == pair and c.obj == obj for c in result.cells)]
+        force = dict.fromkeys(f"{result.tuned[(f, obj, 'force')].setpoint_n:g}" for f in fingers)
+        pressure = dict.fromkeys(f"{result.tuned[(f, obj, 'pressure')].setpoint_kpa:g}" for f in fingers)
+        setpoints = f"{'/'.join(force)}; {'/'.join(pressure)}"
         lines.append(_row([PAPER_LABELS[obj], f"{_pct(sf, nf)} {_ci(sf, nf)}",
                            f"{_pct(sp, np_)} {_ci(sp, np_)}",
                            f"{diff:+.1f}",
@@ -100,12 +102,13 @@ def paired_table(result: PinchResult) -> str:
 
 
 def tuning_table(result: PinchResult) -> str:
-    header = ["object", "controller", "holds from", "to", "set to"]
-    lines = [f"### Setpoints tuned once per object (thumb & index, centred; {result.rule.describe()})",
+    header = ["object", "tuned on", "controller", "holds from", "to", "set to"]
+    lines = [f"### Setpoints tuned ({result.rule.where}; {result.rule.describe()})",
              "", _row(header), _row(["---"] * len(header))]
-    for t in result.tuned.values():
+    for t in sorted(result.tuned_once(), key=lambda t: (OBJECT_NAMES.index(t.obj), t.finger != "index")):
         low, high, chosen = t.in_own_unit()
-        lines.append(_row([PAPER_LABELS[t.obj], t.controller, f"{low:g} {t.unit}", f"{high:g} {t.unit}",
+        span = [f"{low:g} {t.unit}", f"{high:g} {t.unit}"] if t.holds else ["none held", "-"]
+        lines.append(_row([PAPER_LABELS[t.obj], f"thumb & {t.finger}", t.controller, *span,
                            f"{chosen:g} {t.unit}"]))
     return "\n".join(lines)
 
