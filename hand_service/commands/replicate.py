@@ -54,6 +54,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(object, the default), or per finger pair by the operator's written rule "
                              "(3 of 3 grasps x 1.25) or the human-like one (1 centred grasp x 1.5); "
                              "docs/replicate.md")
+    parser.add_argument("--pinch-plant", choices=("model", "mismatched"), default=None,
+                        help="the pinch's simulated hand: the controller's PRBM (model, the default) or "
+                             "one that differs from it as a real hand does, calibrated again on it "
+                             "(mismatched); docs/replicate.md")
     parser.add_argument("--quick", action="store_true",
                         help="3 trials a finger, 3 periods, a coarse PID search: seconds, not the "
                              "real figures")
@@ -78,7 +82,8 @@ def main(args: argparse.Namespace) -> int:
         if directory is not None:
             make_directory(directory)  # now, not after minutes of simulation
 
-    for given, option in ((args.pinch_trials, "--pinch-trials"), (args.pinch_rule, "--pinch-rule")):
+    for given, option in ((args.pinch_trials, "--pinch-trials"), (args.pinch_rule, "--pinch-rule"),
+                          (args.pinch_plant, "--pinch-plant")):
         if given is not None and not args.pinch:
             from hand_service.errors import UserError
 
@@ -109,6 +114,7 @@ def pinch_main(args: argparse.Namespace) -> int:
     from hand_service.commands import checks
     from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
+    from hand_service.pinch.mismatch import PLANTS
     from hand_service.pinch.tuning import RULES
     from hand_service.replicate.pinch_run import PAPER_TRIALS_PER_CELL, replicate_pinch
 
@@ -126,7 +132,7 @@ def pinch_main(args: argparse.Namespace) -> int:
         from hand_service.pinch.tables import markdown
 
         result = replicate_pinch(args.profile, args.seed, trials, 3 if args.quick else 10, progress,
-                                 RULES[args.pinch_rule or "object"])
+                                 RULES[args.pinch_rule or "object"], PLANTS[args.pinch_plant or "model"])
         print(markdown(result))
         if args.plots is not None:
             from hand_service.pinch.plots import write_pinch_plots

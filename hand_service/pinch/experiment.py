@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from hand_service.config.profile import Profile
+from hand_service.pinch.mismatch import NONE, Mismatch
 from hand_service.pinch.objects import OBJECTS, PinchObject, Placements
 from hand_service.pinch.plant import HELD, OUTCOME_NAMES
 from hand_service.pinch.stats import Paired, fisher_p, wilson_interval
@@ -84,6 +85,9 @@ class PinchResult:
     traces: dict[tuple[str, str], list[Traces]] = field(default_factory=dict)
     trace_held: dict[tuple[str, str], list[bool]] = field(default_factory=dict)
     seconds: float = 0.0
+    mismatch: Mismatch = NONE
+    # the force estimate's RMS error against the plant's true normal force, fingers in contact
+    estimate_rmse_n: dict[str, float] = field(default_factory=dict)
 
     def shown_trial(self, obj: str) -> int:
         """The recorded trial to plot: the first where the two controllers differ, else the first."""
@@ -133,18 +137,20 @@ class PinchResult:
         return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
                 "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned_once()],
                 "cells": [c.to_json() for c in self.cells],
-                "pooled": pooled, "paired": paired}
+                "pooled": pooled, "paired": paired, "plant_mismatch": vars(self.mismatch),
+                "estimate_rmse_n": self.estimate_rmse_n}
 
 
 def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int, seed: int,
               progress: Callable[[str], None] | None = None,
               objects: tuple[PinchObject, ...] = OBJECTS,
-              pairs: tuple[tuple[str, str], ...] = PAIRS, rule: Rule = HAND_RULE) -> PinchResult:
+              pairs: tuple[tuple[str, str], ...] = PAIRS, rule: Rule = HAND_RULE,
+              mismatch: Mismatch = NONE) -> PinchResult:
     say = progress or (lambda _: None)
     started = time.perf_counter()
     tune_seed, place_seed, run_seed = (int(s) for s in np.random.SeedSequence([seed, 18]).generate_state(3))
     say(f"pinch: tuning each controller's setpoint ({rule.where}; {rule.describe()})")
-    tuned = tune(truth, controller_profile, tune_seed, objects, rule, pairs)
+    tuned = tune(truth, controller_profile, tune_seed, objects, rule, pairs, mismatch)
     for t in dict.fromkeys(tuned.values()):
         low, high, chosen = t.in_own_unit()
         say(f"pinch: {t.obj} {t.controller} (thumb & {t.finger}): holds from {low:g} to {high:g} {t.unit}, "
@@ -167,7 +173,9 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
     total = sum(c.n for c in cells)
     say(f"pinch: {total} trials ({trials_per_cell} a cell), 2 s closing and 5 s hold each, stepped together")
     recorded = tuple(i for rows in record.values() for i in rows)
-    batch = run_cells(truth, controller_profile, cells, run_seed, recorded)
+    batch = run_cells(truth, controller_profile, cells, run_seed, recorded, mismatch)
+    controllers = np.array([c.controller for c in cells])[batch.cell_of_trial]
+    rmse = {c: batch.estimate_rmse_n(controllers == c) for c in CONTROLLERS}
     results = []
     for k, cell in enumerate(cells):
         mine = batch.cell_of_trial == k
@@ -182,4 +190,4 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
     traces = {key: [batch.traces[i] for i in rows] for key, rows in record.items()}
     held = {key: [bool(batch.outcome[i] == HELD) for i in rows] for key, rows in record.items()}
     return PinchResult(trials_per_cell, seed, tuned, results, rule, traces, held,
-                       time.perf_counter() - started)
+                       time.perf_counter() - started, mismatch, rmse)

@@ -113,6 +113,16 @@ def tuning_table(result: PinchResult) -> str:
     return "\n".join(lines)
 
 
+def estimate_line(result: PinchResult) -> str:
+    m = result.mismatch
+    plant = (f"stiffening c = {m.stiffening:g} at {m.reference_kpa:g} kPa, contact drift a = "
+             f"{m.lever_drift_per_rad:g}/rad, sensor bow {m.sensor_bow_deg:g} deg")
+    errors = "; ".join(f"{c} {v:.3f} N" for c, v in result.estimate_rmse_n.items())
+    return (f"Force estimate against the plant's true normal force, RMS over the fingers in contact: "
+            f"{errors} (paper 0.324 N). Plant: {plant}.")
+
+
 def markdown(result: PinchResult) -> str:
-    return "\n\n".join([controller_table(result, "force"), controller_table(result, "pressure"),
+    return "\n\n".join([estimate_line(result), controller_table(result, "force"),
+                        controller_table(result, "pressure"),
                         comparison_table(result), paired_table(result), tuning_table(result)]) + "\n"
