@@ -5,11 +5,12 @@ indices rank a known function's inputs."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from SALib.sample import sobol as sobol_sample
 
 from hand_service.pinch import plant, trials
 from hand_service.pinch.mismatch import PAPER_MISMATCH
-from hand_service.pinch.sobol import PARAMETERS, analyse, physics, problem, scaled
+from hand_service.pinch.sobol import PARAMETERS, analyse, main, physics, problem, scaled
 
 
 def test_physics_sets_the_constants_and_puts_them_back() -> None:
@@ -42,3 +43,14 @@ def test_sobol_indices_rank_a_known_function() -> None:
     assert int(np.argmax(first["S1"])) == 0 and first["S1"][0] > 0.8
     assert first["ST"][2] < 0.05  # not in the function
     assert set(np.argsort(second["ST"])[-2:]) == {1, 5}
+
+
+@pytest.mark.slow
+def test_the_sobol_study_runs_end_to_end(capsys: pytest.CaptureFixture[str]) -> None:
+    """The smallest study (N = 2, 16 runs of 2 trials a cell): every object and parameter
+    gets its indices, with the sample size stated."""
+    assert main(["--base-samples", "2", "--trials", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "16 runs (N = 2, D = 6), 2 trials a cell, seed 1" in out
+    rows = [line for line in out.splitlines() if line.startswith("| ") and "points |" in line]
+    assert len(rows) == 3 * len(PARAMETERS)
