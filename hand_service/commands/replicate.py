@@ -26,8 +26,9 @@ With --pinch, instead: the paper's pinch test (Tables 3 and 4). Thumb and one fi
 close on a potato chip, a screwdriver or a brass coin placed by a person's hand with a
 random offset; success is the object held 5 s after release, unbroken and not slipped
 out. PRBM+LDM force control against one constant pressure, each tuned once per object
-on a centred placement; --pinch-trials N trials per finger pair and object (10 as the
-paper; 200 or more for 95 % Wilson intervals that separate the two). Objects, contacts
+on a centred placement (or per finger pair: --pinch-rule); --pinch-trials N trials per
+finger pair and object (10 as the paper; 200 or more for 95 % Wilson intervals that
+separate the two). Objects, contacts
 and every parameter's source: docs/replicate.md.
 
 Markdown tables go to stdout (stderr with --json -), progress to stderr: a bar on a
@@ -48,6 +49,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="run the pinch test (Tables 3 and 4) instead of Tables 1 and 2")
     parser.add_argument("--pinch-trials", type=int, default=None, metavar="N",
                         help="pinch trials per finger pair, object and controller (default 10)")
+    parser.add_argument("--pinch-rule", choices=("object", "operator", "human"), default=None,
+                        help="how the pinch setpoints are tuned: once per object on thumb & index "
+                             "(object, the default), or per finger pair by the operator's written rule "
+                             "(3 of 3 grasps x 1.25) or the human-like one (1 centred grasp x 1.5); "
+                             "docs/replicate.md")
+    parser.add_argument("--pinch-plant", choices=("model", "mismatched"), default=None,
+                        help="the pinch's simulated hand: the controller's PRBM (model, the default) or "
+                             "one that differs from it as a real hand does, calibrated again on it "
+                             "(mismatched); docs/replicate.md")
     parser.add_argument("--quick", action="store_true",
                         help="3 trials a finger, 3 periods, a coarse PID search: seconds, not the "
                              "real figures")
@@ -72,10 +82,12 @@ def main(args: argparse.Namespace) -> int:
         if directory is not None:
             make_directory(directory)  # now, not after minutes of simulation
 
-    if args.pinch_trials is not None and not args.pinch:
-        from hand_service.errors import UserError
+    for given, option in ((args.pinch_trials, "--pinch-trials"), (args.pinch_rule, "--pinch-rule"),
+                          (args.pinch_plant, "--pinch-plant")):
+        if given is not None and not args.pinch:
+            from hand_service.errors import UserError
 
-        raise UserError("--pinch-trials needs --pinch")
+            raise UserError(f"{option} needs --pinch")
     if args.pinch:
         return pinch_main(args)
     chosen = {"profile": args.profile, "seed": args.seed, "trials_dir": args.trials}
@@ -102,6 +114,8 @@ def pinch_main(args: argparse.Namespace) -> int:
     from hand_service.commands import checks
     from hand_service.errors import UserError
     from hand_service.jsonio import tables_out, write_json
+    from hand_service.pinch.mismatch import PLANTS
+    from hand_service.pinch.tuning import RULES
     from hand_service.replicate.pinch_run import PAPER_TRIALS_PER_CELL, replicate_pinch
 
     trials = PAPER_TRIALS_PER_CELL if args.pinch_trials is None else args.pinch_trials
@@ -117,7 +131,8 @@ def pinch_main(args: argparse.Namespace) -> int:
     with tables_out(args.json):
         from hand_service.pinch.tables import markdown
 
-        result = replicate_pinch(args.profile, args.seed, trials, 3 if args.quick else 10, progress)
+        result = replicate_pinch(args.profile, args.seed, trials, 3 if args.quick else 10, progress,
+                                 RULES[args.pinch_rule or "object"], PLANTS[args.pinch_plant or "model"])
         print(markdown(result))
         if args.plots is not None:
             from hand_service.pinch.plots import write_pinch_plots

@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 
 from hand_service.config.profile import Profile
+from hand_service.pinch.mismatch import NONE, Mismatch
 from hand_service.pinch.objects import OBJECTS, PinchObject, Placements
 from hand_service.pinch.plant import HELD, OUTCOME_NAMES
-from hand_service.pinch.stats import wilson_interval
+from hand_service.pinch.stats import Paired, fisher_p, wilson_interval
 from hand_service.pinch.trials import CONTROLLERS, PAIRS, Cell, Traces, run_cells
 from hand_service.pinch.tuning import HAND_RULE, Rule, Tuned, tune
 
@@ -36,6 +37,17 @@ PAPER_PINCH: dict[str, dict[tuple[str, str], tuple[int, int]]] = {
 }
 
 
+def paper_counts(obj: str, finger: str | None = None) -> dict[str, Any] | None:
+    """The paper's force and constant-pressure counts for one pair (or pooled over the four,
+    finger None) and Fisher's exact test between them: its trials were not paired."""
+    fingers = [finger] if finger else ["index", "middle", "ring", "little"]
+    if any((f, obj) not in PAPER_PINCH["force"] for f in fingers):
+        return None
+    sf, nf = (sum(PAPER_PINCH["force"][(f, obj)][k] for f in fingers) for k in (0, 1))
+    sp, n_p = (sum(PAPER_PINCH["pressure"][(f, obj)][k] for f in fingers) for k in (0, 1))
+    return {"force": [sf, nf], "pressure": [sp, n_p], "fisher_exact_p": fisher_p(sf, nf, sp, n_p)}
+
+
 @dataclass
 class CellResult:
     pair: tuple[str, str]
@@ -45,6 +57,7 @@ class CellResult:
     trials: int
     failures: dict[str, int]
     held_force_n: float  # median true normal force over the hold, trials held
+    held: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))  # per placement, in order
 
     @property
     def rate(self) -> float:
@@ -65,13 +78,16 @@ class CellResult:
 class PinchResult:
     trials_per_cell: int
     seed: int
-    tuned: dict[tuple[str, str], Tuned]
+    tuned: dict[tuple[str, str, str], Tuned]  # (finger, object, controller)
     cells: list[CellResult]
     rule: Rule = HAND_RULE
     # (object, controller): the first trials of the first pair, the same placements for both
     traces: dict[tuple[str, str], list[Traces]] = field(default_factory=dict)
     trace_held: dict[tuple[str, str], list[bool]] = field(default_factory=dict)
     seconds: float = 0.0
+    mismatch: Mismatch = NONE
+    # the force estimate's RMS error against the plant's true normal force, fingers in contact
+    estimate_rmse_n: dict[str, float] = field(default_factory=dict)
 
     def shown_trial(self, obj: str) -> int:
         """The recorded trial to plot: the first where the two controllers differ, else the first."""
@@ -81,6 +97,22 @@ class PinchResult:
     def cell(self, controller: str, finger: str, obj: str) -> CellResult:
         return next(c for c in self.cells
                     if c.controller == controller and c.pair[1] == finger and c.obj == obj)
+
+    def paired(self, obj: str, finger: str | None = None) -> Paired:
+        """Force control against constant pressure on the same placements: one pair's
+        cell, or (finger None) every pair's pooled."""
+        total = Paired(0, 0, 0, 0)
+        for force in self.cells:
+            if force.controller != "force" or force.obj != obj or finger not in (None, force.pair[1]):
+                continue
+            pressure = next(c for c in self.cells
+                            if c.controller == "pressure" and c.obj == obj and c.pair == force.pair)
+            total = total + Paired.of(force.held, pressure.held)
+        return total
+
+    def tuned_once(self) -> list[Tuned]:
+        """Each tuning once (a setpoint tuned on thumb and index serves every pair)."""
+        return list(dict.fromkeys(self.tuned.values()))
 
     def pooled(self, controller: str, obj: str) -> tuple[int, int]:
         mine = [c for c in self.cells if c.controller == controller and c.obj == obj]
@@ -93,25 +125,35 @@ class PinchResult:
                 s, n = self.pooled(controller, obj)
                 pooled[f"{controller}/{obj}"] = {"successes": s, "trials": n, "rate": s / n if n else None,
                                                  "wilson95": list(wilson_interval(s, n))}
+        paired = []
+        for obj in (o.name for o in OBJECTS):
+            fingers = [c.pair[1] for c in self.cells if c.controller == "force" and c.obj == obj]
+            for finger in [*fingers, None]:
+                row = {"object": obj, "finger": finger or "all", **self.paired(obj, finger).to_json()}
+                paper = paper_counts(obj, finger)
+                if paper is not None:
+                    row["paper"] = paper
+                paired.append(row)
         return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
-                "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned.values()],
+                "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned_once()],
                 "cells": [c.to_json() for c in self.cells],
-                "pooled": pooled}
+                "pooled": pooled, "paired": paired, "plant_mismatch": vars(self.mismatch),
+                "estimate_rmse_n": self.estimate_rmse_n}
 
 
 def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int, seed: int,
               progress: Callable[[str], None] | None = None,
               objects: tuple[PinchObject, ...] = OBJECTS,
-              pairs: tuple[tuple[str, str], ...] = PAIRS, rule: Rule = HAND_RULE) -> PinchResult:
+              pairs: tuple[tuple[str, str], ...] = PAIRS, rule: Rule = HAND_RULE,
+              mismatch: Mismatch = NONE) -> PinchResult:
     say = progress or (lambda _: None)
     started = time.perf_counter()
     tune_seed, place_seed, run_seed = (int(s) for s in np.random.SeedSequence([seed, 18]).generate_state(3))
-    say(f"pinch: tuning each controller's setpoint once per object (thumb and index, centred; "
-        f"{rule.describe()})")
-    tuned = tune(truth, controller_profile, tune_seed, objects, rule)
-    for t in tuned.values():
+    say(f"pinch: tuning each controller's setpoint ({rule.where}; {rule.describe()})")
+    tuned = tune(truth, controller_profile, tune_seed, objects, rule, pairs, mismatch)
+    for t in dict.fromkeys(tuned.values()):
         low, high, chosen = t.in_own_unit()
-        say(f"pinch: {t.obj} {t.controller}: holds from {low:g} to {high:g} {t.unit}, "
+        say(f"pinch: {t.obj} {t.controller} (thumb & {t.finger}): holds from {low:g} to {high:g} {t.unit}, "
             f"set to {chosen:g} {t.unit}")
     rng = np.random.default_rng(place_seed)
     placements = {(pair, obj.name): Placements.draw(obj, trials_per_cell, rng)
@@ -125,13 +167,15 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
                 if pair == pairs[0]:
                     first = sum(c.n for c in cells)
                     record[(obj.name, controller)] = list(range(first, first + shown))
-                setpoint = tuned[(obj.name, controller)].in_own_unit()[2]
+                setpoint = tuned[(pair[1], obj.name, controller)].in_own_unit()[2]
                 cells.append(Cell(pair, obj, controller, np.full(trials_per_cell, setpoint),
                                   placements[(pair, obj.name)]))
     total = sum(c.n for c in cells)
     say(f"pinch: {total} trials ({trials_per_cell} a cell), 2 s closing and 5 s hold each, stepped together")
     recorded = tuple(i for rows in record.values() for i in rows)
-    batch = run_cells(truth, controller_profile, cells, run_seed, recorded)
+    batch = run_cells(truth, controller_profile, cells, run_seed, recorded, mismatch)
+    controllers = np.array([c.controller for c in cells])[batch.cell_of_trial]
+    rmse = {c: batch.estimate_rmse_n(controllers == c) for c in CONTROLLERS}
     results = []
     for k, cell in enumerate(cells):
         mine = batch.cell_of_trial == k
@@ -142,8 +186,8 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
         held = batch.held_force_n[mine]
         held_force = float(np.nanmedian(held)) if np.any(np.isfinite(held)) else float("nan")
         results.append(CellResult(cell.pair, cell.obj.name, cell.controller, successes, trials, failures,
-                                  held_force))
+                                  held_force, outcome == HELD))
     traces = {key: [batch.traces[i] for i in rows] for key, rows in record.items()}
     held = {key: [bool(batch.outcome[i] == HELD) for i in rows] for key, rows in record.items()}
     return PinchResult(trials_per_cell, seed, tuned, results, rule, traces, held,
-                       time.perf_counter() - started)
+                       time.perf_counter() - started, mismatch, rmse)

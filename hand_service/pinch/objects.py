@@ -109,3 +109,15 @@ class Placements:
                   if math.isfinite(obj.break_scale_n) else math.inf)
         zeros = np.zeros(n)
         return cls(zeros, zeros.copy(), zeros.copy(), np.full(n, obj.width_m), np.full(n, median))
+
+    @classmethod
+    def regrasped(cls, obj: PinchObject, n: int, rng: np.random.Generator) -> Placements:
+        """One nominal specimen (nominal width, median strength) put into the hand n times,
+        each with the person's placement scatter."""
+        drawn, nominal = cls.draw(obj, n, rng), cls.nominal(obj, n)
+        return cls(drawn.lateral_m, drawn.axial_m, drawn.vertical_m, nominal.width_m, nominal.break_force_n)
+
+    def tiled(self, times: int) -> Placements:
+        """These placements repeated `times` times over, in order."""
+        return Placements(*(np.tile(a, times) for a in (self.lateral_m, self.axial_m, self.vertical_m,
+                                                        self.width_m, self.break_force_n)))

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hand_service.pinch.mismatch import NONE, Mismatch
 from hand_service.pinch.objects import GRAVITY_M_PER_S2, PinchObject, Placements
 from rtcore import Effects, Prbm
 from rtcore.motion import FingerMotions
@@ -112,8 +113,9 @@ OUTCOME_NAMES = {HELD: "held", BROKEN: "broken", SLIPPED: "slipped", DROPPED: "d
 class PinchPlant:
     """n trials' fingers and objects, advanced one substep at a time by `advance`."""
 
-    def __init__(self, fingers: FingerArrays, obj: ObjectArrays, gap_m: np.ndarray, dt_s: float) -> None:
-        self.f, self.o, self.dt_s = fingers, obj, dt_s
+    def __init__(self, fingers: FingerArrays, obj: ObjectArrays, gap_m: np.ndarray, dt_s: float,
+                 mismatch: Mismatch = NONE) -> None:
+        self.f, self.o, self.dt_s, self.mismatch = fingers, obj, dt_s, mismatch
         n = obj.mass_kg.shape[0]
         self.gap_m = gap_m
         self._motions = FingerMotions(fingers.sim_fingers())
@@ -189,7 +191,10 @@ class PinchPlant:
                                      + PAD_DAMPING_NS_PER_M * rate_m_per_s, 0.0),
                           0.0)
         self.normal_n = normal
-        self._motions.advance(delayed, -f.lever_arm_m * normal, dt)
+        lever = self.mismatch.contact_lever_m(f.lever_arm_m, self.angle_rad)
+        stiffening = self.mismatch.stiffening_torque_nm(f.stiffness_nm_per_rad, self.angle_rad,
+                                                        self.chamber_kpa)
+        self._motions.advance(delayed, -lever * normal - stiffening, dt)
         self.peak_normal_n = np.maximum(self.peak_normal_n, normal.max(axis=1))
         going = self.outcome == HELD
         self.outcome[going & (self.peak_normal_n > self.o.break_force_n)] = BROKEN

@@ -43,7 +43,8 @@ def main(argv: list[str] | None = None) -> int:
         result = run_pinch(truth, controller, args.trials, args.seed, rule=rule)
         for obj in OBJECT_NAMES:
             (sf, nf), (sp, n_p) = result.pooled("force", obj), result.pooled("pressure", obj)
-            force, pressure = result.tuned[(obj, "force")], result.tuned[(obj, "pressure")]
+            force, pressure = (result.tuned[("index", obj, "force")],
+                               result.tuned[("index", obj, "pressure")])
             print(f"| {rule.describe()} | {PAPER_LABELS[obj]} | {_rate(sf, nf)} | {_rate(sp, n_p)} | "
                   f"{100 * (sf / nf - sp / n_p):+.1f} | {force.setpoint_n:g}; {pressure.setpoint_kpa:g} |",
                   flush=True)

@@ -1,9 +1,10 @@
-"""The pinch run's markdown: Tables 3 and 4 beside the paper's, and the pooled rates with
-their 95 % Wilson intervals."""
+"""The pinch run's markdown: Tables 3 and 4 beside the paper's, the pooled rates with
+their 95 % Wilson intervals, and the paired comparison (McNemar's exact test, Newcombe's
+interval on the difference) beside the paper's counts with Fisher's exact test."""
 
 from __future__ import annotations
 
-from hand_service.pinch.experiment import PAPER_PINCH, PinchResult
+from hand_service.pinch.experiment import PAPER_PINCH, PinchResult, paper_counts
 from hand_service.pinch.objects import OBJECT_NAMES, PAPER_LABELS
 from hand_service.pinch.stats import wilson_interval
 from hand_service.pinch.trials import CONTROLLERS, PAIRS
@@ -62,8 +63,10 @@ def comparison_table(result: PinchResult) -> str:
                         counts[name] = counts.get(name, 0) + k
             failures.append(", ".join(f"{k} {name}" for name, k in sorted(counts.items())) or "none")
         diff = 100.0 * (sf / nf - sp / np_) if nf and np_ else float("nan")
-        setpoints = (f"{result.tuned[(obj, 'force')].setpoint_n:g}; "
-                     f"{result.tuned[(obj, 'pressure')].setpoint_kpa:g}")
+        fingers = [pair[1] for pair in PAIRS if any(c.pair == pair and c.obj == obj for c in result.cells)]
+        force = dict.fromkeys(f"{result.tuned[(f, obj, 'force')].setpoint_n:g}" for f in fingers)
+        pressure = dict.fromkeys(f"{result.tuned[(f, obj, 'pressure')].setpoint_kpa:g}" for f in fingers)
+        setpoints = f"{'/'.join(force)}; {'/'.join(pressure)}"
         lines.append(_row([PAPER_LABELS[obj], f"{_pct(sf, nf)} {_ci(sf, nf)}",
                            f"{_pct(sp, np_)} {_ci(sp, np_)}",
                            f"{diff:+.1f}",
@@ -72,17 +75,54 @@ def comparison_table(result: PinchResult) -> str:
     return "\n".join(lines)
 
 
+def _p(p: float) -> str:
+    return f"{p:.2g}" if p >= 1e-4 else "< 1e-4"
+
+
+def paired_table(result: PinchResult) -> str:
+    header = ["object", "finger pair", "both held", "force only", "pressure only", "neither",
+              "difference (points, 95 % CI)", "McNemar exact p", "paper: force / pressure", "Fisher exact p"]
+    lines = ["### Paired: both controllers on the same placements", "", _row(header),
+             _row(["---"] * len(header))]
+    for obj in OBJECT_NAMES:
+        fingers = [pair[1] for pair in PAIRS if any(c.pair == pair and c.obj == obj for c in result.cells)]
+        for finger in [*fingers, None] if fingers else []:
+            paired = result.paired(obj, finger)
+            low, high = paired.interval
+            paper = paper_counts(obj, finger)
+            paper_cells = (["-", "-"] if paper is None else
+                           [f"{_pct(*paper['force'])} / {_pct(*paper['pressure'])}",
+                            _p(paper["fisher_exact_p"])])
+            lines.append(_row([PAPER_LABELS[obj], f"thumb & {finger}" if finger else "all pairs",
+                               str(paired.both), str(paired.force_only), str(paired.pressure_only),
+                               str(paired.neither),
+                               f"{100 * paired.difference:+.1f} [{100 * low:+.1f}, {100 * high:+.1f}]",
+                               _p(paired.mcnemar_p), *paper_cells]))
+    return "\n".join(lines)
+
+
 def tuning_table(result: PinchResult) -> str:
-    header = ["object", "controller", "holds from", "to", "set to"]
-    lines = [f"### Setpoints tuned once per object (thumb & index, centred; {result.rule.describe()})",
+    header = ["object", "tuned on", "controller", "holds from", "to", "set to"]
+    lines = [f"### Setpoints tuned ({result.rule.where}; {result.rule.describe()})",
              "", _row(header), _row(["---"] * len(header))]
-    for t in result.tuned.values():
+    for t in sorted(result.tuned_once(), key=lambda t: (OBJECT_NAMES.index(t.obj), t.finger != "index")):
         low, high, chosen = t.in_own_unit()
-        lines.append(_row([PAPER_LABELS[t.obj], t.controller, f"{low:g} {t.unit}", f"{high:g} {t.unit}",
+        span = [f"{low:g} {t.unit}", f"{high:g} {t.unit}"] if t.holds else ["none held", "-"]
+        lines.append(_row([PAPER_LABELS[t.obj], f"thumb & {t.finger}", t.controller, *span,
                            f"{chosen:g} {t.unit}"]))
     return "\n".join(lines)
 
 
+def estimate_line(result: PinchResult) -> str:
+    m = result.mismatch
+    plant = (f"stiffening c = {m.stiffening:g} at {m.reference_kpa:g} kPa, contact drift a = "
+             f"{m.lever_drift_per_rad:g}/rad, sensor bow {m.sensor_bow_deg:g} deg")
+    errors = "; ".join(f"{c} {v:.3f} N" for c, v in result.estimate_rmse_n.items())
+    return (f"Force estimate against the plant's true normal force, RMS over the fingers in contact: "
+            f"{errors} (paper 0.324 N). Plant: {plant}.")
+
+
 def markdown(result: PinchResult) -> str:
-    return "\n\n".join([controller_table(result, "force"), controller_table(result, "pressure"),
-                        comparison_table(result), tuning_table(result)]) + "\n"
+    return "\n\n".join([estimate_line(result), controller_table(result, "force"),
+                        controller_table(result, "pressure"),
+                        comparison_table(result), paired_table(result), tuning_table(result)]) + "\n"

@@ -9,6 +9,7 @@ of an 8-finger rtcore.Hand, so a thousand trials step in a few hundred C calls a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,6 +17,7 @@ import numpy as np
 import rtcore
 from hand_service.config.effects import effect_value
 from hand_service.config.profile import FingerProfile, Profile
+from hand_service.pinch.mismatch import NONE, Mismatch
 from hand_service.pinch.objects import PinchObject, Placements
 from hand_service.pinch.plant import HELD, FingerArrays, ObjectArrays, PinchPlant
 
@@ -63,6 +65,17 @@ class BatchResult:
     peak_force_n: np.ndarray
     cell_of_trial: np.ndarray
     traces: dict[int, Traces] = field(default_factory=dict)
+    # per finger (n, 2): the force estimate's squared error against the true normal force
+    # summed over the controller's ticks in contact, and those ticks
+    estimate_sq_error_n2: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    contact_ticks: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+    def estimate_rmse_n(self, trials: np.ndarray | None = None) -> float:
+        """The force estimate's RMS error against the plant's true normal force, over every
+        finger's ticks in contact (of the trials selected)."""
+        pick = slice(None) if trials is None else trials
+        ticks = float(self.contact_ticks[pick].sum())
+        return math.sqrt(float(self.estimate_sq_error_n2[pick].sum()) / ticks) if ticks else float("nan")
 
     def successes(self, cell: int) -> tuple[int, int]:
         mine = self.cell_of_trial == cell
@@ -111,7 +124,7 @@ def _hands(controller: Profile, pairs: list[tuple[str, str]]) -> list[tuple[rtco
 
 
 def run_cells(truth: Profile, controller: Profile, cells: list[Cell], seed: int,
-              record: tuple[int, ...] = ()) -> BatchResult:
+              record: tuple[int, ...] = (), mismatch: Mismatch = NONE) -> BatchResult:
     """Run every trial of every cell together; record traces of the trials in `record`."""
     pairs = [c.pair for c in cells for _ in range(c.n)]
     n = len(pairs)
@@ -119,7 +132,8 @@ def run_cells(truth: Profile, controller: Profile, cells: list[Cell], seed: int,
     rate_hz = controller.control.rate_hz
     fingers = finger_arrays(truth, pairs)
     objects = ObjectArrays.build([c.obj for c in cells], [c.placements for c in cells])
-    plant = PinchPlant(fingers, objects, pair_gap_m(fingers.lever_arm_m), 1.0 / (rate_hz * SUBSTEPS))
+    plant = PinchPlant(fingers, objects, pair_gap_m(fingers.lever_arm_m), 1.0 / (rate_hz * SUBSTEPS),
+                       mismatch)
     hands = _hands(controller, pairs)
     by_name = {f.name: f for f in truth.fingers}
     sensor_gain = np.array([[by_name[a].sensor_gain_deg_per_mv, by_name[b].sensor_gain_deg_per_mv]
@@ -143,11 +157,13 @@ def run_cells(truth: Profile, controller: Profile, cells: list[Cell], seed: int,
     command = np.zeros(2 * n)
     estimate = np.zeros(2 * n)
     held_sum = np.zeros(n)
+    sq_error, contact = np.zeros((n, 2)), np.zeros((n, 2))
     traces = {i: np.zeros((ticks, 5)) for i in record}
     for tick in range(ticks):
         if tick == release_tick:
             plant.release()
-        angle_deg = np.degrees(plant.angle_rad).ravel() + noise_deg * rng.standard_normal(2 * n)
+        angle_deg = (mismatch.sensed_deg(np.degrees(plant.angle_rad).ravel())
+                     + noise_deg * rng.standard_normal(2 * n))
         sensor_mv = (angle_deg - sensor_offset) / sensor_gain
         pressure_kpa = plant.chamber_kpa.ravel() + noise_kpa * rng.standard_normal(2 * n)
         for hand, start in hands:
@@ -157,6 +173,9 @@ def run_cells(truth: Profile, controller: Profile, cells: list[Cell], seed: int,
             hand.step()
             command[start:start + k] = hand.outputs.pressure_cmd_kpa
             estimate[start:start + k] = hand.outputs.force_normal_n
+        touching = plant.normal_n > 0.0
+        sq_error += np.where(touching, (estimate.reshape(n, 2) - plant.normal_n) ** 2, 0.0)
+        contact += touching
         for _ in range(SUBSTEPS):
             plant.advance(command.reshape(n, 2))
         if tick >= release_tick:
@@ -168,4 +187,4 @@ def run_cells(truth: Profile, controller: Profile, cells: list[Cell], seed: int,
     cell_of_trial = np.concatenate([np.full(c.n, k) for k, c in enumerate(cells)])
     return BatchResult(plant.outcome.copy(), np.where(held, held_sum / max(ticks - release_tick, 1), np.nan),
                        plant.peak_normal_n.copy(), cell_of_trial,
-                       {i: Traces(*rows.T) for i, rows in traces.items()})
+                       {i: Traces(*rows.T) for i, rows in traces.items()}, sq_error, contact)

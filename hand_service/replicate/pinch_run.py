@@ -16,6 +16,7 @@ import numpy as np
 from hand_service.config.profile import Profile, load_profile
 from hand_service.identification.measured_hand import controller_profile, measure_finger
 from hand_service.pinch.experiment import PinchResult, run_pinch
+from hand_service.pinch.mismatch import NONE, Mismatch, identify_on_plant
 from hand_service.pinch.tuning import HAND_RULE, Rule
 from hand_service.replicate.run import check_truth
 
@@ -43,6 +44,14 @@ def measured_controller(profile: Path | None, seed: int, trials_per_finger: int,
 
 
 def replicate_pinch(profile: Path | None, seed: int, trials_per_cell: int, trials_per_finger: int,
-                    progress: Callable[[str], None] | None = None, rule: Rule = HAND_RULE) -> PinchResult:
+                    progress: Callable[[str], None] | None = None, rule: Rule = HAND_RULE,
+                    mismatch: Mismatch = NONE) -> PinchResult:
+    """The pinch run; with a mismatch, the plant differs from the PRBM and the lab calibrates
+    the sensor and the pressure gain again on it (hand_service.pinch.mismatch)."""
     truth, controller = measured_controller(profile, seed, trials_per_finger, progress)
-    return run_pinch(truth, controller, trials_per_cell, seed, progress, rule=rule)
+    if mismatch != NONE:
+        with tempfile.TemporaryDirectory(prefix="replicate-pinch-plant-") as scratch:
+            controller = identify_on_plant(truth, controller, mismatch, seed, Path(scratch))
+        if progress:
+            progress("pinch: sensor map and pressure gain calibrated again on the mismatched plant")
+    return run_pinch(truth, controller, trials_per_cell, seed, progress, rule=rule, mismatch=mismatch)
