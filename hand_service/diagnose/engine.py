@@ -224,7 +224,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         # answer names the dominant effect alone, fitted alone; the others are reported apart.
         warnings.extend(u.sentence() for u in unstable_later)
         first = selection.accepted[0]
-        alone = Selection(rounds=selection.rounds[:1], accepted=[first], final=first.fit)
+        alone = Selection(rounds=selection.rounds, accepted=[first], final=first.fit)
         extra, found = found[1:], [found_effect(problem, first, alone, (fitted, scored_held))]
         final = first.fit
         kept = [first]
