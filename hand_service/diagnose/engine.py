@@ -45,7 +45,7 @@ from hand_service.diagnose.report.verdict import (
     structure_left,
     trade_offs,
 )
-from hand_service.diagnose.residual import noise, stats
+from hand_service.diagnose.residual import noise, noise_bound, stats
 from hand_service.diagnose.search import posture_stability
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
@@ -233,7 +233,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         # answer names the dominant effect alone, fitted alone; the others are reported apart.
         warnings.extend(u.sentence() for u in unstable_later)
         first = selection.accepted[0]
-        alone = Selection(rounds=selection.rounds[:1], accepted=[first], final=first.fit)
+        alone = Selection(rounds=selection.rounds, accepted=[first], final=first.fit)
         extra, found = found[1:], [found_effect(problem, first, alone, (fitted, scored_held))]
         final = first.fit
         kept = [first]
@@ -256,6 +256,14 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                               problem.base.prbm.inertia_kgm2,
                                               refit.value("damping_nms_per_rad")).sentence(), explained,
                            {label: refit.value(label) / getattr(model, label) for label in unidentified})
+    if verdict in ("consistent", "parameters_only"):
+        # the residual is noise only by the noise's size where the finger is at rest: the AR
+        # filter alone would take smooth input-driven structure for correlated noise
+        rest = noise_bound.bound(residual, problem.misfit(refit.angle_deg), valid, problem.pressure_kpa,
+                                 rate_hz, refit.finger)
+        if rest is not None and rest.exceeded:
+            warnings.append(rest.sentence())
+            verdict, notes = "unexplained", []
     if selection.ambiguous is not None:
         warnings.extend(posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":

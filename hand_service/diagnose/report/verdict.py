@@ -149,6 +149,9 @@ def judge(unidentified: list[str], params: list[Param], relative_std: np.ndarray
         warnings.append(f"{a.name} and {b.name} explain the residual about equally well (ΔBIC "
                         f"{a.delta_bic:.0f} and {b.delta_bic:.0f}) and not better together: this "
                         "recording cannot tell them apart")
+        if found:
+            warnings.append(f"{a.name} is kept in the model, unnamed, while the search goes on: what "
+                            "is named beside it was found with one of the two in the model")
         if not found:
             return "insufficient_excitation", notes
     if found:

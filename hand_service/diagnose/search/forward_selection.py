@@ -7,7 +7,10 @@ with k, B, N (A held) and the effects already accepted. An effect is accepted wh
 - it predicts the held-out data better by more than the noise allows (z > SIGNIFICANT_Z),
 - and no other effect explains the same residual nearly as well: when the runner-up is
   within NAME_MARGIN_BIC and fitting both together is not better than the best alone,
-  the recording cannot tell them apart and the search stops there (ambiguous).
+  the recording cannot tell them apart (ambiguous). Neither is named, but the tie does
+  not end the search: the better of the two is carried in the model, unnamed, and the
+  next rounds look for what else is missing (a near-tie between a valve lag and a dead
+  time must not drop a clear second effect).
 
 Each fit starts from the Gauss-Newton step of the effect's signature: the sensitivity of
 the angle to the effect's parameter, with what k, B and N can absorb projected out. Its
@@ -114,6 +117,7 @@ class Selection:
     accepted: list[Candidate] = field(default_factory=list)
     final: Fit | None = None
     ambiguous: tuple[Candidate, Candidate] | None = None
+    carried: list[Candidate] = field(default_factory=list)  # in the model, unnamed: one of a tie
 
 
 ABSORBED = 0.15  # a refitted plain parameter this far from the nominal may be hiding an effect
@@ -288,7 +292,7 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
     selection = Selection()
     current = refit
     remaining = list(names)
-    while remaining and len(selection.accepted) < MAX_EFFECTS:
+    while remaining and len(selection.accepted) < MAX_EFFECTS and len(selection.rounds) <= MAX_EFFECTS:
         round_ = run_round(problem, current, remaining, progress, fit_all=not selection.rounds)
         selection.rounds.append(round_)
         best = round_.best()
@@ -305,7 +309,10 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
                                                   len(best.fit.params)))
             if not both.significant:
                 selection.ambiguous = (best, runner)
-                break
+                selection.carried.append(best)
+                current = best.fit
+                remaining = [name for name in remaining if name not in (best.name, runner.name)]
+                continue
         selection.accepted.append(best)
         current = best.fit
         remaining.remove(best.name)

@@ -1,0 +1,107 @@
+"""What the correlated-noise model may take: the sensor's noise measured where the finger is
+at rest, against the structure the model leaves while it moves.
+
+The AR noise model (residual/noise.py) is fitted on the plain model's residual. Where physics
+outside the library leaves structure that is smooth in time (an end stop, a hysteresis loop),
+an AR filter of high enough order predicts it from its own past, and the innovations come out
+white: the physics is taken for correlated sensor noise, and the recording is called
+`consistent`. The noise the sensor has, though, is there where the finger is still too: where
+the command has been held long enough for the refitted finger to settle, the angle moves by
+the noise alone (a static error of the model is a constant there, taken out stretch by
+stretch). So the noise's size is measured on those stretches, and a residual whose spread,
+over the whole recording with the sensor's offset and slow drift taken out, stands clear of
+it is input-driven structure, not noise, whatever the AR filter makes of it.
+
+A recording with no such stretches (a chirp, a noise input throughout) gives no bound: the
+verdict then rests on the innovations alone, as before.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+
+from rtcore.sim import SimFinger
+
+SETTLE_DECAYS = 4.0  # the finger is at rest this many of its slowest decay times after a change
+MIN_SETTLE_S = 0.2
+MIN_STRETCH_S = 1.0  # a stretch at rest shorter than this says little of correlated noise
+MIN_REST_S = 2.0  # in all
+# A misfit this many times the noise at rest is structure. The noise's correlated part is
+# underestimated on a stretch of MIN_STRETCH_S (its mean over the stretch is taken out with
+# the model's static error), by up to a fifth of its std for a correlation time of 0.2 s:
+# a clean recording stays well under 2; structure three times the noise stands over 3.
+STRUCTURE_FACTOR = 2.0
+
+
+@dataclass(frozen=True)
+class NoiseBound:
+    rest_std_deg: float  # the noise's std where the finger is at rest
+    misfit_std_deg: float  # the plain model's misfit (offset and slow drift out), every scored sample
+    rest_s: float  # how much of the recording is at rest
+
+    @property
+    def exceeded(self) -> bool:
+        return self.misfit_std_deg > STRUCTURE_FACTOR * self.rest_std_deg
+
+    def to_json(self) -> dict:
+        return {"rest_noise_std_deg": self.rest_std_deg, "misfit_std_deg": self.misfit_std_deg,
+                "rest_s": self.rest_s}
+
+    def sentence(self) -> str:
+        return (f"the refitted model's misfit ({self.misfit_std_deg:.3g} deg RMS, the sensor's offset and "
+                f"slow drift taken out) is {self.misfit_std_deg / self.rest_std_deg:.2g} times the "
+                f"sensor's noise where the finger is at rest ({self.rest_std_deg:.3g} deg over "
+                f"{self.rest_s:.3g} s with the command held): the noise model would take input-driven "
+                "structure for correlated noise, so the recording is not called consistent")
+
+
+def slowest_decay_s(finger: SimFinger) -> float:
+    """The slowest decay time of the finger's linear part, A·s² + B·s + k (s)."""
+    prbm = finger.prbm
+    poles = np.roots([prbm.inertia_kgm2, prbm.damping_nms_per_rad, prbm.stiffness_nm_per_rad])
+    rate_per_s = float(np.min(-poles.real))
+    return 1.0 / rate_per_s if rate_per_s > 0.0 else float("inf")
+
+
+def rest_stretches(pressure_kpa: np.ndarray, rate_hz: float, settle_s: float) -> list[slice]:
+    """The stretches where the command has been held for `settle_s` and stays held at least
+    MIN_STRETCH_S more."""
+    changed = np.flatnonzero(np.diff(pressure_kpa) != 0.0) + 1
+    edges = np.concatenate(([0], changed, [pressure_kpa.size]))
+    settle, shortest = int(np.ceil(settle_s * rate_hz)), int(np.ceil(MIN_STRETCH_S * rate_hz))
+    out = []
+    for start, stop in itertools.pairwise(edges):
+        first = start + (settle if start > 0 else 0)  # the recording's start is taken at rest
+        if stop - first >= shortest:
+            out.append(slice(int(first), int(stop)))
+    return out
+
+
+def bound(residual_deg: np.ndarray, misfit_deg: np.ndarray, scored: np.ndarray, pressure_kpa: np.ndarray,
+          rate_hz: float, finger: SimFinger) -> NoiseBound | None:
+    """The noise at rest against the misfit: `residual_deg` the plain model's raw residual,
+    `misfit_deg` the same with the sensor's offset and slow drift taken out, `scored` the
+    samples that are data. None where the recording has too little at rest."""
+    settle_s = max(MIN_SETTLE_S, SETTLE_DECAYS * slowest_decay_s(finger))
+    if not np.isfinite(settle_s):
+        return None
+    parts = []
+    for s in rest_stretches(pressure_kpa, rate_hz, settle_s):
+        r = residual_deg[s][scored[s]]
+        if r.size >= 2:
+            parts.append(r - r.mean())
+    rest = np.concatenate(parts) if parts else np.zeros(0)
+    if rest.size < MIN_REST_S * rate_hz:
+        return None
+    m = misfit_deg[scored]
+    m = m - m.mean()
+    rest_std = float(np.sqrt(np.mean(rest * rest)))
+    if rest_std <= 0.0:
+        return None
+    return NoiseBound(rest_std, float(np.sqrt(np.mean(m * m))), rest.size / rate_hz)
+
+
+__all__ = ["NoiseBound", "bound", "rest_stretches", "slowest_decay_s"]
