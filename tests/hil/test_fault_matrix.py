@@ -92,7 +92,7 @@ def test_a_minute_of_sweeping_raises_no_fault(profile: str, tmp_path: Path) -> N
     assert run.faults == [], run.describe()
 
 
-@pytest.mark.faults
+@pytest.mark.soak
 @pytest.mark.parametrize("link", LINKS)
 def test_a_loaded_soak_raises_no_fault_from_host_stalls(link: str, tmp_path: Path) -> None:
     """Issue 40's soak: run it beside the test suite (`make test` in another shell) on a
