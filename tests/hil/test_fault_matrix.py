@@ -64,6 +64,7 @@ def test_fault_matrix(link: str, tmp_path: Path) -> None:
 
 # what a stall of this shared machine past the board's watchdog raises (the board would vent
 # too): a minute that saw one is run again, once; any other fault is the checks' own
+EXCURSION_MAX = 2.0  # the model check's innovation over its bound, at its largest, in a clean minute
 STALL_CAUSES = ("sample_late", "firmware_vented", "overrun_streak", "stale_sensor", "transport_lost")
 
 
@@ -87,8 +88,11 @@ def test_a_minute_of_sweeping_raises_no_fault(profile: str, tmp_path: Path) -> N
         if not stalled and (not run.faults or not all(f.startswith(STALL_CAUSES) for f in run.faults)):
             break
     # a minute the machine stalled in is judged by its second run alone: the board's watchdog
-    # vented in it, which no model predicts, so its model check's margin says nothing
-    assert run.innovation_ratio.max() < 1.0, run.describe()
+    # vented in it, which no model predicts, so its model check's margin says nothing.
+    # The C board's plant is not the host's model (PWM valves, the chamber's ripple, which the
+    # lightly damped fingers answer): the innovation may pass its bound for less than
+    # model_mismatch_ms, which is what that time is for, but never by a factor of two
+    assert run.innovation_ratio.max() < EXCURSION_MAX, run.describe()
     assert run.faults == [], run.describe()
 
 
