@@ -104,7 +104,7 @@ test-browser: $(STAMP)
 	@test -x /usr/bin/chromium || { SUDO=$$(test "$$(id -u)" = 0 || echo sudo); \
 	  $$SUDO apt-get install -y chromium || { $$SUDO apt-get update && $$SUDO apt-get install -y chromium; }; }
 	@$(PY) -c "import playwright" 2>/dev/null || $(PY) -m pip install --quiet 'playwright>=1.40'
-	$(PY) -m pytest -q -s -p no:cacheprovider -m browser tests/browser
+	$(PY) -m pytest -q -s -p no:cacheprovider -m "browser and not slow" tests/browser
 
 # every file reader and the control API fed 5 000 fuzzed inputs each (make test runs 200 each), and
 # the C step against the Python reference on 400 new hands (make test: 25 fixed ones)

@@ -1,4 +1,4 @@
-"""What the view costs the daemon's tick (make test-browser; marker `browser`).
+"""What the view costs the daemon's tick (`make bench`; markers `browser` and `slow`).
 
 One daemon on the simulated hand, RUNNING with every finger moving, its tick measured by
 itself (the same tick statistics `bench` and `run` report: status.timing, the last 10 s)
@@ -32,7 +32,7 @@ import pytest
 from tests.browser.test_view_browser import browser_driver
 from tests.browser.viewproc import CHROMIUM, FLAGS, ViewProcess, started_daemon, sweep
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser, pytest.mark.slow]  # a timing measurement: a benchmark
 
 BLOCK_S = 10.0  # status.timing covers the last 10 s of ticks
 PAIRS = 4
