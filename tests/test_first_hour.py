@@ -55,7 +55,7 @@ def first_hour_commands(readme: str) -> list[str]:
             span = re.sub(r"trials release( --count \d+)?", f"trials {span}", release)
         elif span.startswith("ctl "):
             span = "hand-service " + span
-        elif span == "make run" or span.startswith(("hand-service ", "cp ")):
+        elif span == "make run" or span.startswith(("hand-service ", "cp ", "REPO=")):
             pass
         else:
             continue  # a file name, a flag, a key, an alternative (`run --view ...`)
@@ -83,15 +83,17 @@ def _git_status() -> str:
 
 
 def test_the_first_hour_as_written(tmp_path: Path) -> None:
-    work = tmp_path / "lab"
-    work.mkdir()
-    assert ROOT not in work.parents
+    home = tmp_path / "home"  # the README's ~/hand-lab, in a home of the test's own
+    home.mkdir()
     bin_dir = Path(sys.executable).parent
-    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}",
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}", "HOME": str(home),
            "HAND_SERVICE_SOCKET": str(tmp_path / "api.sock"), "XDG_DATA_HOME": str(tmp_path / "xdg"),
-           "MPLBACKEND": "Agg"}
+           "MPLBACKEND": "Agg", "REPO": str(ROOT)}  # REPO: the shell variable the setup line sets
     commands = first_hour_commands(README.read_text())
-    assert len(commands) >= 15 and commands[0] == "cp firmware_profiles/sim.yaml my-hand.yaml", commands
+    assert len(commands) >= 15 and commands[0].startswith("REPO=$PWD;"), commands
+    _run(commands.pop(0), ROOT, env)  # in the checkout, as written: it makes ~/hand-lab
+    work = home / "hand-lab"
+    assert (work / "my-hand.yaml").exists() and ROOT not in work.parents
     before = _git_status()
     started = time.monotonic()
     daemon: subprocess.Popen[str] | None = None
@@ -105,8 +107,8 @@ def test_the_first_hour_as_written(tmp_path: Path) -> None:
             if command == "make run":
                 command = "hand-service run --demo"
             argv = shlex.split(command)
-            if daemon is not None and argv[:2] != ["hand-service", "ctl"]:
-                _interrupt(daemon, work, env)  # Ctrl-C before the next step
+            if daemon is not None and argv[0] == "hand-service" and argv[1] != "ctl":
+                _interrupt(daemon, work, env)  # Ctrl-C before the next step (a cp is in the other shell)
                 daemon = None
             if argv[:2] == ["hand-service", "run"] and "--demo" not in argv:
                 daemon = _start(argv, work, env)
