@@ -15,7 +15,10 @@ forgetting (time constant TREND_WINDOW_S), as
 
 where θ, s_k and s_B are the prediction and its sensitivities to the stiffness and the
 damping (a parameter error, to first order, is such a combination; plausibility.py).
-c1 is the innovation's trend in deg/s with what the state explains taken out. Beyond
+c1 is the innovation's trend in deg/s with what the state explains taken out. It is
+judged TREND_SIGMAS standard errors short of itself: while the finger ramps, θ runs along
+t and the sensor's noise can pass for either (a wave to 60° on the simulated hand, a model
+that is exact: c1 of 3.6 deg/s from noise alone, its standard error 1.6). Judged beyond
 safety.sensor_drift_max_deg_per_s, either way, for model_mismatch_ms in a row: a fault
 (`implausible`, the finger named). A finger's fit starts again whenever its prediction
 does (arming, leaving force mode, a gap in the samples: the restarted prediction moves
@@ -40,6 +43,7 @@ TREND_SETTLE_S = 0.5  # a fit takes no sample this soon after its prediction sta
 TREND_WARMUP = 2.0  # windows of samples a fit holds before it is judged
 TERMS = 6  # 1, t − now, θ, s_k, s_B, θ'·RATE_S
 RATE_S = 0.05  # the angular rate's regressor, scaled to an angle's size
+TREND_SIGMAS = 3.0  # the trend judged is this many standard errors short of its estimate
 RIDGE = 1e-6  # of the weights' sum, on the diagonal: a finger at rest makes θ, s_k, s_B constants
 
 
@@ -56,10 +60,15 @@ class SensorTrend:
         self.warmup_samples = self.settle_samples + math.ceil(TREND_WARMUP * window_s / period_s)
         self.sums = np.zeros((n_fingers, TERMS, TERMS))  # Σ w·x·xᵀ
         self.cross = np.zeros((n_fingers, TERMS))  # Σ w·x·e
+        self.square = np.zeros(n_fingers)  # Σ w·e²
+        self.weight2 = np.zeros(n_fingers)  # Σ w²
+        self.forget2 = self.forget ** 2
         self.samples = np.zeros(n_fingers, dtype=np.int64)  # since the fit started
         self.run = np.zeros(n_fingers, dtype=np.int64)  # samples in a row beyond the limit
         self.trend_deg_per_s = np.zeros(n_fingers)
+        self.trend_error_deg_per_s = np.zeros(n_fingers)
         self.worst_deg_per_s = np.zeros(n_fingers)  # the largest |trend| judged, for the statistics
+        self.worst_judged_deg_per_s = np.full(n_fingers, -np.inf)  # of |trend| less its doubt
         self._x = np.zeros((n_fingers, TERMS))
         self._x[:, 0] = 1.0
         self._eye = np.eye(TERMS)
@@ -69,6 +78,8 @@ class SensorTrend:
         mode: what the finger did before is another story)."""
         self.sums[fingers] = 0.0
         self.cross[fingers] = 0.0
+        self.square[fingers] = 0.0
+        self.weight2[fingers] = 0.0
         self.samples[fingers] = 0
         self.run[fingers] = 0
         self.trend_deg_per_s[fingers] = 0.0
@@ -84,6 +95,8 @@ class SensorTrend:
         forget = self.forget ** steps
         sums *= forget
         cross *= forget
+        self.square *= forget
+        self.weight2 *= self.forget2 ** steps
 
     def sample(self, steps: int, innovation_deg: np.ndarray, sensitive_rad: np.ndarray,
                rate_rad_s: np.ndarray, checked: np.ndarray) -> int | None:
@@ -99,17 +112,37 @@ class SensorTrend:
         weight = (checked & (self.samples > self.settle_samples)).astype(float)
         sums += weight[:, None, None] * x[:, :, None] * x[:, None, :]
         cross += weight[:, None] * x * innovation_deg[:, None]
+        self.square += weight * innovation_deg ** 2
+        self.weight2 += weight
         judged = checked & (self.samples >= self.warmup_samples)
         if not judged.any():
             self.run[:] = 0
             return None
         ridge = RIDGE * (sums[:, 0, 0] + 1.0)
-        coef = np.linalg.solve(sums + ridge[:, None, None] * self._eye, cross[:, :, None])[:, :, 0]
+        inverse = np.linalg.inv(sums + ridge[:, None, None] * self._eye)
+        coef = (inverse @ cross[:, :, None])[:, :, 0]
         trend = np.where(judged, coef[:, 1], 0.0)
         self.trend_deg_per_s = trend
         np.maximum(self.worst_deg_per_s, np.abs(trend), out=self.worst_deg_per_s)
-        beyond = np.abs(trend) > self.limit_deg_per_s
+        self.trend_error_deg_per_s = self._standard_error(coef, inverse)
+        doubt = TREND_SIGMAS * self.trend_error_deg_per_s
+        judged_deg_per_s = np.where(judged, np.abs(trend) - doubt, -np.inf)
+        np.maximum(self.worst_judged_deg_per_s, judged_deg_per_s, out=self.worst_judged_deg_per_s)
+        beyond = judged_deg_per_s > self.limit_deg_per_s
         self.run = np.where(beyond, self.run + steps, 0)
         if not (self.run >= self.persist_samples).any():
             return None
         return int(np.argmax(self.run))
+
+    def _standard_error(self, coef: np.ndarray, inverse: np.ndarray) -> np.ndarray:
+        """The trend's standard error (deg/s): the residual's weighted variance through the
+        fit's covariance, c·s²·(XᵀWX)⁻¹ with c = Σw²/Σw (exact for weights W² = c·W, close for
+        exponential forgetting). Large where the finger's own motion runs along time (a ramp:
+        θ and t are one regressor then) and the noise can pass for either."""
+        weight = np.maximum(self.sums[:, 0, 0], 1e-12)
+        weight2 = np.maximum(self.weight2, 1e-12)
+        residual = np.maximum(self.square - np.einsum("ij,ij->i", coef, self.cross), 0.0) / weight
+        effective = weight ** 2 / weight2  # samples, as many as the weights are worth
+        unbiased = residual * effective / np.maximum(effective - TERMS, 1.0)
+        variance = unbiased * (weight2 / weight) * inverse[:, 1, 1]
+        return np.sqrt(np.maximum(variance, 0.0))
