@@ -113,7 +113,13 @@ def test_the_first_hour_as_written(tmp_path: Path) -> None:
             if argv[:2] == ["hand-service", "run"] and "--demo" not in argv:
                 daemon = _start(argv, work, env)
                 continue
-            _run(command, work, env)
+            try:
+                _run(command, work, env)
+            except AssertionError as failed:
+                if daemon is None:
+                    raise
+                log = (work.parent / "run.log").read_text()[-3000:]
+                raise AssertionError(f"{failed}\nthe daemon's log (run.log):\n{log}") from None
             if argv[1:3] == ["ctl", "load"]:
                 loaded = work / argv[3]
             if argv[1:3] == ["ctl", "start"] and loaded is not None:  # it plays out, then the next request
