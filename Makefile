@@ -7,7 +7,7 @@ INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_
                   hand_service/firmware/_build.py board/Makefile \
                   $(wildcard csrc/*.c csrc/*.h board/core/* board/plant/* board/host/* board/inprocess/*)
 
-.PHONY: run test test-soak test-thorough test-firsthour test-install test-faults test-boardcheck test-browser test-board-host test-board bench fuzz lint clean
+.PHONY: run test test-soak test-thorough test-firsthour test-install test-faults test-boardcheck test-browser screenshot test-board-host test-board bench fuzz lint clean
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -98,13 +98,16 @@ test-boardcheck: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider -m boardcheck tests/boardcheck
 
 # the live view (docs/view.md) in headless Chromium against a real daemon: the page, its plots,
-# its E-stop, a wrong token, docs/img/view.png, and what the view costs the tick (about 3 min;
+# its E-stop, a wrong token (`make screenshot` also refreshes docs/img/view.png), and what the view costs the tick (about 3 min;
 # make test runs the view's server without a browser). Debian's chromium is installed if missing.
 test-browser: $(STAMP)
 	@test -x /usr/bin/chromium || { SUDO=$$(test "$$(id -u)" = 0 || echo sudo); \
 	  $$SUDO apt-get install -y chromium || { $$SUDO apt-get update && $$SUDO apt-get install -y chromium; }; }
 	@$(PY) -c "import playwright" 2>/dev/null || $(PY) -m pip install --quiet 'playwright>=1.40'
 	$(PY) -m pytest -q -s -p no:cacheprovider -m "browser and not slow" tests/browser
+
+screenshot:
+	SCREENSHOT_TO=$(CURDIR)/docs/img/view.png $(MAKE) test-browser
 
 # every file reader and the control API fed 5 000 fuzzed inputs each (make test runs 200 each), and
 # the C step against the Python reference on 400 new hands (make test: 25 fixed ones)
