@@ -47,11 +47,11 @@ test: $(STAMP)
 test-thorough: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m thorough tests/diagnose tests/rtcore
 
-# a wheel of the checkout, installed in a fresh venv outside it, runs (about 10 s)
 # the README's first hour, every command as written, in a fresh directory (tests/test_first_hour.py)
 test-firsthour: $(STAMP)
 	$(PY) -m pytest -q -s -p no:cacheprovider -m firsthour tests/test_first_hour.py
 
+# a wheel of the checkout, installed in a fresh venv outside it, runs (about 10 s)
 test-install: $(STAMP)
 	$(PY) -m pytest -q -m install
 
