@@ -53,6 +53,7 @@ from rtcore import MODE_POSITION, MODE_PRESSURE, Hand
 MAX_STEPS = 2
 MODEL_CATCH_UP = 100  # samples the modelled chamber lives through at most after a gap
 NOISE_SIGMAS = 5.0  # the bound allows the innovation's noise this many standard deviations
+DRIFT_NOISE_SIGMAS = 3.0  # a drift must have moved the smoothed innovation this far, with the margin
 DEG = math.pi / 180.0
 P0, P1 = STATE, STATE + 1  # the chamber's columns, after the state's
 
@@ -82,7 +83,6 @@ class ModelCheck:
         self.uncertainty = safety["model_uncertainty_percent"] / 100.0
         self.margin_rad = safety["model_margin_deg"] * DEG
         self.persist_samples = max(1, math.ceil(safety["model_mismatch_ms"] / 1e3 * rate_hz - 1e-9))
-        self.trend = SensorTrend(n, dt, float(safety["sensor_drift_max_deg_per_s"]), self.persist_samples)
         self._innovation_deg = np.zeros(n)
         self.pressure_measured = bool(safety["pressure_measured"])
         self._effects(models)
@@ -90,6 +90,10 @@ class ModelCheck:
                                    for s in steps])
         # the bound's part that never changes
         self.floor_rad = self.static_rad + NOISE_SIGMAS * self.noise_rad + self.margin_rad
+        # a trend judged only where the sensor has left the model by more than its noise makes
+        level_deg = (DRIFT_NOISE_SIGMAS * self.noise_rad + self.margin_rad) / DEG
+        self.trend = SensorTrend(n, dt, float(safety["sensor_drift_max_deg_per_s"]), self.persist_samples,
+                                 level_deg)
         self.dead_samples = np.array([round(effect_value(m.effects, "dead_time") * rate_hz)
                                       for m in models])
         self._commands = np.zeros((int(self.dead_samples.max()) + 1, n))  # newest first

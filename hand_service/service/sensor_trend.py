@@ -16,11 +16,20 @@ forgetting (time constant TREND_WINDOW_S), as
 where θ, s_k and s_B are the prediction and its sensitivities to the stiffness and the
 damping (a parameter error, to first order, is such a combination; plausibility.py).
 c1 is the innovation's trend in deg/s with what the state explains taken out. It is
-judged TREND_SIGMAS standard errors short of itself: while the finger ramps, θ runs along
-t and the sensor's noise can pass for either (a wave to 60° on the simulated hand, a model
-that is exact: c1 of 3.6 deg/s from noise alone, its standard error 1.6). Judged beyond
-safety.sensor_drift_max_deg_per_s, either way, for model_mismatch_ms in a row: a fault
-(`implausible`, the finger named). A finger's fit starts again whenever its prediction
+judged three ways before a fault:
+- TREND_SIGMAS standard errors short of itself (a wave to 60° on the simulated hand, a
+  model that is exact: c1 of 3.6 deg/s from noise alone, its standard error 1.6);
+- only where time is apart from the state over the fit: the trend's variance inflation
+  under INFLATION_MAX. In a steady ramp θ runs along t, and a drift and a gain error are
+  the same line (a ramp to 73° on a gain 5 % off: c1 of +33 deg/s, inflation 2 100); only
+  the level check can judge there;
+- only where the innovation, smoothed over LEVEL_WINDOW_S, is further from zero than the
+  noise makes it (three of its standard deviations, with safety.model_margin_deg): the
+  prediction is driven by the measured pressure, whose noise the finger's dynamics turn
+  into an innovation correlated over tenths of a second, which the standard error takes
+  for white (a 5° move and back on an exact model: −4.2 deg/s, standard error 0.47).
+Beyond safety.sensor_drift_max_deg_per_s, either way, for model_mismatch_ms in a row: a
+fault (`implausible`, the finger named). A finger's fit starts again whenever its prediction
 does (arming, leaving force mode, a gap in the samples: the restarted prediction moves
 the innovation by what the model's error had made of it, a step the old fit would read
 as a trend). It takes no sample for TREND_SETTLE_S (a prediction started at rest from a
@@ -43,6 +52,8 @@ TREND_SETTLE_S = 0.5  # a fit takes no sample this soon after its prediction sta
 TREND_WARMUP = 2.0  # windows of samples a fit holds before it is judged
 TERMS = 6  # 1, t − now, θ, s_k, s_B, θ'·RATE_S
 RATE_S = 0.05  # the angular rate's regressor, scaled to an angle's size
+LEVEL_WINDOW_S = 0.1  # the innovation's smoothing, for the level a drift must have reached
+INFLATION_MAX = 10.0  # the trend's variance inflation beyond which time and the state are one
 TREND_SIGMAS = 3.0  # the trend judged is this many standard errors short of its estimate
 RIDGE = 1e-6  # of the weights' sum, on the diagonal: a finger at rest makes θ, s_k, s_B constants
 
@@ -51,8 +62,11 @@ class SensorTrend:
     """Per finger, the innovation's trend in deg/s with the state's part taken out."""
 
     def __init__(self, n_fingers: int, period_s: float, limit_deg_per_s: float, persist_samples: int,
-                 window_s: float = TREND_WINDOW_S) -> None:
+                 level_deg: np.ndarray, window_s: float = TREND_WINDOW_S) -> None:
         self.period_s = period_s
+        self.level_deg = np.asarray(level_deg, dtype=float)
+        self.level_forget = math.exp(-period_s / LEVEL_WINDOW_S)
+        self.smoothed_deg = np.zeros(n_fingers)  # the innovation, exponentially smoothed
         self.limit_deg_per_s = limit_deg_per_s
         self.persist_samples = persist_samples
         self.forget = math.exp(-period_s / window_s)
@@ -67,6 +81,7 @@ class SensorTrend:
         self.run = np.zeros(n_fingers, dtype=np.int64)  # samples in a row beyond the limit
         self.trend_deg_per_s = np.zeros(n_fingers)
         self.trend_error_deg_per_s = np.zeros(n_fingers)
+        self.inflation = np.zeros(n_fingers)
         self.worst_deg_per_s = np.zeros(n_fingers)  # the largest |trend| judged, for the statistics
         self.worst_judged_deg_per_s = np.full(n_fingers, -np.inf)  # of |trend| less its doubt
         self._x = np.zeros((n_fingers, TERMS))
@@ -80,6 +95,7 @@ class SensorTrend:
         self.cross[fingers] = 0.0
         self.square[fingers] = 0.0
         self.weight2[fingers] = 0.0
+        self.smoothed_deg[fingers] = 0.0
         self.samples[fingers] = 0
         self.run[fingers] = 0
         self.trend_deg_per_s[fingers] = 0.0
@@ -114,6 +130,9 @@ class SensorTrend:
         cross += weight[:, None] * x * innovation_deg[:, None]
         self.square += weight * innovation_deg ** 2
         self.weight2 += weight
+        blend = self.level_forget ** steps
+        self.smoothed_deg = np.where(checked, blend * self.smoothed_deg + (1 - blend) * innovation_deg,
+                                     self.smoothed_deg)
         judged = checked & (self.samples >= self.warmup_samples)
         if not judged.any():
             self.run[:] = 0
@@ -128,7 +147,10 @@ class SensorTrend:
         doubt = TREND_SIGMAS * self.trend_error_deg_per_s
         judged_deg_per_s = np.where(judged, np.abs(trend) - doubt, -np.inf)
         np.maximum(self.worst_judged_deg_per_s, judged_deg_per_s, out=self.worst_judged_deg_per_s)
-        beyond = judged_deg_per_s > self.limit_deg_per_s
+        centred = sums[:, 1, 1] - sums[:, 0, 1] ** 2 / np.maximum(sums[:, 0, 0], 1e-12)  # Σw(t − t̄)²
+        self.inflation = inverse[:, 1, 1] * centred  # 1: t is apart from the state; ∞: t is the state
+        beyond = ((judged_deg_per_s > self.limit_deg_per_s) & (np.abs(self.smoothed_deg) > self.level_deg)
+                  & (self.inflation < INFLATION_MAX))
         self.run = np.where(beyond, self.run + steps, 0)
         if not (self.run >= self.persist_samples).any():
             return None
