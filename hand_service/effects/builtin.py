@@ -1,0 +1,94 @@
+"""The project's effects (docs/formats.md §2.1, their torques in docs/physics.md §4): the
+terms of the C model (csrc/rtcore_model.c; the valve's in csrc/rtcore_sim_advance.c) and
+the simulated finger's loop in the angle (csrc/rtcore_sim_plant.c)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S
+from hand_service.effects.base import FieldEffect, FingerEffect, FitScales, Parameter
+
+# an effect's own torque over a recording may reach this many times the largest torque the
+# spring or the pressure makes in it (air drag in a fast vent can exceed them); dry friction
+# only twice: beyond the driving torque the finger would never have moved
+EFFECT_TORQUE_RATIO = 10.0
+FRICTION_TORQUE_RATIO = 2.0
+
+
+@dataclass(frozen=True)
+class DryFriction(FieldEffect):
+    def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
+        if scales.torque_nm > 0.0:
+            upper = max(upper, FRICTION_TORQUE_RATIO * scales.torque_nm)
+        return lower, upper
+
+
+@dataclass(frozen=True)
+class Gravity(FieldEffect):
+    def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
+        torque = EFFECT_TORQUE_RATIO * scales.torque_nm
+        if torque > 0.0 and scales.angle_rad > 0.0:
+            reach = min(torque / max(1.0 - math.cos(min(scales.angle_rad, math.pi)), 1e-3),
+                        1e3 * scales.torque_nm)
+            upper, lower = max(upper, reach), min(lower, -reach)
+        return lower, upper
+
+
+@dataclass(frozen=True)
+class AirDrag(FieldEffect):
+    def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
+        torque = EFFECT_TORQUE_RATIO * scales.torque_nm
+        if torque > 0.0 and scales.speed_rad_s > 0.0:
+            upper = max(upper, torque / scales.speed_rad_s**2)
+        return lower, upper
+
+
+@dataclass(frozen=True)
+class CubicSpring(FieldEffect):
+    def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
+        torque = EFFECT_TORQUE_RATIO * scales.torque_nm
+        if torque > 0.0 and scales.angle_rad > 0.0:
+            upper = max(upper, torque / scales.angle_rad**3)
+            lower = min(lower, -scales.stiffness_nm_per_rad / (3.0 * scales.angle_rad**2))
+        return lower, upper
+
+
+@dataclass(frozen=True)
+class DeadZone(FieldEffect):
+    def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
+        return lower, max(upper, 0.5 * scales.command_max_kpa)
+
+
+def _one(name: str, unit: str, neutral: float, lower: float, upper: float,
+         scale: float) -> tuple[Parameter, ...]:
+    return (Parameter(name, unit, neutral, lower, upper, scale),)
+
+
+BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
+    FieldEffect("valve_lag", "chamber pressure lags the command (first order)",
+                _one("tau_s", "s", 0.0, VALVE_LAG_TAU_S.lower, VALVE_LAG_TAU_S.upper, 0.03),
+                reference="a first-order pneumatic lag", rtcore_field="valve_lag_tau_s"),
+    FieldEffect("dead_time", "transport delay between command and chamber",
+                _one("delay_s", "s", 0.0, DEAD_TIME_DELAY_S.lower, DEAD_TIME_DELAY_S.upper, 0.01),
+                reference="tubing transport delay", rtcore_field="dead_time_s"),
+    DryFriction("coulomb_friction", "dry friction, stick-slip",
+                _one("torque_nm", "N·m", 0.0, 0.0, 0.05, 0.001),
+                reference="Coulomb friction, tanh-smoothed", rtcore_field="coulomb_torque_nm"),
+    CubicSpring("cubic_stiffness", "stiffening: extra torque k3·θ³",
+                _one("k3_nm_per_rad3", "N·m/rad³", 0.0, -2.0, 10.0, 0.05),
+                reference="a hardening (Duffing) spring", rtcore_field="cubic_stiffness_nm_per_rad3"),
+    Gravity("gravity", "gravity torque on the horizontal finger: −G·(1 − cos θ)",
+            _one("torque_nm", "N·m", 0.0, -0.5, 0.5, 0.01),
+            reference="the finger's weight about its base", rtcore_field="gravity_torque_nm"),
+    FieldEffect("asymmetric_stiffness", "stiffness differs when bending backwards (θ < 0)",
+                _one("stiffness_ratio", "k_neg/k_pos", 1.0, 0.05, 20.0, 0.5),
+                reference="a bilinear spring", rtcore_field="asymmetric_stiffness_ratio"),
+    AirDrag("quadratic_damping", "air drag: c2·|θ'|·θ'",
+            _one("c2_nms2_per_rad2", "N·m·s²/rad²", 0.0, 0.0, 0.05, 1e-4),
+            reference="quadratic (form) drag", rtcore_field="quadratic_damping_nms2_per_rad2"),
+    DeadZone("pressure_deadzone", "no torque until the pressure passes a threshold",
+             _one("threshold_kpa", "kPa", 0.0, 0.0, 100.0, 5.0),
+             reference="a membrane's pre-tension", rtcore_field="pressure_deadzone_kpa"),
+)
