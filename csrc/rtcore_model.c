@@ -14,7 +14,43 @@ int rtcore_effects_valid(const rtcore_effects *e)
            && isfinite(e->cubic_stiffness_nm_per_rad3) && isfinite(e->gravity_torque_nm)
            && isfinite(e->asymmetric_stiffness_ratio) && e->asymmetric_stiffness_ratio > 0.0
            && isfinite(e->quadratic_damping_nms2_per_rad2) && e->quadratic_damping_nms2_per_rad2 >= 0.0
-           && isfinite(e->pressure_deadzone_kpa) && e->pressure_deadzone_kpa >= 0.0;
+           && isfinite(e->pressure_deadzone_kpa) && e->pressure_deadzone_kpa >= 0.0
+           && isfinite(e->contact_stiffness_nm_per_radn) && e->contact_stiffness_nm_per_radn >= 0.0
+           && (e->contact_stiffness_nm_per_radn == 0.0
+               || (isfinite(e->contact_onset_deg) && isfinite(e->contact_exponent) && e->contact_exponent >= 1.0
+                   && e->contact_exponent <= 3.0));
+}
+
+/* How far past the contact's onset angle_rad is (0 before it, or without a contact). */
+static double contact_depth_rad(const rtcore_effects *e, double angle_rad)
+{
+    const double depth_rad = angle_rad - e->contact_onset_deg * RTCORE_RAD_PER_DEG;
+    return e->contact_stiffness_nm_per_radn > 0.0 && depth_rad > 0.0 ? depth_rad : 0.0;
+}
+
+/* The contact's torque Kc*(theta - theta_c)^n past its onset (0 before it). */
+double rtcore_contact_torque_nm(const rtcore_effects *e, double angle_rad)
+{
+    const double depth_rad = contact_depth_rad(e, angle_rad);
+    return depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent) : 0.0;
+}
+
+/* Its slope d/dtheta, n*Kc*(theta - theta_c)^(n-1) past the onset. */
+double rtcore_contact_stiffness_nm_per_rad(const rtcore_effects *e, double angle_rad)
+{
+    const double depth_rad = contact_depth_rad(e, angle_rad);
+    return depth_rad > 0.0
+               ? e->contact_exponent * e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent - 1.0)
+               : 0.0;
+}
+
+/* A bound on the slopes that grow with the angle (the cubic spring's, the contact's) for
+ * angles within reach_rad of angle_rad: what the simulator's steps must resolve. */
+double rtcore_model_slope_bound_nm_per_rad(const rtcore_effects *e, double angle_rad, double reach_rad)
+{
+    const double far_rad = fabs(angle_rad) + reach_rad;
+    return 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * far_rad * far_rad
+           + rtcore_contact_stiffness_nm_per_rad(e, angle_rad + reach_rad);
 }
 
 /* k, or k * ratio when bending backwards (asymmetric_stiffness). */
@@ -42,6 +78,9 @@ double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double vel
     if (e->gravity_torque_nm != 0.0) {
         torque += e->gravity_torque_nm * (1.0 - cos(angle_rad));
     }
+    if (e->contact_stiffness_nm_per_radn > 0.0) {
+        torque += rtcore_contact_torque_nm(e, angle_rad);
+    }
     return torque;
 }
 
@@ -53,6 +92,9 @@ double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad)
                        + 3.0 * e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad;
     if (e->gravity_torque_nm != 0.0) {
         stiffness += e->gravity_torque_nm * sin(angle_rad);
+    }
+    if (e->contact_stiffness_nm_per_radn > 0.0) {
+        stiffness += rtcore_contact_stiffness_nm_per_rad(e, angle_rad);
     }
     return stiffness;
 }

@@ -86,10 +86,11 @@ void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p)
     const double r2 = m->lever_arm_m * m->lever_arm_m;
     p->finger = f;
     rtcore_exact_plant_init(&p->linear, m->inertia_kgm2, m->damping_nms_per_rad, m->stiffness_nm_per_rad);
-    p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0;
+    p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0
+                         || e->contact_stiffness_nm_per_radn > 0.0;
     p->nonlinear = p->state_dependent || contact || e->coulomb_torque_nm > 0.0 || e->gravity_torque_nm != 0.0
                    || e->asymmetric_stiffness_ratio != 1.0 || f->hysteresis_torque_nm > 0.0;
-    p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0;
+    p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0 || e->contact_stiffness_nm_per_radn > 0.0;
     p->damping_slope_nms_per_rad = contact ? f->contact_damping_ns_per_m * r2 : 0.0;
     p->stiffness_slope_nm_per_rad = fabs(e->asymmetric_stiffness_ratio - 1.0) * m->stiffness_nm_per_rad
                                     + fabs(e->gravity_torque_nm)
@@ -155,7 +156,7 @@ static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propa
 }
 
 /* Where g has a kink or a jump (the object's surface, the contact force reaching 0 as
- * the finger leaves, θ = 0 with an asymmetric stiffness) a step is only as accurate as
+ * the finger leaves, θ = 0 with an asymmetric stiffness, the contact effect's onset) a step is only as accurate as
  * that allows: a step that crosses one is cut where it does, by linear interpolation
  * between its ends. The fraction of the step before the first crossing (1 for none), and
  * in *surface whether that one is the object's surface. */
@@ -187,6 +188,14 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
         && angle0_rad / (angle0_rad - angle1_rad) < fraction) {
         fraction = angle0_rad / (angle0_rad - angle1_rad);
         *surface = 0;
+    }
+    if (f->prbm.effects.contact_stiffness_nm_per_radn > 0.0) {
+        const double depth0 = angle0_rad - f->prbm.effects.contact_onset_deg * RTCORE_RAD_PER_DEG;
+        const double depth1 = angle1_rad - f->prbm.effects.contact_onset_deg * RTCORE_RAD_PER_DEG;
+        if (((depth0 < 0.0 && depth1 > 0.0) || (depth0 > 0.0 && depth1 < 0.0)) && depth0 / (depth0 - depth1) < fraction) {
+            fraction = depth0 / (depth0 - depth1);
+            *surface = 0;
+        }
     }
     return fraction;
 }

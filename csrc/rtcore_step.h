@@ -82,8 +82,10 @@ extern "C" {
  * The extra torque is
  *   tau(theta, omega) = k_eff(theta)*theta + k3*theta^3 + c2*|omega|*omega
  *                       + Tc*tanh(omega/omega_s) + G*(1 - cos theta)
- * with k_eff = k for theta >= 0 and k*ratio for theta < 0. The chamber pressure acts
- * only above the dead zone: M = N*max(p - p0, 0). Valve lag and dead time are
+ *                       + Kc*max(theta - theta_c, 0)^n
+ * with k_eff = k for theta >= 0 and k*ratio for theta < 0, and the last term a contact met
+ * past theta_c (contact_stiffness_nm_per_radn 0: none; n in [1, 3]). The chamber pressure
+ * acts only above the dead zone: M = N*max(p - p0, 0). Valve lag and dead time are
  * compensated in the position feedforward by a first-order lead of (tau + delay).
  */
 typedef struct {
@@ -96,6 +98,9 @@ typedef struct {
     double asymmetric_stiffness_ratio;
     double quadratic_damping_nms2_per_rad2;
     double pressure_deadzone_kpa;
+    double contact_stiffness_nm_per_radn;
+    double contact_onset_deg;
+    double contact_exponent;
 } rtcore_effects;
 
 /*

@@ -68,6 +68,10 @@ class Effects:
     asymmetric_stiffness_ratio: float = 1.0
     quadratic_damping_nms2_per_rad2: float = 0.0
     pressure_deadzone_kpa: float = 0.0
+    # a contact met past contact_onset_deg: Kc·(θ − θc)^n; stiffness 0 means none
+    contact_stiffness_nm_per_radn: float = 0.0
+    contact_onset_deg: float = 0.0
+    contact_exponent: float = 1.0
 
 
 @dataclass

@@ -12,9 +12,16 @@ from dataclasses import dataclass
 
 from rtcore import config as cfg
 from rtcore.arrays import Inputs, Outputs, allocate
-from rtcore.config import ConfigError, Effects, FingerConfig, HandConfig, Prbm
+from rtcore.config import ConfigError, FingerConfig, HandConfig
+from rtcore.reference_model import (
+    RAD_PER_DEG,
+    deadzone_invert,
+    effective_pressure,
+    model_stiffness,
+    model_torque,
+    model_torque_rate,
+)
 
-RAD_PER_DEG = math.pi / 180.0
 SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT
 POSITION_REFERENCES = ("angle_ref_deg", "velocity_ref_deg_per_s", "accel_ref_deg_per_s2",
                        "jerk_ref_deg_per_s3")
@@ -76,58 +83,7 @@ def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
     return math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
 
 
-# --- the PRBM with its effects -------------------------------------------------------
-
-def linear_stiffness(m: Prbm, angle_rad: float) -> float:
-    if angle_rad < 0.0:
-        return m.stiffness_nm_per_rad * m.effects.asymmetric_stiffness_ratio
-    return m.stiffness_nm_per_rad
-
-
-def model_torque(m: Prbm, angle_rad: float, velocity: float) -> float:
-    """k th + k3 th^3 + c2 |th'| th' + Tc tanh(th'/w) + G (1 - cos th)."""
-    e = m.effects
-    torque = linear_stiffness(m, angle_rad) * angle_rad
-    torque += e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad
-    torque += e.quadratic_damping_nms2_per_rad2 * abs(velocity) * velocity
-    if e.coulomb_torque_nm != 0.0:
-        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
-        torque += e.coulomb_torque_nm * math.tanh(velocity / smoothing)
-    if e.gravity_torque_nm != 0.0:
-        torque += e.gravity_torque_nm * (1.0 - math.cos(angle_rad))
-    return torque
-
-
-def model_stiffness(m: Prbm, angle_rad: float) -> float:
-    e = m.effects
-    stiffness = linear_stiffness(m, angle_rad) + 3.0 * e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad
-    if e.gravity_torque_nm != 0.0:
-        stiffness += e.gravity_torque_nm * math.sin(angle_rad)
-    return stiffness
-
-
-def model_torque_rate(m: Prbm, angle_rad: float, velocity: float, accel: float) -> float:
-    e = m.effects
-    d_velocity = 2.0 * e.quadratic_damping_nms2_per_rad2 * abs(velocity)
-    if e.coulomb_torque_nm != 0.0:
-        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
-        th = math.tanh(velocity / smoothing)
-        d_velocity += e.coulomb_torque_nm * (1.0 - th * th) / smoothing
-    return model_stiffness(m, angle_rad) * velocity + d_velocity * accel
-
-
-def deadzone_invert(e: Effects, pressure_kpa: float) -> float:
-    if e.pressure_deadzone_kpa > 0.0 and pressure_kpa > 0.0:
-        return pressure_kpa + e.pressure_deadzone_kpa
-    return pressure_kpa
-
-
-def effective_pressure(e: Effects, pressure_kpa: float) -> float:
-    p0 = e.pressure_deadzone_kpa
-    if p0 > 0.0:
-        return pressure_kpa - p0 if pressure_kpa > p0 else 0.0
-    return pressure_kpa
-
+# --- the PRBM with its effects: rtcore/reference_model.py ------------------------------
 
 def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     angle = s.angle_ref_deg * RAD_PER_DEG

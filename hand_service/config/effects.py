@@ -22,12 +22,15 @@ EffectSpec = Effect  # an effect of the library (hand_service/effects/base.py)
 
 
 def __getattr__(name: str) -> object:
-    """LIBRARY (every registered effect, in order) and BY_NAME, read from the registry on
-    use, so that a lab's effects (entry points) are in them."""
+    """LIBRARY (every registered effect, in order), BY_NAME and SEARCHED (those `diagnose`
+    searches for), read from the registry on use, so that a lab's effects (entry points)
+    are in them."""
     if name == "LIBRARY":
         return registry.library()
     if name == "BY_NAME":
         return registry.by_name()
+    if name == "SEARCHED":  # the effects `diagnose` searches for
+        return tuple(e for e in registry.library() if e.searched)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

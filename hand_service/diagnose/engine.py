@@ -174,7 +174,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                        rate_hz, start=moving)
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
-    missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]
+    missing = [spec.name for spec in fx.SEARCHED if spec.name not in model.effects]
     relative = relative_std(refit)  # what the data alone say (the prior below may hold some)
     unidentified = unpinned(refit)
     if unidentified or far_from_nominal(problem, refit, FAR_FACTOR):

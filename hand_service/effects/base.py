@@ -54,6 +54,9 @@ class Effect:
     parameters: tuple[Parameter, ...]
     reference: str = ""  # where the form comes from
     compensated: bool = False  # the controller's model includes it (feedforward, force estimate)
+    # `diagnose` searches for it (an effect whose onset or shape it cannot fit yet is
+    # simulated and compensated, not searched: docs/effects.md)
+    searched: bool = True
 
     # --- the primary parameter, as the one-parameter table had it ---------------------
     @property
@@ -111,13 +114,17 @@ class Effect:
 
 @dataclass(frozen=True)
 class FieldEffect(Effect):
-    """An effect that is one field of the C model's rtcore_effects: its primary parameter."""
+    """An effect that is a term of the C model: its first parameter one field of
+    rtcore_effects, its others (`more_fields`) more."""
 
     rtcore_field: str = ""
     compensated: bool = True
+    more_fields: tuple[tuple[str, str], ...] = ()  # (parameter, rtcore_effects field) beyond the first
 
     def rtcore_fields(self, values: Mapping[str, float]) -> dict[str, float]:
-        return {self.rtcore_field: float(values.get(self.param, self.neutral))}
+        full = self.full(values)
+        more = {field: full[param] for param, field in self.more_fields}
+        return {self.rtcore_field: full[self.param], **more}
 
     def apply(self, finger: SimFinger, values: Mapping[str, float]) -> SimFinger:
         effects: Effects = dataclasses.replace(finger.prbm.effects, **self.rtcore_fields(values))

@@ -42,13 +42,15 @@ def lab_package(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
 
 
 def test_the_eight_are_the_c_models_fields_in_their_order() -> None:
+    """(and searched by diagnose; contact, a term of the C model too, is not yet)"""
     names = tuple(e.name for e in fx.LIBRARY)
     assert names[:8] == EIGHT
     fields = {f.name for f in dataclasses.fields(Effects)}
     for name in EIGHT:
         effect = fx.BY_NAME[name]
         assert isinstance(effect, FieldEffect) and effect.rtcore_field in fields
-        assert effect.lower <= effect.neutral <= effect.upper
+        assert effect.lower <= effect.neutral <= effect.upper and effect.searched
+    assert not fx.BY_NAME["contact"].searched and fx.BY_NAME["contact"] not in fx.SEARCHED
 
 
 def test_a_field_effects_hook_sets_its_field_and_reads_it_back() -> None:
@@ -139,3 +141,10 @@ def test_diagnose_names_a_labs_effect(tmp_path: Path) -> None:
 def test_every_effect_at_neutral_is_the_plain_model() -> None:
     assert fx.to_rtcore({name: {fx.BY_NAME[name].param: fx.BY_NAME[name].neutral} for name in EIGHT}) \
         == Effects()
+
+
+def test_contacts_three_parameters_are_its_c_fields() -> None:
+    block = fx.parse_effects({"contact": {"stiffness_nm_per_radn": 2.0, "onset_deg": 30}}, "m.yaml")
+    effects = fx.to_rtcore(block)
+    assert (effects.contact_stiffness_nm_per_radn, effects.contact_onset_deg, effects.contact_exponent) \
+        == (2.0, 30.0, 1.0)  # the exponent at its default: a linear stop

@@ -46,6 +46,8 @@ EFFECTS = {
     "dead_time": Effects(dead_time_s=0.0137),
     "deadzone": Effects(pressure_deadzone_kpa=20.0, valve_lag_tau_s=0.03),
     "asymmetric_stiffness": Effects(asymmetric_stiffness_ratio=2.0),
+    "contact_linear": Effects(contact_stiffness_nm_per_radn=2.0, contact_onset_deg=20.0),
+    "contact_hertz": Effects(contact_stiffness_nm_per_radn=5.0, contact_onset_deg=20.0, contact_exponent=1.5),
     "all": Effects(coulomb_torque_nm=0.005, cubic_stiffness_nm_per_rad3=0.3, gravity_torque_nm=0.05,
                    quadratic_damping_nms2_per_rad2=0.002, valve_lag_tau_s=0.03, dead_time_s=0.0137,
                    pressure_deadzone_kpa=20.0, asymmetric_stiffness_ratio=2.0),
