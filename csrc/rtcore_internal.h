@@ -27,6 +27,8 @@ double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad)
 double rtcore_contact_torque_nm(const rtcore_effects *e, double angle_rad);
 double rtcore_contact_stiffness_nm_per_rad(const rtcore_effects *e, double angle_rad);
 double rtcore_model_slope_bound_nm_per_rad(const rtcore_effects *e, double angle_rad, double reach_rad);
+double rtcore_stiffening_torque_nm(const rtcore_prbm *m, double angle_rad, double effective_kpa);
+double rtcore_stiffened_gain_share(const rtcore_prbm *m, double angle_rad);
 double rtcore_model_torque_rate_nm_per_s(const rtcore_prbm *m, double angle_rad,
                                          double velocity_rad_per_s, double accel_rad_per_s2);
 double rtcore_deadzone_invert_kpa(const rtcore_effects *e, double pressure_kpa);

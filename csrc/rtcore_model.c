@@ -18,7 +18,38 @@ int rtcore_effects_valid(const rtcore_effects *e)
            && isfinite(e->contact_stiffness_nm_per_radn) && e->contact_stiffness_nm_per_radn >= 0.0
            && (e->contact_stiffness_nm_per_radn == 0.0
                || (isfinite(e->contact_onset_deg) && isfinite(e->contact_exponent) && e->contact_exponent >= 1.0
-                   && e->contact_exponent <= 3.0));
+                   && e->contact_exponent <= 3.0))
+           && isfinite(e->pressure_stiffening_gain) && e->pressure_stiffening_gain >= 0.0
+           && (e->pressure_stiffening_gain == 0.0
+               || (isfinite(e->pressure_stiffening_ref_kpa) && e->pressure_stiffening_ref_kpa > 0.0))
+           && isfinite(e->creep_stiffness_ratio) && e->creep_stiffness_ratio >= 0.0
+           && (e->creep_stiffness_ratio == 0.0 || (isfinite(e->creep_time_s) && e->creep_time_s > 0.0));
+}
+
+/* The pressure's stiffening at effective pressure effective_kpa: k*c*(p_eff/p_ref)*theta. */
+double rtcore_stiffening_torque_nm(const rtcore_prbm *m, double angle_rad, double effective_kpa)
+{
+    const rtcore_effects *e = &m->effects;
+    if (!(e->pressure_stiffening_gain > 0.0)) {
+        return 0.0;
+    }
+    return m->stiffness_nm_per_rad * e->pressure_stiffening_gain * (effective_kpa / e->pressure_stiffening_ref_kpa)
+           * angle_rad;
+}
+
+/* The share of N a stiffened finger keeps at angle_rad: the pressure's torque net of its
+ * stiffening is N*p_eff*(1 - s*theta), s = k*c/(N*p_ref); at least STIFFENED_GAIN_FLOOR, so
+ * that the feedforward's inversion stays finite where the stiffening would eat the gain. */
+static const double STIFFENED_GAIN_FLOOR = 0.1;
+
+double rtcore_stiffened_gain_share(const rtcore_prbm *m, double angle_rad)
+{
+    const rtcore_effects *e = &m->effects;
+    if (!(e->pressure_stiffening_gain > 0.0) || !(m->pressure_gain_nm_per_kpa > 0.0)) {
+        return 1.0;
+    }
+    return fmax(1.0 - rtcore_stiffening_torque_nm(m, angle_rad, 1.0) / m->pressure_gain_nm_per_kpa,
+                STIFFENED_GAIN_FLOOR);
 }
 
 /* How far past the contact's onset angle_rad is (0 before it, or without a contact). */
@@ -144,7 +175,8 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     const double jerk = s->jerk_ref_deg_per_s3 * RTCORE_RAD_PER_DEG;
     const rtcore_prbm *m = &c->prbm;
     const double lead_s = m->effects.valve_lag_tau_s + m->effects.dead_time_s;
-    const double gain = m->pressure_gain_nm_per_kpa;
+    const double share = rtcore_stiffened_gain_share(m, angle);
+    const double gain = m->pressure_gain_nm_per_kpa * share;
     double torque;
     double torque_rate;
 
@@ -160,6 +192,10 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     } else {
         return 0.0;
     }
+    if (m->effects.pressure_stiffening_gain > 0.0 && share > STIFFENED_GAIN_FLOOR) {
+        /* p_eff = torque / G(theta), G falling with theta: d/dt adds torque*k*c/p_ref*theta'/G */
+        torque_rate += torque * rtcore_stiffening_torque_nm(m, 1.0, 1.0) * velocity / gain;
+    }
     return rtcore_deadzone_invert_kpa(&m->effects, torque / gain) + lead_s * torque_rate / gain;
 }
 
@@ -169,7 +205,8 @@ double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_
 {
     const rtcore_prbm *m = &c->prbm;
     const double torque = rtcore_model_torque_nm(m, angle_rad, 0.0) + m->lever_arm_m * force_ref_n;
-    return rtcore_deadzone_invert_kpa(&m->effects, torque / m->pressure_gain_nm_per_kpa);
+    const double gain = m->pressure_gain_nm_per_kpa * rtcore_stiffened_gain_share(m, angle_rad);
+    return rtcore_deadzone_invert_kpa(&m->effects, torque / gain);
 }
 
 /* Signed normal force at the force point (paper Eq. 5 with (J^T)+ = J / r^2):
@@ -179,8 +216,8 @@ double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_press
                              double accel_rad_per_s2)
 {
     const rtcore_prbm *m = &c->prbm;
-    double torque = m->pressure_gain_nm_per_kpa
-                    * rtcore_effective_pressure_kpa(&m->effects, chamber_pressure_kpa);
+    const double effective_kpa = rtcore_effective_pressure_kpa(&m->effects, chamber_pressure_kpa);
+    double torque = m->pressure_gain_nm_per_kpa * effective_kpa - rtcore_stiffening_torque_nm(m, angle_rad, effective_kpa);
     if (c->force_estimate_dynamic) {
         torque -= m->inertia_kgm2 * accel_rad_per_s2 + m->damping_nms_per_rad * velocity_rad_per_s
                   + rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);

@@ -154,6 +154,9 @@ double rtcore_sim_parameter_step_s(const sim_plant *p)
     if (motion_per_s > 0.0) {
         step_s = fmin(step_s, MOTION_STEP_FRACTION / motion_per_s);
     }
+    if (p->finger->prbm.effects.creep_stiffness_ratio > 0.0) {
+        step_s = fmin(step_s, MOTION_STEP_FRACTION * p->finger->prbm.effects.creep_time_s); /* the dashpot's */
+    }
     return step_s;
 }
 
@@ -186,7 +189,8 @@ static const double SETTLED_SLOPE_SHARE = 0.5;
 double rtcore_sim_settle_range_rad_for(const sim_plant *p)
 {
     const rtcore_sim_finger *f = p->finger;
-    if (!p->nonlinear || p->kinks || f->prbm.effects.coulomb_torque_nm > 0.0 || !(p->linear.stiffness_nm_per_rad > 0.0)
+    if (!p->nonlinear || p->kinks || f->prbm.effects.coulomb_torque_nm > 0.0 || f->prbm.effects.creep_stiffness_ratio > 0.0
+        || !(p->linear.stiffness_nm_per_rad > 0.0)
         || p->stiffness_slope_nm_per_rad >= SETTLED_SLOPE_SHARE * p->linear.stiffness_nm_per_rad
         || p->damping_slope_nms_per_rad >= SETTLED_SLOPE_SHARE * p->linear.damping_nms_per_rad) {
         return 0.0;

@@ -72,6 +72,13 @@ class Effects:
     contact_stiffness_nm_per_radn: float = 0.0
     contact_onset_deg: float = 0.0
     contact_exponent: float = 1.0
+    # the chamber pressure stiffens the finger: k·(1 + c·p_eff/p_ref); gain 0 means none
+    pressure_stiffening_gain: float = 0.0
+    pressure_stiffening_ref_kpa: float = 100.0
+    # creep: a standard-linear-solid branch, a spring ratio·k in series with a dashpot of time
+    # constant creep_time_s (the simulated finger's, not the controller's); ratio 0 means none
+    creep_stiffness_ratio: float = 0.0
+    creep_time_s: float = 1.0
 
 
 @dataclass

@@ -15,11 +15,14 @@ from rtcore.arrays import Inputs, Outputs, allocate
 from rtcore.config import ConfigError, FingerConfig, HandConfig
 from rtcore.reference_model import (
     RAD_PER_DEG,
+    STIFFENED_GAIN_FLOOR,
     deadzone_invert,
     effective_pressure,
     model_stiffness,
     model_torque,
     model_torque_rate,
+    stiffened_gain_share,
+    stiffening_torque,
 )
 
 SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT
@@ -92,7 +95,8 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     jerk = s.jerk_ref_deg_per_s3 * RAD_PER_DEG
     m = c.prbm
     lead_s = m.effects.valve_lag_tau_s + m.effects.dead_time_s
-    gain = m.pressure_gain_nm_per_kpa
+    share = stiffened_gain_share(m, angle)
+    gain = m.pressure_gain_nm_per_kpa * share
     if c.feedforward == cfg.FF_DYNAMIC:
         torque = (m.inertia_kgm2 * accel + m.damping_nms_per_rad * velocity
                   + model_torque(m, angle, velocity))
@@ -103,20 +107,24 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
         torque_rate = model_stiffness(m, angle) * velocity
     else:
         return 0.0
+    if m.effects.pressure_stiffening_gain > 0.0 and share > STIFFENED_GAIN_FLOOR:
+        torque_rate += torque * stiffening_torque(m, 1.0, 1.0) * velocity / gain
     return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate / gain
 
 
 def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float) -> float:
     m = c.prbm
     torque = model_torque(m, angle_rad, 0.0) + m.lever_arm_m * force_ref_n
-    return deadzone_invert(m.effects, torque / m.pressure_gain_nm_per_kpa)
+    gain = m.pressure_gain_nm_per_kpa * stiffened_gain_share(m, angle_rad)
+    return deadzone_invert(m.effects, torque / gain)
 
 
 def force_normal(c: FingerConfig, chamber_kpa: float, angle_rad: float, velocity: float,
                  accel: float) -> float:
     """Signed normal force (J^T)+ (N p - tau): F_n = (N p_eff - tau) / r."""
     m = c.prbm
-    torque = m.pressure_gain_nm_per_kpa * effective_pressure(m.effects, chamber_kpa)
+    effective_kpa = effective_pressure(m.effects, chamber_kpa)
+    torque = m.pressure_gain_nm_per_kpa * effective_kpa - stiffening_torque(m, angle_rad, effective_kpa)
     if c.force_estimate_dynamic:
         torque -= (m.inertia_kgm2 * accel + m.damping_nms_per_rad * velocity
                    + model_torque(m, angle_rad, velocity))

@@ -81,3 +81,22 @@ def effective_pressure(e: Effects, pressure_kpa: float) -> float:
     if p0 > 0.0:
         return pressure_kpa - p0 if pressure_kpa > p0 else 0.0
     return pressure_kpa
+
+
+STIFFENED_GAIN_FLOOR = 0.1  # the share of N a stiffened finger keeps at least
+
+
+def stiffening_torque(m: Prbm, angle_rad: float, effective_kpa: float) -> float:
+    """k c (p_eff / p_ref) th: the pressure's stiffening."""
+    e = m.effects
+    if not e.pressure_stiffening_gain > 0.0:
+        return 0.0
+    per_kpa = effective_kpa / e.pressure_stiffening_ref_kpa
+    return m.stiffness_nm_per_rad * e.pressure_stiffening_gain * per_kpa * angle_rad
+
+
+def stiffened_gain_share(m: Prbm, angle_rad: float) -> float:
+    """1 - k c th / (N p_ref), at least the floor."""
+    if not m.effects.pressure_stiffening_gain > 0.0 or not m.pressure_gain_nm_per_kpa > 0.0:
+        return 1.0
+    return max(1.0 - stiffening_torque(m, angle_rad, 1.0) / m.pressure_gain_nm_per_kpa, STIFFENED_GAIN_FLOOR)
