@@ -52,6 +52,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "an offset that drifts, estimated from the recording (an analog sensor "
                              "chain's noise: a clean recording then comes out clean); white, "
                              "independent samples (see docs/diagnose.md)")
+    parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
+                        help="search also for a library effect diagnose leaves out by default "
+                             "(pressure_stiffening, creep: their first parameter fitted, the others at "
+                             "their defaults; docs/effects.md); repeatable")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress on stderr (else a bar on a terminal, a line every few "
                              "seconds elsewhere)")
@@ -102,7 +106,7 @@ def main(args: argparse.Namespace) -> int:
     with Progress("diagnose", quiet=args.quiet) as progress:
         try:
             result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress,
-                              grid.missing, args.input_hold, args.noise_model)
+                              grid.missing, args.input_hold, args.noise_model, also=args.search)
         except UserError as refused:
             raise explained(refused, slips) from None
         progress.done()
