@@ -16,7 +16,8 @@ output-error least squares, tests the residual (whiteness, cross-correlation wit
 command, time windows), then fits each library effect the model does not already
 include (valve_lag, dead_time, coulomb_friction, cubic_stiffness, gravity,
 asymmetric_stiffness, quadratic_damping, pressure_deadzone, and those an installed package
-adds: docs/effects.md) jointly with k, B and N.
+adds: docs/effects.md; contact, pressure_stiffening, creep and hysteresis with --search)
+jointly with k, B and N.
 An effect is named only when the information criterion and held-out data both favour it
 and no other effect explains the same residual as well. A quarter of the data, in
 interleaved blocks, is held out from every fit.
