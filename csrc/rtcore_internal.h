@@ -34,6 +34,8 @@ double rtcore_model_torque_rate_nm_per_s(const rtcore_prbm *m, double angle_rad,
 double rtcore_deadzone_invert_kpa(const rtcore_effects *e, double pressure_kpa);
 double rtcore_effective_pressure_kpa(const rtcore_effects *e, double pressure_kpa);
 double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtcore_finger_state *s);
+void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered,
+                                   double dt_s);
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
                                     double force_ref_n);
 double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_pressure_kpa,

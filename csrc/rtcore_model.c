@@ -164,6 +164,22 @@ double rtcore_effective_pressure_kpa(const rtcore_effects *e, double pressure_kp
     return pressure_kpa;
 }
 
+/* The creep branch's dashpot driven by the angle reference, T*x' = theta_ref - x over the
+ * tick (the reference held); on entering position mode the branch is taken as relaxed at
+ * the filtered angle, where the finger has been. */
+void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered,
+                                   double dt_s)
+{
+    const rtcore_effects *e = &c->prbm.effects;
+    if (!(e->creep_stiffness_ratio > 0.0)) {
+        return;
+    }
+    if (entered) {
+        s->creep_ref_deg = s->angle_filt_deg;
+    }
+    s->creep_ref_deg = s->angle_ref_deg + (s->creep_ref_deg - s->angle_ref_deg) * exp(-dt_s / e->creep_time_s);
+}
+
 /* Position feedforward from the held references in s (deg based). Quasi-static:
  * N p = tau(th, 0). Dynamic: N p = A th'' + B th' + tau(th, th'). Both add the lead
  * (valve lag + dead time) * dp/dt, with dp/dt from the reference's own derivatives. */
@@ -191,6 +207,13 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
         torque_rate = rtcore_model_stiffness_nm_per_rad(m, angle) * velocity;
     } else {
         return 0.0;
+    }
+    if (m->effects.creep_stiffness_ratio > 0.0) {
+        /* the creep branch's torque beta*k*(theta - x) and its rate, x from the reference */
+        const double creep_rad = s->creep_ref_deg * RTCORE_RAD_PER_DEG;
+        const double branch_nm_per_rad = m->effects.creep_stiffness_ratio * m->stiffness_nm_per_rad;
+        torque += branch_nm_per_rad * (angle - creep_rad);
+        torque_rate += branch_nm_per_rad * (velocity - (angle - creep_rad) / m->effects.creep_time_s);
     }
     if (m->effects.pressure_stiffening_gain > 0.0 && share > STIFFENED_GAIN_FLOOR) {
         /* p_eff = torque / G(theta), G falling with theta: d/dt adds torque*k*c/p_ref*theta'/G */

@@ -199,6 +199,8 @@ typedef struct {
     double pressure_ref_kpa;
     double impedance_stiffness_n_per_deg;
     double impedance_damping_n_s_per_deg;
+    /* the creep branch's dashpot as the angle reference would move it (position mode) */
+    double creep_ref_deg;
 } rtcore_finger_state;
 
 /* Allocate one of these (static, stack or ffi.new) and call rtcore_hand_configure. */

@@ -111,7 +111,7 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
                  Parameter("time_s", "s", 1.0, 0.01, 100.0, 1.0)),
                 reference="Zener's standard linear solid (Zener 1948)",
                 rtcore_field="creep_stiffness_ratio", more_fields=(("time_s", "creep_time_s"),),
-                compensated=False, searched=False),
+                searched=False),
     FingerEffect("hysteresis", "a rate-independent loop (Dahl): −H·z, dz/dθ = (sign θ' − z)/θh",
                  (Parameter("torque_nm", "N·m", 0.0, 0.0, 0.5, 0.005),
                   Parameter("travel_deg", "deg", 5.0, 0.1, 90.0, 2.0)),

@@ -41,6 +41,8 @@ effects_strategy = st.builds(
     contact_exponent=positive(1.0, 3.0),
     pressure_stiffening_gain=maybe(positive(0.05, 3.0)),
     pressure_stiffening_ref_kpa=positive(20.0, 200.0),
+    creep_stiffness_ratio=maybe(positive(0.01, 2.0)),
+    creep_time_s=positive(0.05, 5.0),
 )
 
 
