@@ -94,6 +94,7 @@ void rtcore_finger_reset(rtcore_hand *hand, int32_t finger)
     s->pressure_ref_kpa = 0.0;
     s->impedance_stiffness_n_per_deg = 0.0;
     s->impedance_damping_n_s_per_deg = 0.0;
+    s->creep_ref_deg = 0.0;
 }
 
 void rtcore_hand_reset(rtcore_hand *hand)

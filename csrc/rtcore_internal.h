@@ -24,11 +24,18 @@ int32_t rtcore_butter_sections(rtcore_biquad *sections, int32_t max_sections, in
 int rtcore_effects_valid(const rtcore_effects *e);
 double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s);
 double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad);
+double rtcore_contact_torque_nm(const rtcore_effects *e, double angle_rad);
+double rtcore_contact_stiffness_nm_per_rad(const rtcore_effects *e, double angle_rad);
+double rtcore_model_slope_bound_nm_per_rad(const rtcore_effects *e, double angle_rad, double reach_rad);
+double rtcore_stiffening_torque_nm(const rtcore_prbm *m, double angle_rad, double effective_kpa);
+double rtcore_stiffened_gain_share(const rtcore_prbm *m, double angle_rad);
 double rtcore_model_torque_rate_nm_per_s(const rtcore_prbm *m, double angle_rad,
                                          double velocity_rad_per_s, double accel_rad_per_s2);
 double rtcore_deadzone_invert_kpa(const rtcore_effects *e, double pressure_kpa);
 double rtcore_effective_pressure_kpa(const rtcore_effects *e, double pressure_kpa);
 double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtcore_finger_state *s);
+void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered,
+                                   double dt_s);
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
                                     double force_ref_n);
 double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_pressure_kpa,

@@ -14,7 +14,74 @@ int rtcore_effects_valid(const rtcore_effects *e)
            && isfinite(e->cubic_stiffness_nm_per_rad3) && isfinite(e->gravity_torque_nm)
            && isfinite(e->asymmetric_stiffness_ratio) && e->asymmetric_stiffness_ratio > 0.0
            && isfinite(e->quadratic_damping_nms2_per_rad2) && e->quadratic_damping_nms2_per_rad2 >= 0.0
-           && isfinite(e->pressure_deadzone_kpa) && e->pressure_deadzone_kpa >= 0.0;
+           && isfinite(e->pressure_deadzone_kpa) && e->pressure_deadzone_kpa >= 0.0
+           && isfinite(e->contact_stiffness_nm_per_radn) && e->contact_stiffness_nm_per_radn >= 0.0
+           && (e->contact_stiffness_nm_per_radn == 0.0
+               || (isfinite(e->contact_onset_deg) && isfinite(e->contact_exponent) && e->contact_exponent >= 1.0
+                   && e->contact_exponent <= 3.0))
+           && isfinite(e->pressure_stiffening_gain) && e->pressure_stiffening_gain >= 0.0
+           && (e->pressure_stiffening_gain == 0.0
+               || (isfinite(e->pressure_stiffening_ref_kpa) && e->pressure_stiffening_ref_kpa > 0.0))
+           && isfinite(e->creep_stiffness_ratio) && e->creep_stiffness_ratio >= 0.0
+           && (e->creep_stiffness_ratio == 0.0 || (isfinite(e->creep_time_s) && e->creep_time_s > 0.0));
+}
+
+/* The pressure's stiffening at effective pressure effective_kpa: k*c*(p_eff/p_ref)*theta. */
+double rtcore_stiffening_torque_nm(const rtcore_prbm *m, double angle_rad, double effective_kpa)
+{
+    const rtcore_effects *e = &m->effects;
+    if (!(e->pressure_stiffening_gain > 0.0)) {
+        return 0.0;
+    }
+    return m->stiffness_nm_per_rad * e->pressure_stiffening_gain * (effective_kpa / e->pressure_stiffening_ref_kpa)
+           * angle_rad;
+}
+
+/* The share of N a stiffened finger keeps at angle_rad: the pressure's torque net of its
+ * stiffening is N*p_eff*(1 - s*theta), s = k*c/(N*p_ref); at least STIFFENED_GAIN_FLOOR, so
+ * that the feedforward's inversion stays finite where the stiffening would eat the gain. */
+static const double STIFFENED_GAIN_FLOOR = 0.1;
+
+double rtcore_stiffened_gain_share(const rtcore_prbm *m, double angle_rad)
+{
+    const rtcore_effects *e = &m->effects;
+    if (!(e->pressure_stiffening_gain > 0.0) || !(m->pressure_gain_nm_per_kpa > 0.0)) {
+        return 1.0;
+    }
+    return fmax(1.0 - rtcore_stiffening_torque_nm(m, angle_rad, 1.0) / m->pressure_gain_nm_per_kpa,
+                STIFFENED_GAIN_FLOOR);
+}
+
+/* How far past the contact's onset angle_rad is (0 before it, or without a contact). */
+static double contact_depth_rad(const rtcore_effects *e, double angle_rad)
+{
+    const double depth_rad = angle_rad - e->contact_onset_deg * RTCORE_RAD_PER_DEG;
+    return e->contact_stiffness_nm_per_radn > 0.0 && depth_rad > 0.0 ? depth_rad : 0.0;
+}
+
+/* The contact's torque Kc*(theta - theta_c)^n past its onset (0 before it). */
+double rtcore_contact_torque_nm(const rtcore_effects *e, double angle_rad)
+{
+    const double depth_rad = contact_depth_rad(e, angle_rad);
+    return depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent) : 0.0;
+}
+
+/* Its slope d/dtheta, n*Kc*(theta - theta_c)^(n-1) past the onset. */
+double rtcore_contact_stiffness_nm_per_rad(const rtcore_effects *e, double angle_rad)
+{
+    const double depth_rad = contact_depth_rad(e, angle_rad);
+    return depth_rad > 0.0
+               ? e->contact_exponent * e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent - 1.0)
+               : 0.0;
+}
+
+/* A bound on the slopes that grow with the angle (the cubic spring's, the contact's) for
+ * angles within reach_rad of angle_rad: what the simulator's steps must resolve. */
+double rtcore_model_slope_bound_nm_per_rad(const rtcore_effects *e, double angle_rad, double reach_rad)
+{
+    const double far_rad = fabs(angle_rad) + reach_rad;
+    return 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * far_rad * far_rad
+           + rtcore_contact_stiffness_nm_per_rad(e, angle_rad + reach_rad);
 }
 
 /* k, or k * ratio when bending backwards (asymmetric_stiffness). */
@@ -42,6 +109,9 @@ double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double vel
     if (e->gravity_torque_nm != 0.0) {
         torque += e->gravity_torque_nm * (1.0 - cos(angle_rad));
     }
+    if (e->contact_stiffness_nm_per_radn > 0.0) {
+        torque += rtcore_contact_torque_nm(e, angle_rad);
+    }
     return torque;
 }
 
@@ -53,6 +123,9 @@ double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad)
                        + 3.0 * e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad;
     if (e->gravity_torque_nm != 0.0) {
         stiffness += e->gravity_torque_nm * sin(angle_rad);
+    }
+    if (e->contact_stiffness_nm_per_radn > 0.0) {
+        stiffness += rtcore_contact_stiffness_nm_per_rad(e, angle_rad);
     }
     return stiffness;
 }
@@ -91,6 +164,22 @@ double rtcore_effective_pressure_kpa(const rtcore_effects *e, double pressure_kp
     return pressure_kpa;
 }
 
+/* The creep branch's dashpot driven by the angle reference, T*x' = theta_ref - x over the
+ * tick (the reference held); on entering position mode the branch is taken as relaxed at
+ * the filtered angle, where the finger has been. */
+void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered,
+                                   double dt_s)
+{
+    const rtcore_effects *e = &c->prbm.effects;
+    if (!(e->creep_stiffness_ratio > 0.0)) {
+        return;
+    }
+    if (entered) {
+        s->creep_ref_deg = s->angle_filt_deg;
+    }
+    s->creep_ref_deg = s->angle_ref_deg + (s->creep_ref_deg - s->angle_ref_deg) * exp(-dt_s / e->creep_time_s);
+}
+
 /* Position feedforward from the held references in s (deg based). Quasi-static:
  * N p = tau(th, 0). Dynamic: N p = A th'' + B th' + tau(th, th'). Both add the lead
  * (valve lag + dead time) * dp/dt, with dp/dt from the reference's own derivatives. */
@@ -102,7 +191,8 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     const double jerk = s->jerk_ref_deg_per_s3 * RTCORE_RAD_PER_DEG;
     const rtcore_prbm *m = &c->prbm;
     const double lead_s = m->effects.valve_lag_tau_s + m->effects.dead_time_s;
-    const double gain = m->pressure_gain_nm_per_kpa;
+    const double share = rtcore_stiffened_gain_share(m, angle);
+    const double gain = m->pressure_gain_nm_per_kpa * share;
     double torque;
     double torque_rate;
 
@@ -118,6 +208,17 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     } else {
         return 0.0;
     }
+    if (m->effects.creep_stiffness_ratio > 0.0) {
+        /* the creep branch's torque beta*k*(theta - x) and its rate, x from the reference */
+        const double creep_rad = s->creep_ref_deg * RTCORE_RAD_PER_DEG;
+        const double branch_nm_per_rad = m->effects.creep_stiffness_ratio * m->stiffness_nm_per_rad;
+        torque += branch_nm_per_rad * (angle - creep_rad);
+        torque_rate += branch_nm_per_rad * (velocity - (angle - creep_rad) / m->effects.creep_time_s);
+    }
+    if (m->effects.pressure_stiffening_gain > 0.0 && share > STIFFENED_GAIN_FLOOR) {
+        /* p_eff = torque / G(theta), G falling with theta: d/dt adds torque*k*c/p_ref*theta'/G */
+        torque_rate += torque * rtcore_stiffening_torque_nm(m, 1.0, 1.0) * velocity / gain;
+    }
     return rtcore_deadzone_invert_kpa(&m->effects, torque / gain) + lead_s * torque_rate / gain;
 }
 
@@ -127,7 +228,8 @@ double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_
 {
     const rtcore_prbm *m = &c->prbm;
     const double torque = rtcore_model_torque_nm(m, angle_rad, 0.0) + m->lever_arm_m * force_ref_n;
-    return rtcore_deadzone_invert_kpa(&m->effects, torque / m->pressure_gain_nm_per_kpa);
+    const double gain = m->pressure_gain_nm_per_kpa * rtcore_stiffened_gain_share(m, angle_rad);
+    return rtcore_deadzone_invert_kpa(&m->effects, torque / gain);
 }
 
 /* Signed normal force at the force point (paper Eq. 5 with (J^T)+ = J / r^2):
@@ -137,8 +239,8 @@ double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_press
                              double accel_rad_per_s2)
 {
     const rtcore_prbm *m = &c->prbm;
-    double torque = m->pressure_gain_nm_per_kpa
-                    * rtcore_effective_pressure_kpa(&m->effects, chamber_pressure_kpa);
+    const double effective_kpa = rtcore_effective_pressure_kpa(&m->effects, chamber_pressure_kpa);
+    double torque = m->pressure_gain_nm_per_kpa * effective_kpa - rtcore_stiffening_torque_nm(m, angle_rad, effective_kpa);
     if (c->force_estimate_dynamic) {
         torque -= m->inertia_kgm2 * accel_rad_per_s2 + m->damping_nms_per_rad * velocity_rad_per_s
                   + rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);

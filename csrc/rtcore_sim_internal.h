@@ -55,6 +55,7 @@ typedef struct {
     double damping_slope_nms_per_rad; /* bound on −dg/dθ' (>= 0: g only damps) everywhere,
                                        * the friction's apart (rtcore_sim_damping_step_s) */
     double stiffness_slope_nm_per_rad; /* bound on |dg/dθ| everywhere */
+    double external_torque_nm; /* the segment's, held: the drive less it is N·p_eff */
 } sim_plant;
 
 /* rtcore_sim_step_size.c */

@@ -56,16 +56,44 @@ static double loop_z(const rtcore_sim_finger *f, const rtcore_sim_motion *from, 
     return toward + (from->hysteresis_z - toward) * exp(-fabs(travel_rad) / (f->hysteresis_travel_deg * RTCORE_RAD_PER_DEG));
 }
 
+/* The creep branch's dashpot x at angle_rad, elapsed_s after `from` (the state at the
+ * step's start), the angle taken as moving linearly over that time: T·x' = θ − x solved
+ * exactly for it, x = x0·d + θ − θ0·d − (θ − θ0)·(T/t)·(1 − d), d = e^(−t/T). */
+static double creep_angle_rad(const rtcore_effects *e, const rtcore_sim_motion *from, double angle_rad,
+                              double elapsed_s)
+{
+    const double time_s = e->creep_time_s;
+    double decay;
+    if (!(elapsed_s > 0.0)) {
+        return from->creep_angle_rad;
+    }
+    decay = exp(-elapsed_s / time_s);
+    return from->creep_angle_rad * decay + angle_rad - from->angle_rad * decay
+           + (angle_rad - from->angle_rad) * (time_s / elapsed_s) * expm1(-elapsed_s / time_s);
+}
+
 /* g(θ, θ'): the torque beyond N·p_eff − k·θ − B·θ', with the object touching or not as a
  * step has it (the damper makes the force jump as the finger reaches the surface, so a
  * step that reaches it ends there and the next one starts touching), and the loop's as it
  * has moved from `from`, the state at the step's start. rtcore_model_torque_nm (shared
- * with the controller) includes the plain k·θ, which the linear part takes. */
-static double nonlinear_torque_nm(const rtcore_sim_finger *f, const rtcore_sim_motion *from, double angle_rad,
-                                  double velocity_rad_per_s, int32_t touching)
+ * with the controller) includes the plain k·θ, which the linear part takes. drive_nm is
+ * the drive at that instant, N·p_eff plus the segment's external torque: the pressure's
+ * stiffening, k·c·(p_eff/p_ref)·θ, takes p_eff from it; the creep branch, β·k·(θ − x),
+ * its dashpot x elapsed_s after `from`. */
+static double nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motion *from, double angle_rad,
+                                  double velocity_rad_per_s, int32_t touching, double drive_nm, double elapsed_s)
 {
+    const rtcore_sim_finger *f = p->finger;
     const rtcore_prbm *m = &f->prbm;
     double torque_nm = m->stiffness_nm_per_rad * angle_rad - rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);
+    if (m->effects.pressure_stiffening_gain > 0.0 && m->pressure_gain_nm_per_kpa > 0.0) {
+        torque_nm -= rtcore_stiffening_torque_nm(m, angle_rad,
+                                                 (drive_nm - p->external_torque_nm) / m->pressure_gain_nm_per_kpa);
+    }
+    if (m->effects.creep_stiffness_ratio > 0.0) {
+        torque_nm -= m->effects.creep_stiffness_ratio * m->stiffness_nm_per_rad
+                     * (angle_rad - creep_angle_rad(&m->effects, from, angle_rad, elapsed_s));
+    }
     if (f->hysteresis_torque_nm > 0.0) {
         torque_nm -= f->hysteresis_torque_nm * loop_z(f, from, angle_rad);
     }
@@ -86,17 +114,24 @@ void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p)
     const double r2 = m->lever_arm_m * m->lever_arm_m;
     p->finger = f;
     rtcore_exact_plant_init(&p->linear, m->inertia_kgm2, m->damping_nms_per_rad, m->stiffness_nm_per_rad);
-    p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0;
+    p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0
+                         || e->contact_stiffness_nm_per_radn > 0.0;
     p->nonlinear = p->state_dependent || contact || e->coulomb_torque_nm > 0.0 || e->gravity_torque_nm != 0.0
-                   || e->asymmetric_stiffness_ratio != 1.0 || f->hysteresis_torque_nm > 0.0;
-    p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0;
+                   || e->asymmetric_stiffness_ratio != 1.0 || f->hysteresis_torque_nm > 0.0
+                   || e->pressure_stiffening_gain > 0.0 || e->creep_stiffness_ratio > 0.0;
+    p->external_torque_nm = 0.0;
+    p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0 || e->contact_stiffness_nm_per_radn > 0.0;
     p->damping_slope_nms_per_rad = contact ? f->contact_damping_ns_per_m * r2 : 0.0;
     p->stiffness_slope_nm_per_rad = fabs(e->asymmetric_stiffness_ratio - 1.0) * m->stiffness_nm_per_rad
                                     + fabs(e->gravity_torque_nm)
                                     + (contact ? f->contact_stiffness_n_per_m * r2 : 0.0)
                                     + (f->hysteresis_torque_nm > 0.0
                                            ? f->hysteresis_torque_nm / (f->hysteresis_travel_deg * RTCORE_RAD_PER_DEG)
-                                           : 0.0); /* the loop's steepest, just after a turn */
+                                           : 0.0) /* the loop's steepest, just after a turn */
+                                    + (e->pressure_stiffening_gain > 0.0
+                                           ? rtcore_stiffening_torque_nm(m, 1.0, fmax(f->supply_max_kpa, 0.0))
+                                           : 0.0) /* the pressure's, at the supply's most */
+                                    + e->creep_stiffness_ratio * m->stiffness_nm_per_rad; /* the creep branch's spring */
 }
 
 /* The same plant with the damping B + extra: the linear part a step integrates exactly. */
@@ -120,7 +155,6 @@ static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propa
                  double *angle_rad, double *velocity_rad_per_s, double h, double p_start, double p_mid, double p_end,
                  double g_start, int32_t touching, double linearized_nms_per_rad, double torque_nm[3])
 {
-    const rtcore_sim_finger *f = p->finger;
     const int32_t slot = rtcore_exact_propagators(&p->linear, cache, h, p->nonlinear);
     const rtcore_propagator *full = &cache->full[slot];
     const rtcore_propagator *half = &cache->half[slot];
@@ -143,11 +177,11 @@ static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propa
     }
     n_x = p_start + g_start;
     rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_x, &th_a, &w_a);
-    n_a = p_mid + nonlinear_torque_nm(f, from, th_a, w_a, touching) + linearized_nms_per_rad * w_a;
+    n_a = p_mid + nonlinear_torque_nm(p, from, th_a, w_a, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_a;
     rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_a, &th_b, &w_b);
-    n_b = p_mid + nonlinear_torque_nm(f, from, th_b, w_b, touching) + linearized_nms_per_rad * w_b;
+    n_b = p_mid + nonlinear_torque_nm(p, from, th_b, w_b, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_b;
     rtcore_exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
-    n_c = p_end + nonlinear_torque_nm(f, from, th_c, w_c, touching) + linearized_nms_per_rad * w_c;
+    n_c = p_end + nonlinear_torque_nm(p, from, th_c, w_c, touching, p_end, h) + linearized_nms_per_rad * w_c;
     torque_nm[0] = n_x;
     torque_nm[1] = 0.5 * (n_a + n_b);
     torque_nm[2] = n_c;
@@ -155,7 +189,7 @@ static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propa
 }
 
 /* Where g has a kink or a jump (the object's surface, the contact force reaching 0 as
- * the finger leaves, θ = 0 with an asymmetric stiffness) a step is only as accurate as
+ * the finger leaves, θ = 0 with an asymmetric stiffness, the contact effect's onset) a step is only as accurate as
  * that allows: a step that crosses one is cut where it does, by linear interpolation
  * between its ends. The fraction of the step before the first crossing (1 for none), and
  * in *surface whether that one is the object's surface. */
@@ -188,6 +222,14 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
         fraction = angle0_rad / (angle0_rad - angle1_rad);
         *surface = 0;
     }
+    if (f->prbm.effects.contact_stiffness_nm_per_radn > 0.0) {
+        const double depth0 = angle0_rad - f->prbm.effects.contact_onset_deg * RTCORE_RAD_PER_DEG;
+        const double depth1 = angle1_rad - f->prbm.effects.contact_onset_deg * RTCORE_RAD_PER_DEG;
+        if (((depth0 < 0.0 && depth1 > 0.0) || (depth0 > 0.0 && depth1 < 0.0)) && depth0 / (depth0 - depth1) < fraction) {
+            fraction = depth0 / (depth0 - depth1);
+            *surface = 0;
+        }
+    }
     return fraction;
 }
 
@@ -200,7 +242,8 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_motion *s, double
                           double torque_last_nm, double step_cap_s, double floor_s, int32_t en_route)
 {
     const rtcore_sim_finger *f = p->finger;
-    const double g_nm = nonlinear_torque_nm(f, s, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad));
+    const double g_nm = nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad),
+                                            torque_now_nm, 0.0);
     const double spring_nm = p->linear.stiffness_nm_per_rad * s->angle_rad;
     const double linear_nm = spring_nm + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
     double accel_nm = fmax(fabs(torque_now_nm + g_nm - linear_nm), fabs(torque_last_nm + g_nm - linear_nm));
@@ -232,6 +275,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                               sim_span *span)
 {
     const rtcore_sim_finger *f = p->finger;
+    sim_plant segment = *p; /* with this segment's external torque (the pressure's stiffening) */
     const double tau_s = f->prbm.effects.valve_lag_tau_s;
     const double start_kpa = tau_s > 0.0 ? s->chamber_kpa : input_kpa;
     const double end_kpa = tau_s > 0.0 ? rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, duration_s) : input_kpa;
@@ -260,6 +304,9 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
     int32_t last = 0;
     int32_t next_touching = -1; /* after a step cut at the surface: the side it goes on to */
 
+    segment.external_torque_nm = external_torque_nm;
+    p = &segment;
+
     if (!(duration_s > MIN_SEGMENT_S)) {
         s->chamber_kpa = end_kpa;
         return;
@@ -275,7 +322,9 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
              * sample would take it at each sample */
             cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
         }
-        double g_start = p->nonlinear ? nonlinear_torque_nm(f, s, s->angle_rad, s->velocity_rad_per_s, touching) : 0.0;
+        double g_start = p->nonlinear
+                             ? nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
+                             : 0.0;
         const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
                                      ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
                                      : 0.0;
@@ -378,7 +427,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             if (fraction < 1.0 && surface && !flipped) {
                 touching = !touching; /* the surface is where the step starts: take it past */
                 flipped = 1;
-                g_start = nonlinear_torque_nm(f, s, s->angle_rad, s->velocity_rad_per_s, touching)
+                g_start = nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
                           + slope0 * s->velocity_rad_per_s;
                 continue;
             }
@@ -388,6 +437,9 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             }
             if (f->hysteresis_torque_nm > 0.0) {
                 s->hysteresis_z = loop_z(f, s, angle_rad);
+            }
+            if (f->prbm.effects.creep_stiffness_ratio > 0.0) {
+                s->creep_angle_rad = creep_angle_rad(&f->prbm.effects, s, angle_rad, h);
             }
             s->angle_rad = angle_rad;
             s->velocity_rad_per_s = velocity_rad_per_s;
@@ -484,6 +536,7 @@ int32_t rtcore_sim_motion_start(const rtcore_sim_finger *f, rtcore_sim_motion *s
     s->velocity_rad_per_s = velocity_deg_per_s * RTCORE_RAD_PER_DEG;
     s->chamber_kpa = chamber_kpa;
     s->hysteresis_z = 0.0;
+    s->creep_angle_rad = s->angle_rad; /* at rest there: the creep branch relaxed */
     s->max_step_s = rtcore_sim_parameter_step_s(&plant);
     if (cache != 0) {
         cache->count = 0;

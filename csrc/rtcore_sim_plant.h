@@ -56,6 +56,7 @@ typedef struct {
     double velocity_rad_per_s;
     double chamber_kpa; /* the chamber now (with a valve lag it lags the held input) */
     double hysteresis_z; /* the loop's state, in [-1, 1] */
+    double creep_angle_rad; /* the creep branch's dashpot: where its spring is relaxed */
     /* longest step the finger's parameters allow (infinite for the plain linear finger);
      * a settled finger and one that dry friction holds step longer (rtcore_sim_plant.c) */
     double max_step_s;

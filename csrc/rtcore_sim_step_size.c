@@ -154,19 +154,22 @@ double rtcore_sim_parameter_step_s(const sim_plant *p)
     if (motion_per_s > 0.0) {
         step_s = fmin(step_s, MOTION_STEP_FRACTION / motion_per_s);
     }
+    if (p->finger->prbm.effects.creep_stiffness_ratio > 0.0) {
+        step_s = fmin(step_s, MOTION_STEP_FRACTION * p->finger->prbm.effects.creep_time_s); /* the dashpot's */
+    }
     return step_s;
 }
 
-/* The step where a slope of g grows with the state, 3·|k3|·θ², taken at the angle the
+/* The step where a slope of g grows with the state, 3·|k3|·θ² and the contact's, taken at the angle the
  * finger may reach: the present one plus what the torque out of balance, accel_torque =
  * A·θ'', drives (an angle of accel_torque/k). (The drag's slope, 2·c2·|θ'|, is taken into
  * the exact part at each step: rtcore_sim_damping_step_s.) */
 double rtcore_sim_state_step_s(const sim_plant *p, double angle_rad, double accel_torque_nm)
 {
     const rtcore_effects *e = &p->finger->prbm.effects;
-    const double angle = fabs(angle_rad) + fabs(accel_torque_nm) / p->linear.stiffness_nm_per_rad;
+    const double reach_rad = fabs(accel_torque_nm) / p->linear.stiffness_nm_per_rad;
     return slope_step_s(p, p->damping_slope_nms_per_rad,
-                        p->stiffness_slope_nm_per_rad + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * angle * angle);
+                        p->stiffness_slope_nm_per_rad + rtcore_model_slope_bound_nm_per_rad(e, angle_rad, reach_rad));
 }
 
 /* A finger that has settled under a held input needs no short steps: the explicit torque
@@ -186,7 +189,8 @@ static const double SETTLED_SLOPE_SHARE = 0.5;
 double rtcore_sim_settle_range_rad_for(const sim_plant *p)
 {
     const rtcore_sim_finger *f = p->finger;
-    if (!p->nonlinear || p->kinks || f->prbm.effects.coulomb_torque_nm > 0.0 || !(p->linear.stiffness_nm_per_rad > 0.0)
+    if (!p->nonlinear || p->kinks || f->prbm.effects.coulomb_torque_nm > 0.0 || f->prbm.effects.creep_stiffness_ratio > 0.0
+        || !(p->linear.stiffness_nm_per_rad > 0.0)
         || p->stiffness_slope_nm_per_rad >= SETTLED_SLOPE_SHARE * p->linear.stiffness_nm_per_rad
         || p->damping_slope_nms_per_rad >= SETTLED_SLOPE_SHARE * p->linear.damping_nms_per_rad) {
         return 0.0;
@@ -205,7 +209,7 @@ double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_motion *s,
     const double left_rad = (fabs(net_nm) + drift_nm) / k
                             + (motion_per_s > 0.0 ? fabs(s->velocity_rad_per_s) / motion_per_s : 0.0);
     if (p->state_dependent
-        && p->stiffness_slope_nm_per_rad + 3.0 * fabs(e->cubic_stiffness_nm_per_rad3) * s->angle_rad * s->angle_rad
+        && p->stiffness_slope_nm_per_rad + rtcore_model_slope_bound_nm_per_rad(e, s->angle_rad, 0.0)
                >= SETTLED_SLOPE_SHARE * k) {
         return cap_s;
     }

@@ -82,8 +82,12 @@ extern "C" {
  * The extra torque is
  *   tau(theta, omega) = k_eff(theta)*theta + k3*theta^3 + c2*|omega|*omega
  *                       + Tc*tanh(omega/omega_s) + G*(1 - cos theta)
- * with k_eff = k for theta >= 0 and k*ratio for theta < 0. The chamber pressure acts
- * only above the dead zone: M = N*max(p - p0, 0). Valve lag and dead time are
+ *                       + Kc*max(theta - theta_c, 0)^n
+ * with k_eff = k for theta >= 0 and k*ratio for theta < 0, and the last term a contact met
+ * past theta_c (contact_stiffness_nm_per_radn 0: none; n in [1, 3]). The chamber pressure
+ * acts only above the dead zone: M = N*max(p - p0, 0), and stiffens the finger by
+ * k*c*(p_eff/p_ref)*theta (pressure_stiffening_gain c, 0: none), so the pressure's torque
+ * is G(theta)*p_eff with G = N - k*c*theta/p_ref. Valve lag and dead time are
  * compensated in the position feedforward by a first-order lead of (tau + delay).
  */
 typedef struct {
@@ -96,6 +100,15 @@ typedef struct {
     double asymmetric_stiffness_ratio;
     double quadratic_damping_nms2_per_rad2;
     double pressure_deadzone_kpa;
+    double contact_stiffness_nm_per_radn;
+    double contact_onset_deg;
+    double contact_exponent;
+    double pressure_stiffening_gain;
+    double pressure_stiffening_ref_kpa;
+    /* creep: a standard-linear-solid branch beside k, a spring ratio*k in series with a
+     * dashpot of time constant creep_time_s (the simulated finger's; ratio 0: none) */
+    double creep_stiffness_ratio;
+    double creep_time_s;
 } rtcore_effects;
 
 /*
@@ -186,6 +199,8 @@ typedef struct {
     double pressure_ref_kpa;
     double impedance_stiffness_n_per_deg;
     double impedance_damping_n_s_per_deg;
+    /* the creep branch's dashpot as the angle reference would move it (position mode) */
+    double creep_ref_deg;
 } rtcore_finger_state;
 
 /* Allocate one of these (static, stack or ffi.new) and call rtcore_hand_configure. */

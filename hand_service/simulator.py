@@ -36,7 +36,7 @@ def sim_finger(model: FingerModel, sensor_gain_deg_per_mv: float = 1.0, sensor_o
                pneumatic: PneumaticValves | None = None) -> SimFinger:
     """A simulated finger whose truth is `model` (plus `extra_effects`, hidden from the model).
     The model's lever arm is needed only where the finger meets an object (`contact`)."""
-    return SimFinger(
+    finger = SimFinger(
         prbm=model.prbm("simulation" if contact is None else "simulating a contact", extra_effects,
                         force_point=contact is not None),
         supply_min_kpa=0.0,
@@ -51,6 +51,8 @@ def sim_finger(model: FingerModel, sensor_gain_deg_per_mv: float = 1.0, sensor_o
         pressure_noise_kpa=pressure_noise_kpa,
         pneumatic=pneumatic or PneumaticValves(),
     )
+    # the effects that are not terms of the C model, by their own simulator hooks
+    return fx.apply_to_finger(finger, {**model.effects, **(extra_effects or {})})
 
 
 def profile_sim_finger(finger: FingerProfile, simulation: dict, contact: Contact | None = None) -> SimFinger:

@@ -68,6 +68,17 @@ class Effects:
     asymmetric_stiffness_ratio: float = 1.0
     quadratic_damping_nms2_per_rad2: float = 0.0
     pressure_deadzone_kpa: float = 0.0
+    # a contact met past contact_onset_deg: Kc·(θ − θc)^n; stiffness 0 means none
+    contact_stiffness_nm_per_radn: float = 0.0
+    contact_onset_deg: float = 0.0
+    contact_exponent: float = 1.0
+    # the chamber pressure stiffens the finger: k·(1 + c·p_eff/p_ref); gain 0 means none
+    pressure_stiffening_gain: float = 0.0
+    pressure_stiffening_ref_kpa: float = 100.0
+    # creep: a standard-linear-solid branch, a spring ratio·k in series with a dashpot of time
+    # constant creep_time_s (the simulated finger's, not the controller's); ratio 0 means none
+    creep_stiffness_ratio: float = 0.0
+    creep_time_s: float = 1.0
 
 
 @dataclass

@@ -19,7 +19,8 @@ from rtcore.hand import _fill, error_message
 from rtcore.sim import SimFinger
 
 # rtcore_sim_motion's fields, in their C order
-MOTION_FIELDS = ("angle_rad", "velocity_rad_per_s", "chamber_kpa", "hysteresis_z", "max_step_s")
+MOTION_FIELDS = ("angle_rad", "velocity_rad_per_s", "chamber_kpa", "hysteresis_z", "creep_angle_rad",
+                 "max_step_s")
 
 
 class FingerMotions:

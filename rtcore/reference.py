@@ -12,9 +12,19 @@ from dataclasses import dataclass
 
 from rtcore import config as cfg
 from rtcore.arrays import Inputs, Outputs, allocate
-from rtcore.config import ConfigError, Effects, FingerConfig, HandConfig, Prbm
+from rtcore.config import ConfigError, FingerConfig, HandConfig
+from rtcore.reference_model import (
+    RAD_PER_DEG,
+    STIFFENED_GAIN_FLOOR,
+    deadzone_invert,
+    effective_pressure,
+    model_stiffness,
+    model_torque,
+    model_torque_rate,
+    stiffened_gain_share,
+    stiffening_torque,
+)
 
-RAD_PER_DEG = math.pi / 180.0
 SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT
 POSITION_REFERENCES = ("angle_ref_deg", "velocity_ref_deg_per_s", "accel_ref_deg_per_s2",
                        "jerk_ref_deg_per_s3")
@@ -76,58 +86,7 @@ def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
     return math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
 
 
-# --- the PRBM with its effects -------------------------------------------------------
-
-def linear_stiffness(m: Prbm, angle_rad: float) -> float:
-    if angle_rad < 0.0:
-        return m.stiffness_nm_per_rad * m.effects.asymmetric_stiffness_ratio
-    return m.stiffness_nm_per_rad
-
-
-def model_torque(m: Prbm, angle_rad: float, velocity: float) -> float:
-    """k th + k3 th^3 + c2 |th'| th' + Tc tanh(th'/w) + G (1 - cos th)."""
-    e = m.effects
-    torque = linear_stiffness(m, angle_rad) * angle_rad
-    torque += e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad
-    torque += e.quadratic_damping_nms2_per_rad2 * abs(velocity) * velocity
-    if e.coulomb_torque_nm != 0.0:
-        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
-        torque += e.coulomb_torque_nm * math.tanh(velocity / smoothing)
-    if e.gravity_torque_nm != 0.0:
-        torque += e.gravity_torque_nm * (1.0 - math.cos(angle_rad))
-    return torque
-
-
-def model_stiffness(m: Prbm, angle_rad: float) -> float:
-    e = m.effects
-    stiffness = linear_stiffness(m, angle_rad) + 3.0 * e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad
-    if e.gravity_torque_nm != 0.0:
-        stiffness += e.gravity_torque_nm * math.sin(angle_rad)
-    return stiffness
-
-
-def model_torque_rate(m: Prbm, angle_rad: float, velocity: float, accel: float) -> float:
-    e = m.effects
-    d_velocity = 2.0 * e.quadratic_damping_nms2_per_rad2 * abs(velocity)
-    if e.coulomb_torque_nm != 0.0:
-        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
-        th = math.tanh(velocity / smoothing)
-        d_velocity += e.coulomb_torque_nm * (1.0 - th * th) / smoothing
-    return model_stiffness(m, angle_rad) * velocity + d_velocity * accel
-
-
-def deadzone_invert(e: Effects, pressure_kpa: float) -> float:
-    if e.pressure_deadzone_kpa > 0.0 and pressure_kpa > 0.0:
-        return pressure_kpa + e.pressure_deadzone_kpa
-    return pressure_kpa
-
-
-def effective_pressure(e: Effects, pressure_kpa: float) -> float:
-    p0 = e.pressure_deadzone_kpa
-    if p0 > 0.0:
-        return pressure_kpa - p0 if pressure_kpa > p0 else 0.0
-    return pressure_kpa
-
+# --- the PRBM with its effects: rtcore/reference_model.py ------------------------------
 
 def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     angle = s.angle_ref_deg * RAD_PER_DEG
@@ -136,7 +95,8 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     jerk = s.jerk_ref_deg_per_s3 * RAD_PER_DEG
     m = c.prbm
     lead_s = m.effects.valve_lag_tau_s + m.effects.dead_time_s
-    gain = m.pressure_gain_nm_per_kpa
+    share = stiffened_gain_share(m, angle)
+    gain = m.pressure_gain_nm_per_kpa * share
     if c.feedforward == cfg.FF_DYNAMIC:
         torque = (m.inertia_kgm2 * accel + m.damping_nms_per_rad * velocity
                   + model_torque(m, angle, velocity))
@@ -147,20 +107,29 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
         torque_rate = model_stiffness(m, angle) * velocity
     else:
         return 0.0
+    if m.effects.creep_stiffness_ratio > 0.0:
+        creep_rad = s.creep_ref_deg * RAD_PER_DEG
+        branch = m.effects.creep_stiffness_ratio * m.stiffness_nm_per_rad
+        torque += branch * (angle - creep_rad)
+        torque_rate += branch * (velocity - (angle - creep_rad) / m.effects.creep_time_s)
+    if m.effects.pressure_stiffening_gain > 0.0 and share > STIFFENED_GAIN_FLOOR:
+        torque_rate += torque * stiffening_torque(m, 1.0, 1.0) * velocity / gain
     return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate / gain
 
 
 def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float) -> float:
     m = c.prbm
     torque = model_torque(m, angle_rad, 0.0) + m.lever_arm_m * force_ref_n
-    return deadzone_invert(m.effects, torque / m.pressure_gain_nm_per_kpa)
+    gain = m.pressure_gain_nm_per_kpa * stiffened_gain_share(m, angle_rad)
+    return deadzone_invert(m.effects, torque / gain)
 
 
 def force_normal(c: FingerConfig, chamber_kpa: float, angle_rad: float, velocity: float,
                  accel: float) -> float:
     """Signed normal force (J^T)+ (N p - tau): F_n = (N p_eff - tau) / r."""
     m = c.prbm
-    torque = m.pressure_gain_nm_per_kpa * effective_pressure(m.effects, chamber_kpa)
+    effective_kpa = effective_pressure(m.effects, chamber_kpa)
+    torque = m.pressure_gain_nm_per_kpa * effective_kpa - stiffening_torque(m, angle_rad, effective_kpa)
     if c.force_estimate_dynamic:
         torque -= (m.inertia_kgm2 * accel + m.damping_nms_per_rad * velocity
                    + model_torque(m, angle_rad, velocity))
@@ -221,6 +190,17 @@ class FingerState:
     pressure_ref_kpa: float = 0.0
     impedance_stiffness_n_per_deg: float = 0.0
     impedance_damping_n_s_per_deg: float = 0.0
+    creep_ref_deg: float = 0.0
+
+
+def creep_reference_update(c: FingerConfig, s: FingerState, entered: bool, dt_s: float) -> None:
+    """The creep branch's dashpot driven by the angle reference over the tick."""
+    e = c.prbm.effects
+    if not e.creep_stiffness_ratio > 0.0:
+        return
+    if entered:
+        s.creep_ref_deg = s.angle_filt_deg
+    s.creep_ref_deg = s.angle_ref_deg + (s.creep_ref_deg - s.angle_ref_deg) * math.exp(-dt_s / e.creep_time_s)
 
 
 class ReferenceHand:
@@ -344,6 +324,7 @@ class ReferenceHand:
             derivative_kpa = 0.0
             if mode == cfg.MODE_POSITION:
                 rate_error = s.velocity_ref_deg_per_s - s.velocity_deg_per_s
+                creep_reference_update(c, s, changed, dt_s)
                 feedforward_kpa = position_feedforward(c, s)
                 error = s.angle_ref_deg - s.angle_filt_deg
                 proportional_kpa = c.kp_kpa_per_deg * error

@@ -15,7 +15,9 @@ It simulates the model on the recorded command, refits k, B and N (A held) by
 output-error least squares, tests the residual (whiteness, cross-correlation with the
 command, time windows), then fits each library effect the model does not already
 include (valve_lag, dead_time, coulomb_friction, cubic_stiffness, gravity,
-asymmetric_stiffness, quadratic_damping, pressure_deadzone) jointly with k, B and N.
+asymmetric_stiffness, quadratic_damping, pressure_deadzone, and those an installed package
+adds: docs/effects.md; contact, pressure_stiffening, creep and hysteresis with --search)
+jointly with k, B and N.
 An effect is named only when the information criterion and held-out data both favour it
 and no other effect explains the same residual as well. A quarter of the data, in
 interleaved blocks, is held out from every fit.
@@ -51,6 +53,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "an offset that drifts, estimated from the recording (an analog sensor "
                              "chain's noise: a clean recording then comes out clean); white, "
                              "independent samples (see docs/diagnose.md)")
+    parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
+                        help="search also for a library effect diagnose leaves out by default "
+                             "(pressure_stiffening, creep: their first parameter fitted, the others at "
+                             "their defaults; docs/effects.md); repeatable")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress on stderr (else a bar on a terminal, a line every few "
                              "seconds elsewhere)")
@@ -101,7 +107,7 @@ def main(args: argparse.Namespace) -> int:
     with Progress("diagnose", quiet=args.quiet) as progress:
         try:
             result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress,
-                              grid.missing, args.input_hold, args.noise_model)
+                              grid.missing, args.input_hold, args.noise_model, also=args.search)
         except UserError as refused:
             raise explained(refused, slips) from None
         progress.done()

@@ -1,13 +1,11 @@
-"""The library of physics a plain PRBM leaves out (docs/formats.md, `effects`).
-
-Each effect is one small definition here plus its term in the C model
-(csrc/rtcore_model.c: the torque; csrc/rtcore_sim_advance.c: the valve). The simulator, the
-controller's feedforward and `diagnose` all read this table.
+"""The model file's `effects` block (docs/formats.md §2.1): parsing, values and what the
+controller and the simulator take of it. The effects themselves are the library's
+(hand_service/effects: the project's and the labs' entry points); the simulator, the
+controller's feedforward and `diagnose` all read it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -15,44 +13,27 @@ from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S, Pl
 from hand_service.config.schema import fail, unknown_key_message
 from hand_service.config.textfile import show
 from hand_service.config.yamlio import LineDict
+from hand_service.effects import registry
+from hand_service.effects.base import Effect, Parameter
 from rtcore import Effects
+from rtcore.sim import SimFinger
+
+EffectSpec = Effect  # an effect of the library (hand_service/effects/base.py)
 
 
-@dataclass(frozen=True)
-class EffectSpec:
-    name: str
-    param: str
-    unit: str
-    physics: str
-    rtcore_field: str  # the rtcore_effects field the simulator and controller read
-    neutral: float  # the parameter value that means "no effect"
-    lower: float  # plausible range: validation and fit bounds
-    upper: float
-    scale: float  # a typical magnitude, for starting points and step sizes
+def __getattr__(name: str) -> object:
+    """LIBRARY (every registered effect, in order), BY_NAME and SEARCHED (those `diagnose`
+    searches for), read from the registry on use, so that a lab's effects (entry points)
+    are in them."""
+    if name == "LIBRARY":
+        return registry.library()
+    if name == "BY_NAME":
+        return registry.by_name()
+    if name == "SEARCHED":  # the effects `diagnose` searches for
+        return tuple(e for e in registry.library() if e.searched)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-LIBRARY: tuple[EffectSpec, ...] = (
-    EffectSpec("valve_lag", "tau_s", "s", "chamber pressure lags the command (first order)",
-               "valve_lag_tau_s", 0.0, VALVE_LAG_TAU_S.lower, VALVE_LAG_TAU_S.upper, 0.03),
-    EffectSpec("dead_time", "delay_s", "s", "transport delay between command and chamber",
-               "dead_time_s", 0.0, DEAD_TIME_DELAY_S.lower, DEAD_TIME_DELAY_S.upper, 0.01),
-    EffectSpec("coulomb_friction", "torque_nm", "N·m", "dry friction, stick-slip",
-               "coulomb_torque_nm", 0.0, 0.0, 0.05, 0.001),
-    EffectSpec("cubic_stiffness", "k3_nm_per_rad3", "N·m/rad³", "stiffening: extra torque k3·θ³",
-               "cubic_stiffness_nm_per_rad3", 0.0, -2.0, 10.0, 0.05),
-    EffectSpec("gravity", "torque_nm", "N·m",
-               "gravity torque on the horizontal finger: −G·(1 − cos θ)",
-               "gravity_torque_nm", 0.0, -0.5, 0.5, 0.01),
-    EffectSpec("asymmetric_stiffness", "stiffness_ratio", "k_neg/k_pos",
-               "stiffness differs when bending backwards (θ < 0)",
-               "asymmetric_stiffness_ratio", 1.0, 0.05, 20.0, 0.5),
-    EffectSpec("quadratic_damping", "c2_nms2_per_rad2", "N·m·s²/rad²", "air drag: c2·|θ'|·θ'",
-               "quadratic_damping_nms2_per_rad2", 0.0, 0.0, 0.05, 1e-4),
-    EffectSpec("pressure_deadzone", "threshold_kpa", "kPa",
-               "no torque until the pressure passes a threshold",
-               "pressure_deadzone_kpa", 0.0, 0.0, 100.0, 5.0),
-)
-BY_NAME: dict[str, EffectSpec] = {spec.name: spec for spec in LIBRARY}
 # the effects whose range is a physical plausibility with unit slips (config/plausible.py)
 PLAUSIBLE: dict[str, Plausible] = {"valve_lag": VALVE_LAG_TAU_S, "dead_time": DEAD_TIME_DELAY_S}
 
@@ -60,51 +41,74 @@ EffectParams = dict[str, dict[str, float]]
 
 
 def parse_effects(data: Any, source: str | Path, context: str = "effects") -> EffectParams:
-    """Validate an `effects:` block: known names, their one parameter, in range."""
+    """Validate an `effects:` block: known names, their parameters (the first one required,
+    the others optional), each in range."""
     if data is None:
         return {}
     if not isinstance(data, dict):
         raise fail(source, data, None, f"{context} must map effect names to their parameters")
+    known = registry.by_name()
     effects: EffectParams = {}
     for name, params in data.items():
-        spec = BY_NAME.get(name)
+        spec = known.get(name)
         if spec is None:
-            raise fail(source, data, name, unknown_key_message(name, list(BY_NAME), context))
+            raise fail(source, data, name, unknown_key_message(name, list(known), context))
         label = f"{context}.{name}"
         if not isinstance(params, dict):
             raise fail(source, data, name, f"{label} must be a mapping like {{{spec.param}: ...}}")
+        names = [p.name for p in spec.parameters]
         for key in params:
-            if key != spec.param:
-                raise fail(source, params, key, unknown_key_message(key, [spec.param], label))
+            if key not in names:
+                raise fail(source, params, key, unknown_key_message(key, names, label))
         if spec.param not in params:
             raise fail(source, data, name, f"{label} needs '{spec.param}' ({spec.unit})")
-        value = params[spec.param]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-                spec.lower <= value <= spec.upper):
-            line_owner = params if isinstance(params, LineDict) else data
-            slip = PLAUSIBLE[name].slip(value) if name in PLAUSIBLE and isinstance(value, (int, float)) \
-                and not isinstance(value, bool) else None
-            hint = f": {slip.unit}? ({show(value)} {slip.unit} = {value / slip.per_unit:g} s)" if slip else ""
-            raise fail(source, line_owner, spec.param,
-                       f"{label}.{spec.param} = {show(value)} is out of range "
-                       f"({spec.lower:g} to {spec.upper:g} {spec.unit}){hint}")
-        effects[name] = {spec.param: float(value)}
+        line_owner = params if isinstance(params, LineDict) else data
+        effects[name] = {key: _checked(name, spec.parameter(key), params[key], source, line_owner, label)
+                         for key in names if key in params}
     return effects
 
 
+def _checked(name: str, param: Parameter, value: Any, source: str | Path, line_owner: Any,
+             label: str) -> float:
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not (number and param.lower <= value <= param.upper):
+        slip = PLAUSIBLE[name].slip(value) if name in PLAUSIBLE and isinstance(value, (int, float)) \
+            and not isinstance(value, bool) else None
+        hint = f": {slip.unit}? ({show(value)} {slip.unit} = {value / slip.per_unit:g} s)" if slip else ""
+        raise fail(source, line_owner, param.name,
+                   f"{label}.{param.name} = {show(value)} is out of range "
+                   f"({param.lower:g} to {param.upper:g} {param.unit}){hint}")
+    return float(value)
+
+
 def effect_value(effects: EffectParams, name: str) -> float:
-    spec = BY_NAME[name]
+    """The effect's primary parameter in an effects block (its neutral when absent)."""
+    spec = registry.by_name()[name]
     return effects.get(name, {}).get(spec.param, spec.neutral)
 
 
 def to_rtcore(effects: EffectParams) -> Effects:
-    """The rtcore Effects struct (controller and simulator) for an effects block."""
+    """The rtcore Effects struct (controller and simulator) for an effects block: the
+    effects that are terms of the C model; the others are the simulated finger's
+    (apply_to_finger)."""
     result = Effects()
-    for name in effects:
-        setattr(result, BY_NAME[name].rtcore_field, effect_value(effects, name))
+    known = registry.by_name()
+    for name, values in effects.items():
+        for field, value in known[name].rtcore_fields(values).items():
+            setattr(result, field, value)
     return result
 
 
+def apply_to_finger(finger: SimFinger, effects: EffectParams) -> SimFinger:
+    """`finger` with the effects that are not terms of the C model (FingerEffect, a lab's
+    own) applied by their simulator hooks; the C model's are in its prbm (to_rtcore)."""
+    known = registry.by_name()
+    for name, values in effects.items():
+        if not known[name].rtcore_fields(values):
+            finger = known[name].apply(finger, values)
+    return finger
+
+
 def describe(effects: EffectParams) -> str:
-    return ", ".join(f"{name}({BY_NAME[name].param}={p[BY_NAME[name].param]:g})"
+    return ", ".join(f"{name}(" + ", ".join(f"{k}={v:g}" for k, v in p.items()) + ")"
                      for name, p in effects.items()) or "none"

@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -55,6 +56,7 @@ from hand_service.diagnose.search.forward_selection import (
     data_alone_bic,
     select,
 )
+from hand_service.errors import UserError
 
 
 def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
@@ -107,10 +109,11 @@ def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
 def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
              rate_hz: float, progress: Progress | None = None,
              missing: np.ndarray | None = None, input_hold: str = "zoh",
-             noise_model: str = "ar") -> Diagnosis:
+             noise_model: str = "ar", also: Sequence[str] = ()) -> Diagnosis:
     """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
     offset (residual/noise.py), so that clean recordings from a lab's sensor come out clean; or
-    "white", independent samples.
+    "white", independent samples. `also`: library effects to search for beyond the ones
+    searched by default (Effect.searched), by the same tests.
 
     BLAS runs one thread meanwhile: diagnose's own threads (forward_selection.WORKERS, the
     Jacobian's columns in fitting/output_error.py) keep the cores busy, and OpenBLAS, which
@@ -118,12 +121,23 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     and 1 kHz), would only make them wait."""
     with threadpool_limits(limits=1, user_api="blas"):
         return _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                         noise_model)
+                         noise_model, searched(also))
+
+
+def searched(also: Sequence[str]) -> list[str]:
+    """The effects to search for: the library's searched ones, then `also` (UserError for
+    an unknown name)."""
+    known = fx.BY_NAME
+    for name in also:
+        if name not in known:
+            raise UserError(f"--search {name}: unknown effect (known: {', '.join(known)})")
+    names = [spec.name for spec in fx.SEARCHED]
+    return names + [name for name in dict.fromkeys(also) if name not in names]
 
 
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
               rate_hz: float, progress: Progress | None, missing: np.ndarray | None, input_hold: str,
-              noise_model: str) -> Diagnosis:
+              noise_model: str, search: list[str]) -> Diagnosis:
     started = time.perf_counter()
     warnings: list[str] = []
     problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold)
@@ -174,7 +188,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                        rate_hz, start=moving)
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
-    missing = [spec.name for spec in fx.LIBRARY if spec.name not in model.effects]
+    missing = [name for name in search if name not in model.effects]
     relative = relative_std(refit)  # what the data alone say (the prior below may hold some)
     unidentified = unpinned(refit)
     if unidentified or far_from_nominal(problem, refit, FAR_FACTOR):

@@ -36,6 +36,13 @@ effects_strategy = st.builds(
     asymmetric_stiffness_ratio=st.one_of(st.just(1.0), positive(0.3, 3.0)),
     quadratic_damping_nms2_per_rad2=maybe(positive(1e-6, 1e-3)),
     pressure_deadzone_kpa=maybe(positive(0.5, 20.0)),
+    contact_stiffness_nm_per_radn=maybe(positive(0.05, 5.0)),
+    contact_onset_deg=positive(-10.0, 60.0),
+    contact_exponent=positive(1.0, 3.0),
+    pressure_stiffening_gain=maybe(positive(0.05, 3.0)),
+    pressure_stiffening_ref_kpa=positive(20.0, 200.0),
+    creep_stiffness_ratio=maybe(positive(0.01, 2.0)),
+    creep_time_s=positive(0.05, 5.0),
 )
 
 

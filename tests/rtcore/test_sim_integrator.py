@@ -26,6 +26,7 @@ from scipy.signal import cont2discrete
 
 from rtcore import Effects, Prbm
 from rtcore.reference import effective_pressure, model_torque
+from rtcore.reference_model import stiffening_torque
 from rtcore.sim import SimFinger, simulate
 
 PAPER = Prbm(inertia_kgm2=1.6e-4, damping_nms_per_rad=0.003, stiffness_nm_per_rad=0.57,
@@ -46,6 +47,10 @@ EFFECTS = {
     "dead_time": Effects(dead_time_s=0.0137),
     "deadzone": Effects(pressure_deadzone_kpa=20.0, valve_lag_tau_s=0.03),
     "asymmetric_stiffness": Effects(asymmetric_stiffness_ratio=2.0),
+    "contact_linear": Effects(contact_stiffness_nm_per_radn=2.0, contact_onset_deg=20.0),
+    "contact_hertz": Effects(contact_stiffness_nm_per_radn=5.0, contact_onset_deg=20.0, contact_exponent=1.5),
+    "pressure_stiffening": Effects(pressure_stiffening_gain=1.5, valve_lag_tau_s=0.03),
+    "creep": Effects(creep_stiffness_ratio=0.5, creep_time_s=0.4),
     "all": Effects(coulomb_torque_nm=0.005, cubic_stiffness_nm_per_rad3=0.3, gravity_torque_nm=0.05,
                    quadratic_damping_nms2_per_rad2=0.002, valve_lag_tau_s=0.03, dead_time_s=0.0137,
                    pressure_deadzone_kpa=20.0, asymmetric_stiffness_ratio=2.0),
@@ -116,7 +121,8 @@ def fine_reference(f: SimFinger, command_kpa: np.ndarray, rate_hz: float, angle0
         return max(m.lever_arm_m * (f.contact_stiffness_n_per_m * (theta - surface)
                                     + f.contact_damping_ns_per_m * omega), 0.0)
 
-    x = np.array([math.radians(angle0_deg), 0.0])
+    # the creep branch's dashpot is a third state, relaxed at the start
+    x = np.array([math.radians(angle0_deg), 0.0, math.radians(angle0_deg)])
     chamber = float(command[0])
     samples_s = np.arange(1, command.size) * dt
     angle = np.full(command.size, np.nan)
@@ -128,10 +134,12 @@ def fine_reference(f: SimFinger, command_kpa: np.ndarray, rate_hz: float, angle0
             return u + (start - u) * math.exp(-t / e.valve_lag_tau_s) if e.valve_lag_tau_s > 0.0 else u
 
         def rhs(t: float, y: np.ndarray, pressure: Callable[[float], float] = pressure) -> list[float]:
-            drive = m.pressure_gain_nm_per_kpa * effective_pressure(e, pressure(t))
+            effective_kpa = effective_pressure(e, pressure(t))
+            drive = m.pressure_gain_nm_per_kpa * effective_kpa - stiffening_torque(m, y[0], effective_kpa)
+            creep = e.creep_stiffness_ratio * m.stiffness_nm_per_rad * (y[0] - y[2])
             torque = (drive - m.damping_nms_per_rad * y[1] - model_torque(m, y[0], y[1])
-                      - m.lever_arm_m * contact_n(*y))
-            return [y[1], torque / m.inertia_kgm2]
+                      - m.lever_arm_m * contact_n(y[0], y[1]) - creep)
+            return [y[1], torque / m.inertia_kgm2, (y[0] - y[2]) / e.creep_time_s]
 
         duration = end - begin
         cuts = [0.0, duration]

@@ -91,14 +91,14 @@ def run_case(case: Case, duration_s: float = 30.0, rate_hz: float = 100.0) -> Ca
 
 
 def plan(seeds: int, excitations: tuple[str, ...], clean_seeds: int) -> list[Case]:
-    cases = [draw(spec.name, ex, seed) for spec in fx.LIBRARY for ex in excitations for seed in range(seeds)]
+    cases = [draw(spec.name, ex, seed) for spec in fx.SEARCHED for ex in excitations for seed in range(seeds)]
     cases += [draw("clean", ex, 100 + seed) for ex in excitations for seed in range(clean_seeds)]
     return cases
 
 
 def summarise(cases: list[Case]) -> dict:
     per_effect = {}
-    for spec in fx.LIBRARY:
+    for spec in fx.SEARCHED:
         mine = [c for c in cases if c.effect == spec.name]
         if not mine:
             continue

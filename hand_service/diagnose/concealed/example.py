@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = ["| effect | excitation | concealment (residual/noise) | verdict | named first | true | found "
             "| parameter error | held-out RMSE refit → augmented (deg) |",
             "|---|---|---|---|---|---|---|---|---|"]
-    for spec in fx.LIBRARY:
+    for spec in fx.SEARCHED:
         c = generate(model, {spec.name: None}, EXCITATION[spec.name], noise_deg=args.noise, seed=args.seed,
                      conceal_ratio=args.conceal)
         d = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0)

@@ -34,11 +34,6 @@ INPUT_HOLDS = ("zoh", "point")
 # the library's torque ranges (config/effects.py) were set for the paper's fingers, k from
 # 0.51 to 0.65 N·m/rad, with room to spare: they hold as they are up to 1 N·m/rad
 REFERENCE_STIFFNESS_NM_PER_RAD = 1.0
-# an effect's own torque over the recording may reach this many times the largest torque
-# the spring or the pressure makes in it (air drag in a fast vent can exceed them); dry
-# friction only twice: beyond the driving torque the finger would never have moved
-EFFECT_TORQUE_RATIO = 10.0
-FRICTION_TORQUE_RATIO = 2.0
 PLAIN_RANGE = 1000.0  # k, B and N may go this many times above or below the nominal
 # the nominal model's uncertainty: a log-normal prior of this relative width on k, B and N,
 # used when the recording alone cannot pin them (closed loop: only k/N; a ramp: not B)
@@ -86,20 +81,8 @@ class Param:
         if spec.unit.startswith("N·m"):
             factor = max(1.0, sc.stiffness_nm_per_rad / REFERENCE_STIFFNESS_NM_PER_RAD)
             scale, lower, upper = scale * factor, lower * factor, upper * factor
-        torque = EFFECT_TORQUE_RATIO * sc.torque_nm  # the most an effect's own torque may reach
-        if name == "coulomb_friction" and torque > 0.0:
-            upper = max(upper, FRICTION_TORQUE_RATIO * sc.torque_nm)
-        elif name == "gravity" and torque > 0.0 and sc.angle_rad > 0.0:
-            reach = min(torque / max(1.0 - np.cos(min(sc.angle_rad, np.pi)), 1e-3), 1e3 * sc.torque_nm)
-            upper, lower = max(upper, reach), min(lower, -reach)
-        elif name == "quadratic_damping" and torque > 0.0 and sc.speed_rad_s > 0.0:
-            upper = max(upper, torque / sc.speed_rad_s**2)
-        elif name == "cubic_stiffness" and torque > 0.0 and sc.angle_rad > 0.0:
-            upper = max(upper, torque / sc.angle_rad**3)
-            lower = min(lower, -sc.stiffness_nm_per_rad / (3.0 * sc.angle_rad**2))
-        elif name == "pressure_deadzone":
-            upper = max(upper, 0.5 * sc.command_max_kpa)
-        return Param(name, spec.rtcore_field, True, scale, lower, upper, spec.unit)
+        lower, upper = spec.fit_range(sc, scale, lower, upper)  # the effect's own reach
+        return Param(name, getattr(spec, "rtcore_field", name), True, scale, lower, upper, spec.unit)
 
 
 @dataclass(frozen=True)
@@ -204,12 +187,23 @@ class Problem:
         finger = base or self.base
         plain: dict[str, object] = {p.field: float(v) for p, v in zip(params, values, strict=True)
                                     if not p.is_effect}
-        effect = {p.field: float(v) for p, v in zip(params, values, strict=True) if p.is_effect}
+        library = fx.registry.by_name()
+        effect: dict[str, float] = {}
+        hooked = []  # effects that are not terms of the C model: their own simulator hooks
+        for p, v in zip(params, values, strict=True):
+            if p.is_effect:
+                fields = library[p.label].rtcore_fields({library[p.label].param: float(v)})
+                if fields:
+                    effect.update(fields)
+                else:
+                    hooked.append((library[p.label], float(v)))
         if effect:
             plain["effects"] = dataclasses.replace(finger.prbm.effects, **effect)
-        if not plain:
-            return finger
-        return dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, **plain))
+        if plain:
+            finger = dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, **plain))
+        for spec, v in hooked:  # its other parameters at their defaults
+            finger = spec.apply(finger, {spec.param: v})
+        return finger
 
     def simulate(self, finger: SimFinger) -> np.ndarray:
         """The simulated angle at every sample (a new array: the caller may change it)."""
@@ -288,8 +282,10 @@ class Problem:
         return float(np.sqrt(self.fit_rss(innovations) / max(self.n_fit - n_params, 1)))
 
     def values(self, params: Sequence[Param], finger: SimFinger | None = None) -> np.ndarray:
-        prbm = (finger or self.base).prbm
-        return np.array([getattr(prbm.effects if p.is_effect else prbm, p.field) for p in params])
+        finger = finger or self.base
+        library = fx.registry.by_name()
+        return np.array([library[p.label].read(finger) if p.is_effect else getattr(finger.prbm, p.field)
+                         for p in params])
 
 
 def settle_time_s(finger: SimFinger) -> float:

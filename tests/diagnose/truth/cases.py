@@ -60,6 +60,8 @@ LIBRARY = (
 OUT_OF_LIBRARY = ("hysteresis", "contact")
 CLEAN = "clean"
 ALL_EFFECTS = (*LIBRARY, CLEAN, *OUT_OF_LIBRARY)
+# library effects diagnose searches only on request (`--search`): run by on_request.py
+ON_REQUEST = ("pressure_stiffening", "creep")
 FAMILY_NAMES = ("ringing", "overdamped", "stiff")
 RATES = (100.0, 200.0, 500.0, 1000.0)
 TARGETS = {"concealed": (0.5, 1.3), "evident": (3.0, 5.0)}
@@ -78,7 +80,7 @@ class CaseSpec:
     duration_s: float = 30.0  # the free release is 6 s whatever this says
 
     def resolved(self) -> CaseSpec:
-        ie, ic = ALL_EFFECTS.index(self.effect), ex.CLASSES.index(self.excitation)
+        ie, ic = (*ALL_EFFECTS, *ON_REQUEST).index(self.effect), ex.CLASSES.index(self.excitation)
         fam = self.family or FAMILY_NAMES[(self.seed + ic + ie) % 3]
         rate = self.rate_hz or RATES[(self.seed + 3 * ic + 2 * ie) % 4]
         mag = "none" if self.effect == CLEAN else self.magnitude
@@ -166,6 +168,7 @@ class Shape:
     width_deg: float = 0.35
     zmax_deg: float = 10.0
     contact_deg: float = 60.0
+    creep_time_s: float = 0.5
 
 
 def shape_of(spec: CaseSpec) -> Shape:
@@ -181,6 +184,7 @@ def shape_of(spec: CaseSpec) -> Shape:
         width_deg=float(rng.uniform(0.25, 0.5)),
         zmax_deg=float(rng.uniform(8.0, 15.0)),
         contact_deg=float(rng.uniform(0.75, 0.9)),
+        creep_time_s=float(rng.uniform(0.3, 1.0)),
     )  # contact: a quantile of the free angle
 
 
@@ -199,6 +203,8 @@ def bounds(effect: str, family: Family, shape: Shape, top_kpa: float) -> tuple[f
         "pressure_deadzone": (0.03 * max(top_kpa, 1.0), 1e-3 * max(top_kpa, 1.0), 0.5 * max(top_kpa, 1.0)),
         "hysteresis": (0.05 * k, 1e-3 * k, 3.0 * k),
         "contact": (1.0 * k, 1e-3 * k, 100.0 * k),
+        "pressure_stiffening": (0.3, 1e-3, 3.0),
+        "creep": (0.1, 1e-3, 2.0),
     }
     return table[effect]
 
@@ -231,6 +237,10 @@ def truth_at(
         return base.with_(hysteresis_nm_per_rad=s, hysteresis_zmax_deg=shape.zmax_deg)
     if effect == "contact":
         return base.with_(contact_deg=contact_deg, contact_nm_per_rad15=s)
+    if effect == "pressure_stiffening":
+        return base.with_(stiffening_s=s)
+    if effect == "creep":
+        return base.with_(creep_beta=s, creep_time_s=shape.creep_time_s)
     if effect == CLEAN:
         return base
     raise ValueError(f"unknown effect {effect!r}")
@@ -253,6 +263,10 @@ def library_equivalent(effect: str, truth: Truth) -> dict[str, float]:
         "asymmetric_stiffness": lambda: {"stiffness_ratio": truth.asym_ratio},
         "quadratic_damping": lambda: {"c2_nms2_per_rad2": truth.drag_c2},
         "pressure_deadzone": lambda: {"threshold_kpa": truth.deadzone_kpa},
+        # s·(p/p_fs)^0.7 against c·p/100 kPa: the least-squares slope over 0..p_fs
+        "pressure_stiffening": lambda: {"gain": 100.0 * truth.stiffening_s * (3.0 / 2.7)
+                                        / truth.family.full_scale_kpa},
+        "creep": lambda: {"stiffness_ratio": truth.creep_beta},  # both branches together
     }.get(effect, dict)()
 
 
@@ -333,6 +347,8 @@ def exercised(effect: str, truth: Truth, plan: ex.Plan, traj: Trajectory) -> tup
         return False, "the angle stays under 5 deg"
     if effect == "quadratic_damping" and np.max(np.abs(traj.omega_rad_s)) < 0.2:
         return False, "the finger never moves fast"
+    if effect in ON_REQUEST and np.max(np.abs(th)) < 5.0:
+        return False, "the angle stays under 5 deg"
     return True, ""
 
 
@@ -402,7 +418,7 @@ def build(spec: CaseSpec) -> Case:
     nominal = replace(nominal,
                       damping_nms_per_rad=nominal.damping_nms_per_rad + linear_damping(truth) * factors[0])
     ok, reason = exercised(spec.effect, truth, plan, traj)
-    if ok and spec.effect in LIBRARY and v < 0.4:
+    if ok and spec.effect in (*LIBRARY, *ON_REQUEST) and v < 0.4:
         ok, reason = False, "absorbed by k, B and N at every plausible size tried"
     if ok and spec.effect in LIBRARY:
         competitor, distinct = _distinct(spec.effect, traj, plan, start, sensor)

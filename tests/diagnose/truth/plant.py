@@ -19,6 +19,8 @@ library's (docs/formats.md §2.1), on purpose:
 | asymmetric spring | k·θ·[1 + (ρ − 1)·σ(−θ/w)], a logistic over about 1.5° | k or ρ·k by the sign of θ |
 | hysteresis (not in the library) | Bouc-Wen: K_h·z, ż = θ' − β·|θ'|·z − γ·θ'·|z|, β = γ = 1/(2·z_max) | — |
 | contact (not in the library) | Hunt-Crossley K_c·δ^1.5·(1 + λ·δ'), δ = θ − θ_c > 0 | — |
+| pressure stiffening | k·s·(p_eff/p_fs)^0.7·θ, a power of the pressure | k·c·(p_eff/p_ref)·θ |
+| creep | two Maxwell branches, β/2·k each, time constants T and 4·T (a Prony series) | one branch β·k, T |
 
 The integrator: the linear part (A, B, k) is propagated exactly over a fixed sub-step
 (matrix exponential, so the stiff over-damped family is no trouble), the extra torques are
@@ -120,6 +122,11 @@ class Truth:
     contact_deg: float = math.inf
     contact_nm_per_rad15: float = 0.0
     contact_damping_s_per_rad: float = 0.3
+    # pressure stiffening: k·s·(p_eff/p_fs)^0.7 added to k
+    stiffening_s: float = 0.0
+    # creep: two Maxwell branches beside k, (β/2)·k each, time constants T and 4·T
+    creep_beta: float = 0.0
+    creep_time_s: float = 1.0
 
     def with_(self, **changes: float | str) -> Truth:
         return replace(self, **changes)
@@ -252,10 +259,16 @@ def simulate(
     contact = truth.contact_nm_per_rad15 > 0.0
     thc, kc, lam = truth.contact_deg * DEG, truth.contact_nm_per_rad15, truth.contact_damping_s_per_rad
     spring_extra, eff_p = truth.spring_extra, truth.effective_pressure
+    stiffening = truth.stiffening_s > 0.0
+    ks, p_fs = k * truth.stiffening_s, f.full_scale_kpa
+    creep = truth.creep_beta > 0.0
+    kb = 0.5 * truth.creep_beta * k
+    creep_keep = (math.exp(-h / truth.creep_time_s), math.exp(-h / (4.0 * truth.creep_time_s)))
 
     theta = theta0_deg * DEG
     omega = 0.0
     z = 0.0
+    creep_x = [theta, theta]  # the branches' dashpots, relaxed at the start
     stuck = fric
     cmd = np.zeros(n) if command is None else np.asarray(command, dtype=float)
     if command is not None and cmd.size != n:
@@ -308,6 +321,10 @@ def simulate(
             else:
                 pc = pm = ud
             drive = gain * (eff_p(pm) if dz else pm)
+            if stiffening:
+                drive -= ks * (max(eff_p(pm) if dz else pm, 0.0) / p_fs) ** 0.7 * theta
+            if creep:
+                drive -= kb * ((theta - creep_x[0]) + (theta - creep_x[1]))
             if spring_on:
                 drive -= spring_extra(theta)
             if grav:
@@ -355,6 +372,9 @@ def simulate(
             if hyst:
                 dth = th_new - theta
                 z += dth - bw * abs(dth) * z - bw * dth * abs(z)
+            if creep:  # each dashpot relaxes toward the angle at the sub-step's mean
+                mean = 0.5 * (theta + th_new)
+                creep_x = [mean + (x - mean) * keep for x, keep in zip(creep_x, creep_keep, strict=True)]
             theta, omega = th_new, om_new
     return Trajectory(out_th / DEG, out_om, cmd, out_pc, out_st, measured)
 

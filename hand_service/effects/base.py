@@ -1,0 +1,153 @@
+"""What an effect is: a named physical form, its parameters (unit, range, neutral value) and
+its simulator hook, the change it makes to a simulated finger (docs/formats.md §2.1).
+
+Two kinds of hook exist. A `FieldEffect` is a term of the C model (csrc/rtcore_model.c,
+rtcore_effects): the simulator, the controller's feedforward and its force estimate all
+use it. A `FingerEffect` sets the simulated finger's own physics (csrc/rtcore_sim_plant.h:
+an object past an angle, a loop in the angle): the simulator includes it in the truth, the
+controller does not model it. A lab's effect (registry.py) may be either, built from the
+simulator's terms.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+from rtcore import Effects
+from rtcore.sim import SimFinger
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of an effect: its name (with its unit in it), unit, the value that
+    means "no effect", its plausible range (validation and fit bounds) and a typical
+    magnitude (starting points and step sizes)."""
+
+    name: str
+    unit: str
+    neutral: float
+    lower: float
+    upper: float
+    scale: float
+
+
+class FitScales(Protocol):
+    """What sets an effect's plausible size in one recording (diagnose's EffectScales)."""
+
+    stiffness_nm_per_rad: float
+    command_max_kpa: float
+    torque_nm: float
+    speed_rad_s: float
+    angle_rad: float
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A named effect. `parameters[0]` is the one `diagnose` fits; the others (if any) keep
+    the value the model file gives, or their neutral."""
+
+    name: str
+    physics: str  # the form, in one line (docs/formats.md §2.1)
+    parameters: tuple[Parameter, ...]
+    reference: str = ""  # where the form comes from
+    compensated: bool = False  # the controller's model includes it (feedforward, force estimate)
+    # `diagnose` searches for it (an effect whose onset or shape it cannot fit yet is
+    # simulated and compensated, not searched: docs/effects.md)
+    searched: bool = True
+
+    # --- the primary parameter, as the one-parameter table had it ---------------------
+    @property
+    def param(self) -> str:
+        return self.parameters[0].name
+
+    @property
+    def unit(self) -> str:
+        return self.parameters[0].unit
+
+    @property
+    def neutral(self) -> float:
+        return self.parameters[0].neutral
+
+    @property
+    def lower(self) -> float:
+        return self.parameters[0].lower
+
+    @property
+    def upper(self) -> float:
+        return self.parameters[0].upper
+
+    @property
+    def scale(self) -> float:
+        return self.parameters[0].scale
+
+    def parameter(self, name: str) -> Parameter:
+        return next(p for p in self.parameters if p.name == name)
+
+    def full(self, values: Mapping[str, float]) -> dict[str, float]:
+        """Every parameter's value: the given ones, the rest at their neutral."""
+        return {p.name: float(values.get(p.name, p.neutral)) for p in self.parameters}
+
+    # --- the simulator hook ------------------------------------------------------------
+    def rtcore_fields(self, values: Mapping[str, float]) -> dict[str, float]:
+        """The controller's and simulator's rtcore_effects fields this effect sets."""
+        del values
+        return {}
+
+    def apply(self, finger: SimFinger, values: Mapping[str, float]) -> SimFinger:
+        """`finger` with this effect at `values` (a new SimFinger)."""
+        raise NotImplementedError
+
+    def read(self, finger: SimFinger) -> float:
+        """The primary parameter's value in `finger`."""
+        raise NotImplementedError
+
+    # --- diagnose ----------------------------------------------------------------------
+    def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
+        """The fit's bounds in a recording (`scale`, `lower`, `upper`: the table's, already
+        grown with the finger's stiffness): by default the table's."""
+        del scales, scale
+        return lower, upper
+
+
+@dataclass(frozen=True)
+class FieldEffect(Effect):
+    """An effect that is a term of the C model: its first parameter one field of
+    rtcore_effects, its others (`more_fields`) more."""
+
+    rtcore_field: str = ""
+    compensated: bool = True
+    more_fields: tuple[tuple[str, str], ...] = ()  # (parameter, rtcore_effects field) beyond the first
+
+    def rtcore_fields(self, values: Mapping[str, float]) -> dict[str, float]:
+        full = self.full(values)
+        more = {field: full[param] for param, field in self.more_fields}
+        return {self.rtcore_field: full[self.param], **more}
+
+    def apply(self, finger: SimFinger, values: Mapping[str, float]) -> SimFinger:
+        effects: Effects = dataclasses.replace(finger.prbm.effects, **self.rtcore_fields(values))
+        return dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, effects=effects))
+
+    def read(self, finger: SimFinger) -> float:
+        return float(getattr(finger.prbm.effects, self.rtcore_field))
+
+
+@dataclass(frozen=True)
+class FingerEffect(Effect):
+    """An effect that sets the simulated finger's own fields (rtcore_sim_finger): `fields`
+    maps each parameter to the finger's field it sets (a subclass may convert them by
+    overriding `finger_fields`)."""
+
+    fields: tuple[tuple[str, str], ...] = ()  # (parameter, SimFinger field)
+
+    def finger_fields(self, finger: SimFinger, values: Mapping[str, float]) -> dict[str, float]:
+        full = self.full(values)
+        return {field: full[param] for param, field in self.fields}
+
+    def apply(self, finger: SimFinger, values: Mapping[str, float]) -> SimFinger:
+        return dataclasses.replace(finger, **self.finger_fields(finger, values))
+
+    def read(self, finger: SimFinger) -> float:
+        return float(getattr(finger, dict(self.fields)[self.param]))

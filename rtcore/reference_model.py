@@ -1,0 +1,102 @@
+"""The PRBM's torque model with its effects, line by line the C of csrc/rtcore_model.c: the
+part of the readable reference (rtcore/reference.py) that the controller's feedforward, its
+force estimate and `calibrate gain` share."""
+
+from __future__ import annotations
+
+import math
+
+from rtcore.config import Effects, Prbm
+
+RAD_PER_DEG = math.pi / 180.0
+
+
+def linear_stiffness(m: Prbm, angle_rad: float) -> float:
+    if angle_rad < 0.0:
+        return m.stiffness_nm_per_rad * m.effects.asymmetric_stiffness_ratio
+    return m.stiffness_nm_per_rad
+
+
+def model_torque(m: Prbm, angle_rad: float, velocity: float) -> float:
+    """k th + k3 th^3 + c2 |th'| th' + Tc tanh(th'/w) + G (1 - cos th) + Kc max(th - th_c, 0)^n."""
+    e = m.effects
+    torque = linear_stiffness(m, angle_rad) * angle_rad
+    torque += e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad
+    torque += e.quadratic_damping_nms2_per_rad2 * abs(velocity) * velocity
+    if e.coulomb_torque_nm != 0.0:
+        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
+        torque += e.coulomb_torque_nm * math.tanh(velocity / smoothing)
+    if e.gravity_torque_nm != 0.0:
+        torque += e.gravity_torque_nm * (1.0 - math.cos(angle_rad))
+    if e.contact_stiffness_nm_per_radn > 0.0:
+        torque += contact_torque(e, angle_rad)
+    return torque
+
+
+def contact_depth(e: Effects, angle_rad: float) -> float:
+    depth = angle_rad - e.contact_onset_deg * RAD_PER_DEG
+    return depth if e.contact_stiffness_nm_per_radn > 0.0 and depth > 0.0 else 0.0
+
+
+def contact_torque(e: Effects, angle_rad: float) -> float:
+    """Kc (th - th_c)^n past the onset."""
+    depth = contact_depth(e, angle_rad)
+    return e.contact_stiffness_nm_per_radn * math.pow(depth, e.contact_exponent) if depth > 0.0 else 0.0
+
+
+def contact_stiffness(e: Effects, angle_rad: float) -> float:
+    depth = contact_depth(e, angle_rad)
+    return e.contact_exponent * e.contact_stiffness_nm_per_radn * math.pow(depth, e.contact_exponent - 1.0) \
+        if depth > 0.0 else 0.0
+
+
+def model_stiffness(m: Prbm, angle_rad: float) -> float:
+    e = m.effects
+    stiffness = linear_stiffness(m, angle_rad) + 3.0 * e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad
+    if e.gravity_torque_nm != 0.0:
+        stiffness += e.gravity_torque_nm * math.sin(angle_rad)
+    if e.contact_stiffness_nm_per_radn > 0.0:
+        stiffness += contact_stiffness(e, angle_rad)
+    return stiffness
+
+
+def model_torque_rate(m: Prbm, angle_rad: float, velocity: float, accel: float) -> float:
+    e = m.effects
+    d_velocity = 2.0 * e.quadratic_damping_nms2_per_rad2 * abs(velocity)
+    if e.coulomb_torque_nm != 0.0:
+        smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
+        th = math.tanh(velocity / smoothing)
+        d_velocity += e.coulomb_torque_nm * (1.0 - th * th) / smoothing
+    return model_stiffness(m, angle_rad) * velocity + d_velocity * accel
+
+
+def deadzone_invert(e: Effects, pressure_kpa: float) -> float:
+    if e.pressure_deadzone_kpa > 0.0 and pressure_kpa > 0.0:
+        return pressure_kpa + e.pressure_deadzone_kpa
+    return pressure_kpa
+
+
+def effective_pressure(e: Effects, pressure_kpa: float) -> float:
+    p0 = e.pressure_deadzone_kpa
+    if p0 > 0.0:
+        return pressure_kpa - p0 if pressure_kpa > p0 else 0.0
+    return pressure_kpa
+
+
+STIFFENED_GAIN_FLOOR = 0.1  # the share of N a stiffened finger keeps at least
+
+
+def stiffening_torque(m: Prbm, angle_rad: float, effective_kpa: float) -> float:
+    """k c (p_eff / p_ref) th: the pressure's stiffening."""
+    e = m.effects
+    if not e.pressure_stiffening_gain > 0.0:
+        return 0.0
+    per_kpa = effective_kpa / e.pressure_stiffening_ref_kpa
+    return m.stiffness_nm_per_rad * e.pressure_stiffening_gain * per_kpa * angle_rad
+
+
+def stiffened_gain_share(m: Prbm, angle_rad: float) -> float:
+    """1 - k c th / (N p_ref), at least the floor."""
+    if not m.effects.pressure_stiffening_gain > 0.0 or not m.pressure_gain_nm_per_kpa > 0.0:
+        return 1.0
+    return max(1.0 - stiffening_torque(m, angle_rad, 1.0) / m.pressure_gain_nm_per_kpa, STIFFENED_GAIN_FLOOR)

@@ -1,0 +1,87 @@
+"""The library effects diagnose searches only on request (cases.ON_REQUEST: pressure
+stiffening, creep), on the independent truth, in the truth's own forms (plant.py: a power of
+the pressure; two Maxwell branches at T and 4·T), through `hand-service diagnose --search`:
+
+    python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
+
+Each case is scored as a library effect (scoring.py): named first where observable; the
+estimate's error against the truth's library equivalent (cases.library_equivalent)."""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from tests.diagnose.truth import cases as cs  # noqa: E402
+from tests.diagnose.truth.battery import diagnose_argv  # noqa: E402
+from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
+
+
+def run_case(spec: cs.CaseSpec, folder: Path) -> dict:
+    from hand_service.cli import main
+
+    case = cs.build(spec)
+    rec, model = cs.write(case, folder)
+    out = folder / f"{spec.id}.diagnose.json"
+    started = time.perf_counter()
+    code = main([*diagnose_argv(rec, model, out), "--search", spec.effect])
+    result = json.loads(out.read_text()) if code == 0 else {"verdict": f"exit {code}"}
+    names = [e.get("name") for e in result.get("effects") or []]
+    first = (result.get("effects") or [{}])[0]
+    true = next(iter(case.library_equivalent.values()), None)
+    error = None
+    if names and names[0] == spec.effect and true:
+        error = abs(next(iter(first["params"].values())) - true) / abs(true)
+    return {**case.summary(), "verdict": result.get("verdict"), "named": names,
+            "top1": bool(names) and names[0] == spec.effect, "parameter_error": error,
+            "seconds": time.perf_counter() - started}
+
+
+def summarise(rows: list[dict]) -> dict:
+    out = {}
+    for effect in cs.ON_REQUEST:
+        mine = [r for r in rows if r["effect"] == effect]
+        seen = [r for r in mine if r["observable"]]
+        errors = [r["parameter_error"] for r in seen if r["parameter_error"] is not None]
+        out[effect] = {"cases": len(mine), "observable": len(seen), "top1": sum(r["top1"] for r in seen),
+                       "wrong_names": sum(bool(r["named"]) and not r["top1"] for r in mine),
+                       "median_parameter_error": float(np.median(errors)) if errors else None}
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--classes", nargs="*", default=list(CLASSES))
+    parser.add_argument("--magnitudes", nargs="*", default=["concealed"])
+    args = parser.parse_args(argv)
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="on-request-") as scratch:
+        for effect in cs.ON_REQUEST:
+            for seed in range(args.seeds):
+                for cls in args.classes:
+                    for magnitude in args.magnitudes:
+                        row = run_case(cs.CaseSpec(effect, cls, seed, magnitude), Path(scratch))
+                        rows.append(row)
+                        print(f"{row['id']}: observable {row['observable']}, named {row['named']}, "
+                              f"error {row['parameter_error']}", file=sys.stderr, flush=True)
+    Path(args.out).write_text(json.dumps({"summary": summarise(rows), "cases": rows}, indent=1))
+    print(json.dumps(summarise(rows), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
