@@ -68,9 +68,12 @@ def physics(pad_stiffness_n_per_m: float, torsion_factor: float, design_width_m:
 
 
 def scaled(mismatch: Mismatch, factor: float) -> Mismatch:
+    """The mismatch's sizes times factor; the board's valves kept unless factor is 0."""
     return dataclasses.replace(mismatch, stiffening=mismatch.stiffening * factor,
                                lever_drift_per_rad=mismatch.lever_drift_per_rad * factor,
-                               sensor_bow_deg=mismatch.sensor_bow_deg * factor)
+                               sensor_bow_deg=mismatch.sensor_bow_deg * factor,
+                               hysteresis_deg=mismatch.hysteresis_deg * factor,
+                               valves=mismatch.valves if factor > 0.0 else None)
 
 
 def evaluate(truth: Profile, controller: Profile, values: np.ndarray, trials_per_cell: int,
