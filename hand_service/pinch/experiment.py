@@ -3,6 +3,7 @@ pairs x three objects x two controllers, the same placements for both controller
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -137,7 +138,7 @@ class PinchResult:
         return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
                 "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned_once()],
                 "cells": [c.to_json() for c in self.cells],
-                "pooled": pooled, "paired": paired, "plant_mismatch": vars(self.mismatch),
+                "pooled": pooled, "paired": paired, "plant_mismatch": dataclasses.asdict(self.mismatch),
                 "estimate_rmse_n": self.estimate_rmse_n}
 
 
