@@ -27,6 +27,7 @@ import numpy as np
 
 from hand_service.pinch.mismatch import NONE, Hysteresis, Mismatch, ValveLag
 from hand_service.pinch.objects import GRAVITY_M_PER_S2, PinchObject, Placements
+from hand_service.pinch.swing import Swing, side_stiffness_nm_per_rad
 from rtcore import Effects, Prbm
 from rtcore.motion import FingerMotions
 from rtcore.sim import SimFinger
@@ -144,7 +145,8 @@ class PinchPlant:
         self.released = False
         self.vertical_slip_m = np.zeros(n)
         self.lateral_slip_m = np.zeros(n)
-        self.rotation_rad = np.zeros(n)
+        self.rotation_rad = np.zeros(n)  # slip in the grip about the pinch axis
+        self.swing = Swing(side_stiffness_nm_per_rad(fingers.length_m), obj.inertia_kgm2, dt_s)
         self._slip_velocity = np.zeros((n, 3))
         self.normal_n = np.zeros((n, 2))
         self.peak_normal_n = np.zeros(n)
@@ -240,9 +242,16 @@ class PinchPlant:
         twist = np.where(narrow, normal * offset[:, None] / self.f.twist_stiffness_nm_per_rad, 0.0)
         return np.minimum(geometric[:, None] + twist, MAX_TILT_RAD)
 
+    def gravity_torque_nm(self) -> np.ndarray:
+        """Gravity's torque on the object about the pinch axis, turned as it is in the grip."""
+        o = self.o
+        lever = o.com_lever_m + np.where(o.lever_along_lateral, o.lateral_m + self.lateral_slip_m, 0.0)
+        return o.mass_kg * GRAVITY_M_PER_S2 * lever * np.cos(self.rotation_rad + self.swing.angle_rad)
+
     def demand(self, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """What friction must supply to hold the object still (n, 3): vertical force
-        (down +), lateral force (out +), torque about the pinch axis; and the limits."""
+        (down +), lateral force (out +), torque about the pinch axis (the fingers' sideways
+        bend's, hand_service.pinch.swing); and the limits."""
         o = self.o
         total_n = normal.sum(axis=1)
         weight = o.mass_kg * GRAVITY_M_PER_S2
@@ -252,8 +261,7 @@ class PinchPlant:
         wedge = np.where(curved, np.clip(height / radius, -0.99, 0.99), 0.0)
         vertical = weight + total_n * wedge
         lateral = (normal * np.tan(self.tilt_rad(normal))).sum(axis=1)
-        lever = o.com_lever_m + np.where(o.lever_along_lateral, o.lateral_m + self.lateral_slip_m, 0.0)
-        torque = weight * lever * np.cos(self.rotation_rad)
+        torque = self.swing.torque_nm
         friction = o.friction * total_n
         limits = np.stack([friction, friction, 2.0 / 3.0 * friction * o.patch_radius_m], axis=1)
         return np.stack([vertical, lateral, torque], axis=1), limits
@@ -261,6 +269,9 @@ class PinchPlant:
     def _grip(self, normal: np.ndarray) -> None:
         o, dt = self.o, self.dt_s
         going = self.outcome == HELD
+        # the pads take gravity's torque as the person's hand lets go of the object
+        carried = 1.0 - self.hand_stiffness_n_per_m / HAND_STIFFNESS_N_PER_M
+        self.swing.advance(np.where(going, carried * self.gravity_torque_nm(), 0.0))
         load, limits = self.demand(normal)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.sqrt(((load / limits) ** 2).sum(axis=1))
@@ -276,7 +287,7 @@ class PinchPlant:
         self.lateral_slip_m += dt * self._slip_velocity[:, 1] * sign
         self.rotation_rad += dt * self._slip_velocity[:, 2]
         out = ((np.abs(self.vertical_slip_m) > SLIP_LIMIT_M) | (np.abs(self.lateral_slip_m) > SLIP_LIMIT_M)
-               | (np.abs(self.rotation_rad) > ROTATION_LIMIT_RAD))
+               | (np.abs(self.rotation_rad + self.swing.angle_rad) > ROTATION_LIMIT_RAD))
         self.outcome[going & out] = SLIPPED
         self.outcome[going & ~out & (normal.sum(axis=1) <= 0.0)] = DROPPED
 

@@ -44,6 +44,7 @@ def test_friction_cone_sticks_inside_and_slips_outside(truth: Profile) -> None:
     normal = squeeze(p, 0.0)
     normal[0] = 4.0  # enough torsional friction for the handle's torque
     normal[1] = 0.5  # not enough
+    p.swing.angle_rad[:] = p.gravity_torque_nm() / p.swing.stiffness_nm_per_rad  # bent, at rest
     load, limits = p.demand(normal)
     ratio = np.sqrt(((load / limits) ** 2).sum(axis=1))
     assert ratio[0] < 1.0 < ratio[1]
