@@ -7,7 +7,7 @@ constant pressure, pooled over the four finger pairs (once-per-object tuning, th
 rule). The parameters and their ranges (PARAMETERS): the pads' stiffness, a factor on
 every object's friction, a factor on the finger's torsion (the coin's tilt with force),
 the design pinch width (the gap the fingers close over), the closing rate and a factor
-on the mismatched plant's size (hand_service.pinch.mismatch.PAPER_MISMATCH, with the
+on the mismatched plant's sizes (hand_service.pinch.mismatch.PAPER_MISMATCH, with the
 lab's calibration run again on it). Saltelli's sampling and Sobol's first-order and
 total indices by SALib, N (D + 2) runs for N base samples and D parameters. Prints one
 markdown table: per object and parameter, S1 and ST with their 95 % bootstrap half-widths.
