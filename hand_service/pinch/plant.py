@@ -16,7 +16,10 @@ The three demands share one friction limit, an ellipsoid (Howe and Cutkosky's li
 surface for a soft contact): the object sticks while the demand lies inside it and
 slips, driven by the excess, when it does not. Along the pinch axis the object is
 light beside the fingers' effective mass (A / r^2 is about 0.1 kg), so once released it
-sits where the two normal forces are equal. docs/replicate.md gives every parameter.
+sits where the two normal forces are equal. The person's hand opens over release_s: its
+spring along the axis falls linearly to zero; the object's weight is on the pads from the
+release's start, gravity's torque comes on with the hand's opening through the fingers'
+sideways bend (hand_service.pinch.swing). docs/replicate.md gives every parameter.
 """
 
 from __future__ import annotations
