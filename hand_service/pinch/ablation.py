@@ -4,10 +4,12 @@ plant with each of its parts taken out in turn, everything else as `replicate --
 the tuning rule, the seed and the placements).
 
     python -m hand_service.pinch.ablation [--object chip] [--trials 50] [--rule operator] [--seed 1]
+                                          [--release-s 0.25] [--full-only]
 
 Prints one markdown table: per plant, force control's and constant pressure's pooled
 success on the object, the paired difference with its 95 % interval and McNemar's exact
-p, force control's failures and the force estimate's RMS error.
+p, force control's failures and the force estimate's RMS error. --release-s sets how long
+the person's hand takes to open (0: at once); --full-only runs the mismatched plant alone.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from pathlib import Path
 from hand_service.pinch.experiment import run_pinch
 from hand_service.pinch.mismatch import NONE, PAPER_MISMATCH, Mismatch, identify_on_plant
 from hand_service.pinch.objects import OBJECTS
+from hand_service.pinch.plant import RELEASE_S
 from hand_service.pinch.tuning import RULES
 from hand_service.replicate.pinch_run import measured_controller
 
@@ -43,22 +46,29 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rule", choices=sorted(RULES), default="operator",
                         help="tuning rule (default operator)")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--release-s", type=float, default=RELEASE_S,
+                        help=f"the person's hand opens over this time (default {RELEASE_S:g} s)")
+    parser.add_argument("--full-only", action="store_true", help="the mismatched plant alone")
     args = parser.parse_args(argv)
     if args.trials < 1:
         parser.error("--trials must be 1 or more")
+    if not 0.0 <= args.release_s <= 5.0:
+        parser.error("--release-s must be 0 to 5")
     obj = next(o for o in OBJECTS if o.name == args.object)
     truth, measured = measured_controller(None, args.seed, 10)
-    print(f"| plant ({obj.name}, {args.trials} trials a cell, {RULES[args.rule].describe()}) | force control "
+    print(f"| plant ({obj.name}, {args.trials} trials a cell, {RULES[args.rule].describe()}, "
+          f"release over {args.release_s:g} s) | force control "
           "| constant pressure | paired difference (points, 95 % CI) | McNemar p | force control's failures "
           "| estimate RMS error (N) |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
-    for name, mismatch in VARIANTS.items():
+    variants = list(VARIANTS.items())[:1] if args.full_only else list(VARIANTS.items())
+    for name, mismatch in variants:
         controller = measured
         if mismatch != NONE:
             with tempfile.TemporaryDirectory(prefix="pinch-ablation-") as scratch:
                 controller = identify_on_plant(truth, measured, mismatch, args.seed, Path(scratch))
         result = run_pinch(truth, controller, args.trials, args.seed, objects=(obj,), rule=RULES[args.rule],
-                           mismatch=mismatch)
+                           mismatch=mismatch, release_s=args.release_s)
         (sf, nf), (sp, n_p) = result.pooled("force", obj.name), result.pooled("pressure", obj.name)
         paired = result.paired(obj.name)
         low, high = paired.interval

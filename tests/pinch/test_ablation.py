@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 
-from hand_service.pinch.ablation import VARIANTS
+import pytest
+
+from hand_service.pinch.ablation import VARIANTS, main
 from hand_service.pinch.mismatch import NONE, PAPER_MISMATCH
 
 
@@ -20,3 +22,8 @@ def test_each_variant_takes_out_one_part() -> None:
     # every part of the mismatch that the plant has is taken out once
     assert parts == {k for k, v in full.items() if v and k != "reference_kpa"}
     assert NONE in VARIANTS.values() and PAPER_MISMATCH in VARIANTS.values()
+
+
+def test_the_release_time_is_checked_before_anything_runs() -> None:
+    with pytest.raises(SystemExit):
+        main(["--release-s", "-1"])
