@@ -56,7 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "docs/replicate.md")
     parser.add_argument("--pinch-plant", choices=("model", "mismatched"), default=None,
                         help="the pinch's simulated hand: the controller's PRBM (model, the default) or "
-                             "one that differs from it as a real hand does, calibrated again on it "
+                             "one that differs from it as a real hand does (stiffening, a moving contact, a "
+                             "bowed sensor, hysteresis, the board's valves), calibrated again on it "
                              "(mismatched); docs/replicate.md")
     parser.add_argument("--quick", action="store_true",
                         help="3 trials a finger, 3 periods, a coarse PID search: seconds, not the "

@@ -79,10 +79,12 @@ class Loop:
 def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
                 duration_s: float, reference_deg: Callable[[float], float],
                 wall_deg: Callable[[float], float | None], seed: int = 1,
-                controller: Profile | None = None) -> Loop:
+                controller: Profile | None = None, push_n: Callable[[float], float] | None = None) -> Loop:
     """The truth's finger under the C step in impedance mode, the controller's model from
     `controller` (default: the truth's); wall_deg(t) is where the wall stands, held over each
-    tick (None at t = 0: no wall in this run). The wall is the simulator's contact."""
+    tick (None at t = 0: no wall in this run). The wall is the simulator's contact. push_n(t)
+    (N, opening the finger; may pull) acts on the force point as well, held over each tick,
+    and adds to the recorded force."""
     f = truth.finger(finger)
     config = (controller or truth).finger(finger).rtcore_config(truth.control)
     hand = rtcore.Hand(rtcore.HandConfig([config], sample_rate_hz=truth.control.rate_hz))
@@ -117,13 +119,15 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
         hand.inputs.pressure_meas_kpa[0] = chamber + noise_kpa * rng.standard_normal()
         hand.step()
         command = float(hand.outputs.pressure_cmd_kpa[0])
+        push = 0.0 if push_n is None else push_n(t_s)
+        torque = NO_TORQUE_NM if push_n is None else np.array([-m.lever_arm_m * push])
         for k in range(SUBSTEPS):
             pipe[(tick * SUBSTEPS + k) % pipe.size] = command
             delayed = pipe[(tick * SUBSTEPS + k - delay) % pipe.size]
-            motion.advance(np.array([delayed]), NO_TORQUE_NM, dt_s)
+            motion.advance(np.array([delayed]), torque, dt_s)
         angle, chamber = float(motion.angle_rad[0]), float(motion.chamber_kpa[0])
         depth_m = 0.0 if wall is None else m.lever_arm_m * (angle - np.radians(wall))
-        force = max(WALL_STIFFNESS_N_PER_M * depth_m, 0.0)
+        force = max(WALL_STIFFNESS_N_PER_M * depth_m, 0.0) + push
         out.angle_deg[tick], out.force_n[tick], out.chamber_kpa[tick] = np.degrees(angle), force, chamber
     return out
 

@@ -3,6 +3,7 @@ pairs x three objects x two controllers, the same placements for both controller
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -13,7 +14,7 @@ import numpy as np
 from hand_service.config.profile import Profile
 from hand_service.pinch.mismatch import NONE, Mismatch
 from hand_service.pinch.objects import OBJECTS, PinchObject, Placements
-from hand_service.pinch.plant import HELD, OUTCOME_NAMES
+from hand_service.pinch.plant import HELD, OUTCOME_NAMES, RELEASE_S
 from hand_service.pinch.stats import Paired, fisher_p, wilson_interval
 from hand_service.pinch.trials import CONTROLLERS, PAIRS, Cell, Traces, run_cells
 from hand_service.pinch.tuning import HAND_RULE, Rule, Tuned, tune
@@ -137,7 +138,7 @@ class PinchResult:
         return {"trials_per_cell": self.trials_per_cell, "seed": self.seed, "seconds": self.seconds,
                 "tuning_rule": self.rule.describe(), "tuned": [vars(t) for t in self.tuned_once()],
                 "cells": [c.to_json() for c in self.cells],
-                "pooled": pooled, "paired": paired, "plant_mismatch": vars(self.mismatch),
+                "pooled": pooled, "paired": paired, "plant_mismatch": dataclasses.asdict(self.mismatch),
                 "estimate_rmse_n": self.estimate_rmse_n}
 
 
@@ -145,12 +146,12 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
               progress: Callable[[str], None] | None = None,
               objects: tuple[PinchObject, ...] = OBJECTS,
               pairs: tuple[tuple[str, str], ...] = PAIRS, rule: Rule = HAND_RULE,
-              mismatch: Mismatch = NONE) -> PinchResult:
+              mismatch: Mismatch = NONE, release_s: float = RELEASE_S) -> PinchResult:
     say = progress or (lambda _: None)
     started = time.perf_counter()
     tune_seed, place_seed, run_seed = (int(s) for s in np.random.SeedSequence([seed, 18]).generate_state(3))
     say(f"pinch: tuning each controller's setpoint ({rule.where}; {rule.describe()})")
-    tuned = tune(truth, controller_profile, tune_seed, objects, rule, pairs, mismatch)
+    tuned = tune(truth, controller_profile, tune_seed, objects, rule, pairs, mismatch, release_s)
     for t in dict.fromkeys(tuned.values()):
         low, high, chosen = t.in_own_unit()
         say(f"pinch: {t.obj} {t.controller} (thumb & {t.finger}): holds from {low:g} to {high:g} {t.unit}, "
@@ -173,7 +174,7 @@ def run_pinch(truth: Profile, controller_profile: Profile, trials_per_cell: int,
     total = sum(c.n for c in cells)
     say(f"pinch: {total} trials ({trials_per_cell} a cell), 2 s closing and 5 s hold each, stepped together")
     recorded = tuple(i for rows in record.values() for i in rows)
-    batch = run_cells(truth, controller_profile, cells, run_seed, recorded, mismatch)
+    batch = run_cells(truth, controller_profile, cells, run_seed, recorded, mismatch, release_s)
     controllers = np.array([c.controller for c in cells])[batch.cell_of_trial]
     rmse = {c: batch.estimate_rmse_n(controllers == c) for c in CONTROLLERS}
     results = []

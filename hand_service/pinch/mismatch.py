@@ -8,6 +8,13 @@ the controller runs, on top of rtcore's finger simulator (no new library effect)
 - A flex sensor with its own error: the true angle plus a bow b sin(π θ / θ_span) over
   the calibrated span, before the sensor's mV (its hysteresis-free part: what a linear
   calibration cannot remove).
+- Rate-independent hysteresis of the silicone: one elastic-plastic (Prandtl) element in
+  parallel with the spring, the torque k (θ − z) with z kept within h of θ (the play
+  operator), at most k h: the angle against pressure runs a loop about 2 h wide whatever
+  the speed (`Hysteresis`).
+- The board's valves, not the controller's: a fill lag and a (slower) vent lag per finger
+  and the board's dead time, where the controller's feedforward assumes the profile's
+  30 ms lag and 5 ms dead time (`BoardValves`).
 
 The controller keeps the PRBM: the lab's `calibrate sensor` and `calibrate gain` are run
 again on this plant (`identify_on_plant`), as a lab would on its hand; the free releases
@@ -36,11 +43,61 @@ SENSOR_SPAN_DEG = 150.0  # the calibrated span of `calibrate sensor`'s pairs (0 
 
 
 @dataclass(frozen=True)
+class BoardValves:
+    """The valve board's chamber dynamics as a first-order lag behind a dead time, the lag
+    by direction: filling per finger, venting VENT_OVER_FILL times slower (docs/replicate.md)."""
+
+    fill_tau_s: tuple[tuple[str, float], ...] = (("thumb", 0.034), ("index", 0.040), ("middle", 0.068),
+                                                 ("ring", 0.036), ("little", 0.044))
+    vent_over_fill: float = 4.0
+    dead_time_s: float = 0.003
+
+    def fill_tau_of(self, finger: str) -> float:
+        return dict(self.fill_tau_s)[finger]
+
+
+class ValveLag:
+    """The board's valves over (n, 2) fingers: a dead time pipe and a lag that fills at one
+    time constant and vents at another. `step` takes the command, returns the chamber."""
+
+    def __init__(self, valves: BoardValves, fill_tau_s: np.ndarray, dt_s: float) -> None:
+        self.fill_alpha = np.exp(-dt_s / fill_tau_s)
+        self.vent_alpha = np.exp(-dt_s / (fill_tau_s * valves.vent_over_fill))
+        self.chamber_kpa = np.zeros(fill_tau_s.shape)
+        self._pipe = np.zeros((max(round(valves.dead_time_s / dt_s), 0) + 1, *fill_tau_s.shape))
+        self._at = 0
+
+    def step(self, command_kpa: np.ndarray) -> np.ndarray:
+        self._pipe[self._at] = command_kpa
+        self._at = (self._at + 1) % self._pipe.shape[0]
+        delayed = self._pipe[self._at]  # the oldest: dead time's worth of substeps ago
+        alpha = np.where(delayed > self.chamber_kpa, self.fill_alpha, self.vent_alpha)
+        self.chamber_kpa = delayed + alpha * (self.chamber_kpa - delayed)
+        return self.chamber_kpa
+
+
+class Hysteresis:
+    """The silicone's rate-independent hysteresis on (n, 2) fingers: a play operator z that
+    stays within width_rad of the angle, and the torque k (θ − z) against the bend."""
+
+    def __init__(self, width_rad: float, shape: tuple[int, ...]) -> None:
+        self.width_rad = width_rad
+        self.z_rad = np.zeros(shape)
+
+    def torque_nm(self, stiffness_nm_per_rad: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
+        """The element's torque (positive: opening) at this angle, the play updated to it."""
+        self.z_rad = np.clip(self.z_rad, angle_rad - self.width_rad, angle_rad + self.width_rad)
+        return stiffness_nm_per_rad * (angle_rad - self.z_rad)
+
+
+@dataclass(frozen=True)
 class Mismatch:
     stiffening: float = 0.0  # c: k(p) = k (1 + c p / p_ref)
     reference_kpa: float = 100.0
     lever_drift_per_rad: float = 0.0  # a: the pad's force acts at r (1 + a θ)
     sensor_bow_deg: float = 0.0  # b: the flex sensor reads θ + b sin(π θ / span)
+    hysteresis_deg: float = 0.0  # h: the play operator's half-width
+    valves: BoardValves | None = None  # None: the profile's valve, as the controller assumes
 
     def stiffening_torque_nm(self, stiffness_nm_per_rad: np.ndarray, angle_rad: np.ndarray,
                              chamber_kpa: np.ndarray) -> np.ndarray:
@@ -56,9 +113,11 @@ class Mismatch:
 
 
 NONE = Mismatch()
-# Sized in docs/replicate.md: c and a are assumptions of the order a soft finger shows;
-# the sensor's bow is the size that brings the force estimate's error to the paper's.
-PAPER_MISMATCH = Mismatch(stiffening=0.01, lever_drift_per_rad=0.1, sensor_bow_deg=1.0)
+# Sized in docs/replicate.md: c, a and h are assumptions of the order a soft finger shows;
+# the sensor's bow is the size that brings the force estimate's error to the paper's; the
+# valves are the board's pneumatics as the simulator's pneumatic plant measures them.
+PAPER_MISMATCH = Mismatch(stiffening=0.01, lever_drift_per_rad=0.1, sensor_bow_deg=1.0, hysteresis_deg=0.5,
+                          valves=BoardValves())
 PLANTS = {"model": NONE, "mismatched": PAPER_MISMATCH}
 
 
@@ -75,11 +134,14 @@ def _sweep_trial(finger: FingerProfile, mismatch: Mismatch, rng: np.random.Gener
     command = 0.5 * finger.pressure_max_kpa * (1.0 - np.cos(2.0 * math.pi * t / period_s))
     angle_deg = np.empty(n)
     dt = 1.0 / (rate_hz * substeps)
+    stiffness = np.array([m.stiffness_nm_per_rad])
+    hysteresis = Hysteresis(math.radians(mismatch.hysteresis_deg), (1,))
     for i in range(n):
         angle_deg[i] = math.degrees(float(motion.angle_rad[0]))
         for _ in range(substeps):
-            extra = mismatch.stiffening_torque_nm(np.array([m.stiffness_nm_per_rad]), motion.angle_rad[:1],
-                                                  np.array([command[i]]))
+            angle = motion.angle_rad[:1].copy()
+            extra = (mismatch.stiffening_torque_nm(stiffness, angle, np.array([command[i]]))
+                     + hysteresis.torque_nm(stiffness, angle))
             motion.advance(np.array([command[i]]), -extra, dt)
     read = mismatch.sensed_deg(angle_deg) + noise_deg * rng.standard_normal(n)
     return Trial("pressure_sweep", finger.name, {"t": t, "pressure_kpa": command, "angle_deg": read},

@@ -16,17 +16,21 @@ The three demands share one friction limit, an ellipsoid (Howe and Cutkosky's li
 surface for a soft contact): the object sticks while the demand lies inside it and
 slips, driven by the excess, when it does not. Along the pinch axis the object is
 light beside the fingers' effective mass (A / r^2 is about 0.1 kg), so once released it
-sits where the two normal forces are equal. docs/replicate.md gives every parameter.
+sits where the two normal forces are equal. The person's hand opens over release_s: its
+spring along the axis falls linearly to zero; the object's weight is on the pads from the
+release's start, gravity's torque comes on with the hand's opening through the fingers'
+sideways bend (hand_service.pinch.swing). docs/replicate.md gives every parameter.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from hand_service.pinch.mismatch import NONE, Mismatch
+from hand_service.pinch.mismatch import NONE, Hysteresis, Mismatch, ValveLag
 from hand_service.pinch.objects import GRAVITY_M_PER_S2, PinchObject, Placements
+from hand_service.pinch.swing import Swing, side_stiffness_nm_per_rad
 from rtcore import Effects, Prbm
 from rtcore.motion import FingerMotions
 from rtcore.sim import SimFinger
@@ -37,6 +41,7 @@ PAD_RADIUS_M = 0.008  # half the finger's 16 mm width
 FINGER_SHEAR_MODULUS_PA = 1.14e6 / 3.0  # Shore A30 by Gent's relation, G = E / 3
 FINGER_TORSION_CONSTANT_M4 = 0.7 * 0.1406 * 0.016**4  # 16 mm square, 30 % hollow
 HAND_STIFFNESS_N_PER_M = 300.0  # the person's relaxed pinch presenting the object, until release
+RELEASE_S = 0.25  # the person's fingers open: their spring falls linearly to zero over this time
 SLIP_LIMIT_M = 0.005  # vertical or lateral slip that counts as slipping out
 ROTATION_LIMIT_RAD = 0.35  # 20 deg of rotation in the grip counts as slipping out
 MAX_TILT_RAD = 1.4
@@ -54,13 +59,15 @@ class FingerArrays:
     valve_tau_s: np.ndarray
     dead_time_s: np.ndarray
     length_m: np.ndarray
+    name: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=str))
 
-    def sim_fingers(self) -> list[SimFinger]:
+    def sim_fingers(self, with_lag: bool = True) -> list[SimFinger]:
         """Every finger for rtcore's simulator, trial by trial (row-major over (n, 2)):
-        its PRBM and valve lag; the dead time is the plant's own."""
+        its PRBM and (with_lag) valve lag; the dead time is the plant's own."""
+        taus = self.valve_tau_s.ravel() if with_lag else np.zeros(self.valve_tau_s.size)
         columns = zip(self.inertia_kgm2.ravel(), self.damping_nms_per_rad.ravel(),
                       self.stiffness_nm_per_rad.ravel(), self.gain_nm_per_kpa.ravel(),
-                      self.lever_arm_m.ravel(), self.valve_tau_s.ravel(), strict=True)
+                      self.lever_arm_m.ravel(), taus, strict=True)
         return [SimFinger(Prbm(float(a), float(b), float(k), float(gain), float(lever),
                                Effects(valve_lag_tau_s=float(tau))))
                 for a, b, k, gain, lever, tau in columns]
@@ -114,16 +121,23 @@ class PinchPlant:
     """n trials' fingers and objects, advanced one substep at a time by `advance`."""
 
     def __init__(self, fingers: FingerArrays, obj: ObjectArrays, gap_m: np.ndarray, dt_s: float,
-                 mismatch: Mismatch = NONE) -> None:
+                 mismatch: Mismatch = NONE, release_s: float = RELEASE_S) -> None:
         self.f, self.o, self.dt_s, self.mismatch = fingers, obj, dt_s, mismatch
+        self.release_s = release_s
+        self._since_release_s = 0.0
         n = obj.mass_kg.shape[0]
         self.gap_m = gap_m
-        self._motions = FingerMotions(fingers.sim_fingers())
+        # the board's valves (mismatch.valves) replace the profile's lag and dead time
+        board = mismatch.valves
+        self._motions = FingerMotions(fingers.sim_fingers(with_lag=board is None))
+        self._valves = (None if board is None else
+                        ValveLag(board, np.vectorize(board.fill_tau_of, otypes=[float])(fingers.name), dt_s))
+        self._hysteresis = Hysteresis(np.radians(mismatch.hysteresis_deg), (n, 2))
         # views of the simulator's state, shape (n, 2): writing them places the fingers
         self.angle_rad = self._motions.angle_rad.reshape(n, 2)
         self.velocity_rad_per_s = self._motions.velocity_rad_per_s.reshape(n, 2)
         self.chamber_kpa = self._motions.chamber_kpa.reshape(n, 2)
-        self.delay_steps = np.rint(fingers.dead_time_s / dt_s).astype(int)
+        self.delay_steps = np.rint(fingers.dead_time_s / dt_s).astype(int) * (board is None)
         depth = int(self.delay_steps.max()) + 1
         self._pipe = np.zeros((depth, n, 2))
         self._pipe_at = 0
@@ -134,22 +148,34 @@ class PinchPlant:
         self.released = False
         self.vertical_slip_m = np.zeros(n)
         self.lateral_slip_m = np.zeros(n)
-        self.rotation_rad = np.zeros(n)
+        self.rotation_rad = np.zeros(n)  # slip in the grip about the pinch axis
+        self.swing = Swing(side_stiffness_nm_per_rad(fingers.length_m), obj.inertia_kgm2, dt_s)
         self._slip_velocity = np.zeros((n, 3))
         self.normal_n = np.zeros((n, 2))
         self.peak_normal_n = np.zeros(n)
         self.outcome = np.full(n, HELD)
 
     def release(self) -> None:
-        """The person lets go: the object is now held by the fingers alone."""
+        """The person starts to let go: their hand's spring falls to zero over release_s
+        (0: at once), and from now on the fingers' friction carries the object."""
         self.released = True
+
+    @property
+    def hand_stiffness_n_per_m(self) -> float:
+        """The person's hand along the pinch axis: HAND_STIFFNESS_N_PER_M until release,
+        then falling linearly to zero over release_s."""
+        if not self.released:
+            return HAND_STIFFNESS_N_PER_M
+        if self.release_s <= 0.0:
+            return 0.0
+        return HAND_STIFFNESS_N_PER_M * max(1.0 - self._since_release_s / self.release_s, 0.0)
 
     def _object_axial(self, tip: np.ndarray, tip_rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Where the object sits along the pinch axis, and its rate: the two pads' springs
         and, until release, the person's hand (a spring to the placed position) in
         balance. The balance is monotonic in the position: one case is consistent."""
         o, k_c = self.o, PAD_STIFFNESS_N_PER_M
-        k_h = 0.0 if self.released else HAND_STIFFNESS_N_PER_M
+        k_h = self.hand_stiffness_n_per_m
         left_face = tip[:, 0] + o.width_m / 2.0  # object centre at which the thumb's pad just touches
         right_face = self.gap_m - tip[:, 1] - o.width_m / 2.0
         placed = self.object_axial_m
@@ -192,13 +218,18 @@ class PinchPlant:
                           0.0)
         self.normal_n = normal
         lever = self.mismatch.contact_lever_m(f.lever_arm_m, self.angle_rad)
-        stiffening = self.mismatch.stiffening_torque_nm(f.stiffness_nm_per_rad, self.angle_rad,
-                                                        self.chamber_kpa)
-        self._motions.advance(delayed, -lever * normal - stiffening, dt)
+        extra = self.mismatch.stiffening_torque_nm(f.stiffness_nm_per_rad, self.angle_rad,
+                                                   self.chamber_kpa)
+        if self.mismatch.hysteresis_deg > 0.0:
+            extra = extra + self._hysteresis.torque_nm(f.stiffness_nm_per_rad, self.angle_rad)
+        if self._valves is not None:
+            delayed = self._valves.step(delayed)
+        self._motions.advance(delayed, -lever * normal - extra, dt)
         self.peak_normal_n = np.maximum(self.peak_normal_n, normal.max(axis=1))
         going = self.outcome == HELD
         self.outcome[going & (self.peak_normal_n > self.o.break_force_n)] = BROKEN
         if self.released:
+            self._since_release_s += dt
             self._grip(normal)
 
     def tilt_rad(self, normal: np.ndarray) -> np.ndarray:
@@ -214,9 +245,16 @@ class PinchPlant:
         twist = np.where(narrow, normal * offset[:, None] / self.f.twist_stiffness_nm_per_rad, 0.0)
         return np.minimum(geometric[:, None] + twist, MAX_TILT_RAD)
 
+    def gravity_torque_nm(self) -> np.ndarray:
+        """Gravity's torque on the object about the pinch axis, turned as it is in the grip."""
+        o = self.o
+        lever = o.com_lever_m + np.where(o.lever_along_lateral, o.lateral_m + self.lateral_slip_m, 0.0)
+        return o.mass_kg * GRAVITY_M_PER_S2 * lever * np.cos(self.rotation_rad + self.swing.angle_rad)
+
     def demand(self, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """What friction must supply to hold the object still (n, 3): vertical force
-        (down +), lateral force (out +), torque about the pinch axis; and the limits."""
+        (down +), lateral force (out +), torque about the pinch axis (the fingers' sideways
+        bend's, hand_service.pinch.swing); and the limits."""
         o = self.o
         total_n = normal.sum(axis=1)
         weight = o.mass_kg * GRAVITY_M_PER_S2
@@ -226,8 +264,7 @@ class PinchPlant:
         wedge = np.where(curved, np.clip(height / radius, -0.99, 0.99), 0.0)
         vertical = weight + total_n * wedge
         lateral = (normal * np.tan(self.tilt_rad(normal))).sum(axis=1)
-        lever = o.com_lever_m + np.where(o.lever_along_lateral, o.lateral_m + self.lateral_slip_m, 0.0)
-        torque = weight * lever * np.cos(self.rotation_rad)
+        torque = self.swing.torque_nm
         friction = o.friction * total_n
         limits = np.stack([friction, friction, 2.0 / 3.0 * friction * o.patch_radius_m], axis=1)
         return np.stack([vertical, lateral, torque], axis=1), limits
@@ -235,6 +272,9 @@ class PinchPlant:
     def _grip(self, normal: np.ndarray) -> None:
         o, dt = self.o, self.dt_s
         going = self.outcome == HELD
+        # the pads take gravity's torque as the person's hand lets go of the object
+        carried = 1.0 - self.hand_stiffness_n_per_m / HAND_STIFFNESS_N_PER_M
+        self.swing.advance(np.where(going, carried * self.gravity_torque_nm(), 0.0))
         load, limits = self.demand(normal)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.sqrt(((load / limits) ** 2).sum(axis=1))
@@ -250,7 +290,7 @@ class PinchPlant:
         self.lateral_slip_m += dt * self._slip_velocity[:, 1] * sign
         self.rotation_rad += dt * self._slip_velocity[:, 2]
         out = ((np.abs(self.vertical_slip_m) > SLIP_LIMIT_M) | (np.abs(self.lateral_slip_m) > SLIP_LIMIT_M)
-               | (np.abs(self.rotation_rad) > ROTATION_LIMIT_RAD))
+               | (np.abs(self.rotation_rad + self.swing.angle_rad) > ROTATION_LIMIT_RAD))
         self.outcome[going & out] = SLIPPED
         self.outcome[going & ~out & (normal.sum(axis=1) <= 0.0)] = DROPPED
 

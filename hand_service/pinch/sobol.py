@@ -7,7 +7,7 @@ constant pressure, pooled over the four finger pairs (once-per-object tuning, th
 rule). The parameters and their ranges (PARAMETERS): the pads' stiffness, a factor on
 every object's friction, a factor on the finger's torsion (the coin's tilt with force),
 the design pinch width (the gap the fingers close over), the closing rate and a factor
-on the mismatched plant's size (hand_service.pinch.mismatch.PAPER_MISMATCH, with the
+on the mismatched plant's sizes (hand_service.pinch.mismatch.PAPER_MISMATCH, with the
 lab's calibration run again on it). Saltelli's sampling and Sobol's first-order and
 total indices by SALib, N (D + 2) runs for N base samples and D parameters. Prints one
 markdown table: per object and parameter, S1 and ST with their 95 % bootstrap half-widths.
@@ -68,9 +68,12 @@ def physics(pad_stiffness_n_per_m: float, torsion_factor: float, design_width_m:
 
 
 def scaled(mismatch: Mismatch, factor: float) -> Mismatch:
+    """The mismatch's sizes times factor; the board's valves kept unless factor is 0."""
     return dataclasses.replace(mismatch, stiffening=mismatch.stiffening * factor,
                                lever_drift_per_rad=mismatch.lever_drift_per_rad * factor,
-                               sensor_bow_deg=mismatch.sensor_bow_deg * factor)
+                               sensor_bow_deg=mismatch.sensor_bow_deg * factor,
+                               hysteresis_deg=mismatch.hysteresis_deg * factor,
+                               valves=mismatch.valves if factor > 0.0 else None)
 
 
 def evaluate(truth: Profile, controller: Profile, values: np.ndarray, trials_per_cell: int,

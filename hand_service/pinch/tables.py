@@ -115,8 +115,13 @@ def tuning_table(result: PinchResult) -> str:
 
 def estimate_line(result: PinchResult) -> str:
     m = result.mismatch
+    valves = ("the profile's valves" if m.valves is None else
+              f"the board's valves (fill {min(t for _, t in m.valves.fill_tau_s) * 1e3:g} to "
+              f"{max(t for _, t in m.valves.fill_tau_s) * 1e3:g} ms, vent x {m.valves.vent_over_fill:g}, "
+              f"dead time {m.valves.dead_time_s * 1e3:g} ms)")
     plant = (f"stiffening c = {m.stiffening:g} at {m.reference_kpa:g} kPa, contact drift a = "
-             f"{m.lever_drift_per_rad:g}/rad, sensor bow {m.sensor_bow_deg:g} deg")
+             f"{m.lever_drift_per_rad:g}/rad, sensor bow {m.sensor_bow_deg:g} deg, hysteresis "
+             f"{m.hysteresis_deg:g} deg, {valves}")
     errors = "; ".join(f"{c} {v:.3f} N" for c, v in result.estimate_rmse_n.items())
     return (f"Force estimate against the plant's true normal force, RMS over the fingers in contact: "
             f"{errors} (paper 0.324 N). Plant: {plant}.")

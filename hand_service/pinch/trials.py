@@ -19,7 +19,7 @@ from hand_service.config.effects import effect_value
 from hand_service.config.profile import FingerProfile, Profile
 from hand_service.pinch.mismatch import NONE, Mismatch
 from hand_service.pinch.objects import PinchObject, Placements
-from hand_service.pinch.plant import HELD, FingerArrays, ObjectArrays, PinchPlant
+from hand_service.pinch.plant import HELD, RELEASE_S, FingerArrays, ObjectArrays, PinchPlant
 
 PAIRS = (("thumb", "index"), ("thumb", "middle"), ("thumb", "ring"), ("thumb", "little"))
 CONTROLLERS = ("force", "pressure")
@@ -103,6 +103,7 @@ def finger_arrays(truth: Profile, pairs: list[tuple[str, str]]) -> FingerArrays:
         take(lambda f: max(effect_value(f.model.effects, "valve_lag"), 1e-4)),
         take(lambda f: effect_value(f.model.effects, "dead_time")),
         take(lambda f: f.model.length_m),
+        np.array([[a, b] for a, b in pairs]),
     )
 
 
@@ -124,8 +125,10 @@ def _hands(controller: Profile, pairs: list[tuple[str, str]]) -> list[tuple[rtco
 
 
 def run_cells(truth: Profile, controller: Profile, cells: list[Cell], seed: int,
-              record: tuple[int, ...] = (), mismatch: Mismatch = NONE) -> BatchResult:
-    """Run every trial of every cell together; record traces of the trials in `record`."""
+              record: tuple[int, ...] = (), mismatch: Mismatch = NONE,
+              release_s: float = RELEASE_S) -> BatchResult:
+    """Run every trial of every cell together; record traces of the trials in `record`; the
+    person's hand opens over release_s (0: at once)."""
     pairs = [c.pair for c in cells for _ in range(c.n)]
     n = len(pairs)
     rng = np.random.default_rng(seed)
@@ -133,7 +136,7 @@ def run_cells(truth: Profile, controller: Profile, cells: list[Cell], seed: int,
     fingers = finger_arrays(truth, pairs)
     objects = ObjectArrays.build([c.obj for c in cells], [c.placements for c in cells])
     plant = PinchPlant(fingers, objects, pair_gap_m(fingers.lever_arm_m), 1.0 / (rate_hz * SUBSTEPS),
-                       mismatch)
+                       mismatch, release_s)
     hands = _hands(controller, pairs)
     by_name = {f.name: f for f in truth.fingers}
     sensor_gain = np.array([[by_name[a].sensor_gain_deg_per_mv, by_name[b].sensor_gain_deg_per_mv]

@@ -29,7 +29,7 @@ import numpy as np
 from hand_service.config.profile import Profile
 from hand_service.pinch.mismatch import NONE, Mismatch
 from hand_service.pinch.objects import OBJECTS, PinchObject, Placements
-from hand_service.pinch.plant import BROKEN, HELD
+from hand_service.pinch.plant import BROKEN, HELD, RELEASE_S
 from hand_service.pinch.trials import CONTROLLERS, PAIRS, Cell, run_cells
 
 TUNING_PAIR = ("thumb", "index")
@@ -146,7 +146,7 @@ def fallback(setpoints: np.ndarray, held_grasps: np.ndarray, broke: np.ndarray) 
 def tune(truth: Profile, controller_profile: Profile, seed: int,
          objects: tuple[PinchObject, ...] = OBJECTS, rule: Rule = HAND_RULE,
          pairs: tuple[tuple[str, str], ...] = PAIRS,
-         mismatch: Mismatch = NONE) -> dict[tuple[str, str, str], Tuned]:
+         mismatch: Mismatch = NONE, release_s: float = RELEASE_S) -> dict[tuple[str, str, str], Tuned]:
     """Every (finger, object, controller)'s setpoint, from one batch of tuning grasps; tuned
     on thumb and index and shared by every pair unless the rule is per pair."""
     place_seed, run_seed = (int(s) for s in np.random.SeedSequence([seed, 42]).generate_state(2))
@@ -161,7 +161,7 @@ def tune(truth: Profile, controller_profile: Profile, seed: int,
                 setpoints = candidates(truth, controller, rule.force_search_max_n, pair)
                 cells.append(Cell(pair, obj, controller, np.repeat(setpoints, rule.grasps),
                                   grasps.tiled(len(setpoints))))
-    result = run_cells(truth, controller_profile, cells, run_seed, mismatch=mismatch)
+    result = run_cells(truth, controller_profile, cells, run_seed, mismatch=mismatch, release_s=release_s)
     tuned: dict[tuple[str, str, str], Tuned] = {}
     for k, cell in enumerate(cells):
         outcome = result.outcome[result.cell_of_trial == k].reshape(-1, rule.grasps)

@@ -10,16 +10,24 @@ import pytest
 
 from hand_service.config.profile import Profile
 from hand_service.pinch.objects import CHIP, COIN, SCREWDRIVER, Placements
-from hand_service.pinch.plant import HELD, SLIPPED, ObjectArrays, PinchPlant
+from hand_service.pinch.plant import (
+    HAND_STIFFNESS_N_PER_M,
+    HELD,
+    RELEASE_S,
+    SLIPPED,
+    ObjectArrays,
+    PinchPlant,
+)
 from hand_service.pinch.stats import wilson_interval
-from hand_service.pinch.trials import PAIRS, finger_arrays, pair_gap_m
+from hand_service.pinch.trials import CLOSING_S, PAIRS, Cell, finger_arrays, pair_gap_m, run_cells
 from hand_service.pinch.tuning import Rule, window
 
 
-def plant(truth: Profile, obj: object, placements: Placements) -> PinchPlant:
+def plant(truth: Profile, obj: object, placements: Placements, release_s: float = 0.0) -> PinchPlant:
     n = len(placements.width_m)
     fingers = finger_arrays(truth, [PAIRS[0]] * n)
-    return PinchPlant(fingers, ObjectArrays.build([obj], [placements]), pair_gap_m(fingers.lever_arm_m), 1e-3)
+    return PinchPlant(fingers, ObjectArrays.build([obj], [placements]), pair_gap_m(fingers.lever_arm_m), 1e-3,
+                      release_s=release_s)
 
 
 def squeeze(p: PinchPlant, overlap_m: float) -> np.ndarray:
@@ -36,6 +44,7 @@ def test_friction_cone_sticks_inside_and_slips_outside(truth: Profile) -> None:
     normal = squeeze(p, 0.0)
     normal[0] = 4.0  # enough torsional friction for the handle's torque
     normal[1] = 0.5  # not enough
+    p.swing.angle_rad[:] = p.gravity_torque_nm() / p.swing.stiffness_nm_per_rad  # bent, at rest
     load, limits = p.demand(normal)
     ratio = np.sqrt(((load / limits) ** 2).sum(axis=1))
     assert ratio[0] < 1.0 < ratio[1]
@@ -68,6 +77,32 @@ def test_before_release_the_persons_hand_holds_the_object(truth: Profile) -> Non
     depth, _ = p._overlaps()
     # alone, the thumb pushes the coin away: no grip
     assert depth[0, 0] == pytest.approx(depth[0, 1]) and depth[0, 0] < 0.0
+
+
+def test_the_persons_hand_opens_over_the_release_time(truth: Profile) -> None:
+    p = plant(truth, COIN, Placements.nominal(COIN, 1), release_s=0.25)
+    assert p.hand_stiffness_n_per_m == HAND_STIFFNESS_N_PER_M
+    p.release()
+    for _ in range(125):
+        p.advance(np.zeros((1, 2)))
+    assert p.hand_stiffness_n_per_m == pytest.approx(HAND_STIFFNESS_N_PER_M / 2.0)
+    for _ in range(126):
+        p.advance(np.zeros((1, 2)))
+    assert p.hand_stiffness_n_per_m == 0.0
+
+
+def test_a_gradual_release_does_not_spike_the_pad_force(truth: Profile) -> None:
+    """Thumb and middle on a chip at one pressure: the stronger middle finger presses the
+    chip into the person's hand; let go at once, the pads' force overshoots where it
+    settles; let go over RELEASE_S, it moves there without overshoot."""
+    cells = [Cell(("thumb", "middle"), CHIP, "pressure", np.array([60.0]), Placements.nominal(CHIP, 1))]
+    release_tick = round(CLOSING_S * truth.control.rate_hz)
+    overshoot = {}
+    for release_s in (0.0, RELEASE_S):
+        force = run_cells(truth, truth, cells, 3, record=(0,), release_s=release_s).traces[0].normal_n
+        overshoot[release_s] = force[release_tick:release_tick + 100].max() / force[-1] - 1.0
+    assert overshoot[0.0] > 0.1
+    assert overshoot[RELEASE_S] < 0.03
 
 
 def test_chip_strength_follows_its_weibull_distribution() -> None:

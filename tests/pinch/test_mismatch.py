@@ -11,7 +11,15 @@ import numpy as np
 import pytest
 
 from hand_service.config.profile import Profile
-from hand_service.pinch.mismatch import NONE, PAPER_MISMATCH, Mismatch, identify_on_plant
+from hand_service.pinch.mismatch import (
+    NONE,
+    PAPER_MISMATCH,
+    BoardValves,
+    Hysteresis,
+    Mismatch,
+    ValveLag,
+    identify_on_plant,
+)
 from hand_service.pinch.objects import COIN, SCREWDRIVER, Placements
 from hand_service.pinch.trials import Cell, run_cells
 
@@ -25,6 +33,29 @@ def test_the_mismatch_terms() -> None:
     assert m.sensed_deg(np.array([0.0, 75.0, 150.0])) == pytest.approx([0.0, 77.0, 150.0])
     assert NONE.sensed_deg(np.array([33.0]))[0] == 33.0
     assert NONE.stiffening_torque_nm(np.array([0.6]), np.array([0.5]), np.array([50.0]))[0] == 0.0
+
+
+def test_the_boards_valves_fill_faster_than_they_vent_behind_their_dead_time() -> None:
+    valves = BoardValves(fill_tau_s=(("index", 0.04),), vent_over_fill=4.0, dead_time_s=0.003)
+    lag = ValveLag(valves, np.array([valves.fill_tau_of("index")]), 1e-3)
+    got = [lag.step(np.array([100.0]))[0] for _ in range(43)]
+    assert got[2] == 0.0 and got[3] > 0.0  # 3 ms of dead time
+    assert got[42] == pytest.approx(100.0 * (1.0 - np.exp(-0.040 / 0.04)), rel=1e-9)  # one fill lag
+    got = [lag.step(np.array([0.0]))[0] for _ in range(163)]
+    assert got[162] == pytest.approx(got[2] * np.exp(-0.160 / 0.16), rel=1e-9)  # one vent lag
+
+
+def test_the_hysteresis_is_a_loop_of_twice_its_width_whatever_the_speed() -> None:
+    """The play operator's torque against a slow and a fast sweep of the angle: +k h on the
+    way up, -k h on the way down, the same at both speeds."""
+    for samples in (50, 5000):
+        h = Hysteresis(np.radians(1.0), (1,))
+        k = np.array([0.6])
+        up = np.linspace(0.0, 1.0, samples)
+        rising = [h.torque_nm(k, np.array([a]))[0] for a in up]
+        falling = [h.torque_nm(k, np.array([a]))[0] for a in up[::-1]]
+        assert rising[-1] == pytest.approx(0.6 * np.radians(1.0))
+        assert falling[-1] == pytest.approx(-0.6 * np.radians(1.0))
 
 
 def test_the_lab_calibrates_again_on_the_mismatched_plant(truth: Profile, tmp_path: Path) -> None:

@@ -95,4 +95,10 @@ def test_the_papers_protocol_per_pair_on_a_mismatched_plant(tmp_path: Path,
     assert data["plant_mismatch"]["sensor_bow_deg"] > 0.0
     assert {t["finger"] for t in data["tuned"]} == {"index", "middle", "ring", "little"}
     assert "holding in 3 of 3 placed grasps, per finger pair" in data["tuning_rule"]
+    # thumb & middle holds chips under constant pressure once the hand opens gradually
+    key = ("middle", "chip", "pressure")
+    middle = next(t for t in data["tuned"] if (t["finger"], t["obj"], t["controller"]) == key)
+    assert middle["lowest_holding_kpa"] == middle["lowest_holding_kpa"]  # a window was found (not NaN)
+    cell = next(c for c in data["cells"] if (c["pair"][1], c["object"], c["controller"]) == key)
+    assert cell["successes"] > 0
     assert "Force estimate against the plant's true normal force" in tables

@@ -9,7 +9,7 @@ import pytest
 from SALib.sample import sobol as sobol_sample
 
 from hand_service.pinch import plant, trials
-from hand_service.pinch.mismatch import PAPER_MISMATCH
+from hand_service.pinch.mismatch import NONE, PAPER_MISMATCH
 from hand_service.pinch.sobol import PARAMETERS, analyse, main, physics, problem, scaled
 
 
@@ -30,7 +30,8 @@ def test_the_defaults_lie_in_the_ranges_and_the_mismatch_scales() -> None:
                 "torsion_factor": 1.0, "mismatch_factor": 1.0}
     for name, low, high in PARAMETERS:
         assert low <= defaults[name] <= high, name
-    assert scaled(PAPER_MISMATCH, 0.0).sensor_bow_deg == 0.0
+    assert scaled(PAPER_MISMATCH, 0.0) == NONE
+    assert scaled(PAPER_MISMATCH, 2.0).hysteresis_deg == 2.0 * PAPER_MISMATCH.hysteresis_deg
     assert scaled(PAPER_MISMATCH, 2.0).stiffening == 2.0 * PAPER_MISMATCH.stiffening
 
 

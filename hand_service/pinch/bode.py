@@ -1,0 +1,185 @@
+"""Impedance mode against frequency: the rendered stiffness and damping of one finger under
+a small sinusoidal push, with the controller's model exact or ±5 % off.
+
+    python -m hand_service.pinch.bode [--finger index] [--share 1.0] [--plot PATH] [--quick]
+
+A probe fixed to the force point (hand_service.pinch.compliance.closed_loop's push: it
+pushes and pulls, so the finger cannot leave it) pushes the finger open with a
+sinusoidal force of K·AMPLITUDE_DEG at one frequency at a time, about the 80° reference.
+Over whole periods after the settling, the probe's force and the true angle are each
+fitted with a sinusoid at that frequency (least squares, a lock-in): their complex ratio
+Z = F / (θ_ref − θ) (N/deg) is the rendered impedance; Re Z the stiffness, Im Z / ω the
+damping. The finger's own inertia and damping are in it, as they are for a real probe.
+Model errors (`ERRORS`): the controller's joint stiffness k and pressure gain N each
+5 % up or down, the four corners. Prints one markdown table per finger: per frequency
+and model error, the stiffness's error against the set K (%) and the damping
+(N·s/deg), "saturated" where the chamber reached 0 or the finger's limit (the valve, not
+the impedance law, then sets the stiffness); with --plot, the Bode plot (|Z|, its phase
+and the stiffness's error) to PATH.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hand_service.api.impedance import gain_limits
+from hand_service.config.profile import Profile, load_profile
+from hand_service.pinch.compliance import closed_loop
+
+AMPLITUDE_DEG = 2.0
+REFERENCE_DEG = 80.0
+SETTLE_S = 3.0
+FREQUENCIES_HZ = (0.1, 0.2, 0.5, 1.0, 2.0, 3.0, 5.0, 7.0, 10.0, 15.0)
+ERRORS = ((0.0, 0.0), (5.0, 5.0), (-5.0, -5.0), (5.0, -5.0), (-5.0, 5.0))  # (k %, N %)
+DAMPING_N_S_PER_DEG = 0.0003  # as the push tests (docs/replicate.md), well inside D_max
+TOLERANCE = 0.10
+SATURATION_MARGIN_KPA = 1.0
+
+
+def with_errors(controller: Profile, stiffness_pct: float, gain_pct: float) -> Profile:
+    """The controller's profile with every finger's k and N off by these percentages."""
+    fingers = [dataclasses.replace(f, model=dataclasses.replace(
+        f.model, stiffness_nm_per_rad=f.model.stiffness_nm_per_rad * (1.0 + stiffness_pct / 100.0),
+        pressure_gain_nm_per_kpa=f.model.pressure_gain_nm_per_kpa * (1.0 + gain_pct / 100.0)))
+        for f in controller.fingers]
+    return dataclasses.replace(controller, fingers=fingers)
+
+
+def quasi_static_ratio(share_of_limit: float, stiffness_pct: float, gain_pct: float) -> float:
+    """The measured over the set stiffness at equilibrium: with N p = k θ + r F on the
+    plant, the estimate (N' p − k' θ) / r is F (1 + e_N) + (e_N − e_k) k θ / r, so the
+    finger renders (K + 2 (e_N − e_k) K_max) / (1 + e_N) (K_max = 0.5 k / (r·180/π))."""
+    e_k, e_n = stiffness_pct / 100.0, gain_pct / 100.0
+    return (1.0 + 2.0 * (e_n - e_k) / share_of_limit) / (1.0 + e_n)
+
+
+def _phasor(t_s: np.ndarray, signal: np.ndarray, omega: float) -> complex:
+    """The least-squares sinusoid at omega through signal (with an offset): a + b sin + c cos,
+    as the complex amplitude b + i c (sin as the reference phase)."""
+    basis = np.column_stack([np.ones_like(t_s), np.sin(omega * t_s), np.cos(omega * t_s)])
+    _, b, c = np.linalg.lstsq(basis, signal, rcond=None)[0]
+    return complex(b, c)
+
+
+@dataclass
+class Point:
+    frequency_hz: float
+    impedance_n_per_deg: complex
+    saturated: bool = False  # the chamber reached 0 or the finger's limit: the valve, not the law
+
+    @property
+    def stiffness_n_per_deg(self) -> float:
+        return self.impedance_n_per_deg.real
+
+    @property
+    def damping_n_s_per_deg(self) -> float:
+        return self.impedance_n_per_deg.imag / (2.0 * math.pi * self.frequency_hz)
+
+
+def rendered(truth: Profile, controller: Profile, finger: str, stiffness_n_per_deg: float,
+             frequency_hz: float, seed: int = 1, periods: int | None = None) -> Point:
+    """The rendered impedance at one frequency (see the module's docstring)."""
+    omega = 2.0 * math.pi * frequency_hz
+    count = periods or max(3, math.ceil(4.0 * frequency_hz))
+    duration_s = SETTLE_S + count / frequency_hz
+    amplitude_n = stiffness_n_per_deg * AMPLITUDE_DEG
+
+    loop = closed_loop(truth, finger, stiffness_n_per_deg, DAMPING_N_S_PER_DEG, duration_s,
+                       lambda _: REFERENCE_DEG, lambda _: None, seed, controller,
+                       push_n=lambda t_s: amplitude_n * math.sin(omega * t_s))
+    t_s = np.arange(loop.angle_deg.size) / truth.control.rate_hz
+    last = t_s >= duration_s - count / frequency_hz
+    shortfall = _phasor(t_s[last], REFERENCE_DEG - loop.angle_deg[last], omega)
+    force = _phasor(t_s[last], loop.force_n[last], omega)
+    chamber = loop.chamber_kpa[last]
+    limit_kpa = truth.finger(finger).pressure_max_kpa
+    saturated = bool(np.any(chamber < SATURATION_MARGIN_KPA)
+                     or np.any(chamber > limit_kpa - SATURATION_MARGIN_KPA))
+    return Point(frequency_hz, force / shortfall, saturated)
+
+
+def sweep(truth: Profile, controller: Profile, finger: str, stiffness_n_per_deg: float,
+          frequencies_hz: tuple[float, ...] = FREQUENCIES_HZ, seed: int = 1) -> list[Point]:
+    return [rendered(truth, controller, finger, stiffness_n_per_deg, f, seed) for f in frequencies_hz]
+
+
+def bandwidth_hz(points: list[Point], set_n_per_deg: float, tolerance: float = TOLERANCE) -> float:
+    """The highest frequency up to which every point's stiffness is within tolerance of the
+    set value, unsaturated (0 if the lowest is not)."""
+    top = 0.0
+    for p in points:
+        if p.saturated or abs(p.stiffness_n_per_deg / set_n_per_deg - 1.0) > tolerance:
+            break
+        top = p.frequency_hz
+    return top
+
+
+def bode_figure(curves: dict[str, list[Point]], set_n_per_deg: float, title: str, path: Path) -> Path:
+    from hand_service.identification.plots import pyplot, save
+
+    plt = pyplot()
+    fig, (top, middle, bottom) = plt.subplots(3, 1, figsize=(6.5, 8.0), sharex=True)
+    for label, points in curves.items():
+        f = [p.frequency_hz for p in points]
+        z = np.array([p.impedance_n_per_deg for p in points])
+        top.loglog(f, np.abs(z), marker="o", label=label)
+        middle.semilogx(f, np.degrees(np.angle(z)), marker="o")
+        error_pct = [100.0 * (p.stiffness_n_per_deg / set_n_per_deg - 1.0) for p in points]
+        bottom.semilogx(f, error_pct, marker="o")
+    top.axhline(set_n_per_deg, color="k", lw=0.8, ls="--")
+    top.set_ylabel("|F / (θ_ref − θ)| (N/deg)")
+    top.set_title(title, fontsize=9)
+    top.legend(fontsize=7)
+    middle.set_ylabel("phase (deg)")
+    for level in (-100.0 * TOLERANCE, 100.0 * TOLERANCE):
+        bottom.axhline(level, color="k", lw=0.8, ls="--")
+    bottom.set_ylabel("Re Z against K (%)")
+    bottom.set_xlabel("frequency (Hz)")
+    return save(fig, path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m hand_service.pinch.bode", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--finger", action="append", help="a finger (repeatable; default index)")
+    parser.add_argument("--share", type=float, default=1.0,
+                        help="K as a share of the finger's K_max (default 1)")
+    parser.add_argument("--plot", type=Path, help="write the Bode plot of the first finger here (.png)")
+    parser.add_argument("--quick", action="store_true", help="three frequencies, no model error")
+    args = parser.parse_args(argv)
+    if not 0.0 < args.share <= 1.0:
+        parser.error("--share must be above 0 and at most 1")
+    truth = load_profile(None)
+    frequencies = (0.1, 1.0, 5.0) if args.quick else FREQUENCIES_HZ
+    errors = ERRORS[:1] if args.quick else ERRORS
+    for n, finger in enumerate(args.finger or ["index"]):
+        k_set = args.share * gain_limits(truth.finger(finger).model)[0]
+        curves = {}
+        title = f"{finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), D = {DAMPING_N_S_PER_DEG:g} N·s/deg"
+        print(f"\n{title}: stiffness error against K (%); damping (N·s/deg)\n")
+        print("| model error (k, N) | quasi-static | " + " | ".join(f"{f:g} Hz" for f in frequencies)
+              + " | within 10 % up to |")
+        print("| --- | --- |" + " --- |" * len(frequencies) + " --- |")
+        for k_pct, n_pct in errors:
+            label = f"k {k_pct:+g} %, N {n_pct:+g} %"
+            points = sweep(truth, with_errors(truth, k_pct, n_pct), finger, k_set, frequencies)
+            curves[label] = points
+            cells = [f"{100 * (p.stiffness_n_per_deg / k_set - 1):+.1f}; {p.damping_n_s_per_deg:.5f}"
+                     + (" (saturated)" if p.saturated else "") for p in points]
+            top = bandwidth_hz(points, k_set)
+            print(f"| {label} | {100 * (quasi_static_ratio(args.share, k_pct, n_pct) - 1):+.1f} | "
+                  + " | ".join(cells) + f" | {'none' if top == 0 else f'{top:g} Hz'} |", flush=True)
+        if args.plot is not None and n == 0:
+            bode_figure(curves, k_set, title, args.plot)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

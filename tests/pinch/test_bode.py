@@ -1,0 +1,42 @@
+"""Impedance mode against frequency: the probe's lock-in finds the rendered stiffness, the
+quasi-static formula predicts a model error's offset, and the stiffness leaves the set
+value above the loop's bandwidth."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from hand_service.api.impedance import gain_limits
+from hand_service.config.profile import Profile
+from hand_service.pinch.bode import Point, _phasor, bandwidth_hz, quasi_static_ratio, rendered, with_errors
+
+
+def test_the_lock_in_finds_amplitude_and_phase() -> None:
+    t = np.arange(0.0, 10.0, 0.01)
+    omega = 2.0 * math.pi * 0.5
+    got = _phasor(t, 3.0 + 2.0 * np.sin(omega * t + 0.3), omega)
+    assert abs(got) == pytest.approx(2.0, rel=1e-9) and np.angle(got) == pytest.approx(0.3, abs=1e-9)
+
+
+def test_bandwidth_is_the_last_frequency_within_tolerance() -> None:
+    points = [Point(0.1, complex(1.02, 0.0)), Point(1.0, complex(0.95, 0.1)), Point(5.0, complex(1.3, 0.0)),
+              Point(10.0, complex(1.0, 0.0))]
+    assert bandwidth_hz(points, 1.0) == 1.0
+    assert bandwidth_hz([Point(0.1, complex(1.2, 0.0))], 1.0) == 0.0
+
+
+def test_slow_probe_renders_the_set_stiffness_and_the_model_errors_offset(truth: Profile) -> None:
+    k_set = gain_limits(truth.finger("index").model)[0]
+    exact = rendered(truth, truth, "index", k_set, 0.2)
+    assert exact.stiffness_n_per_deg == pytest.approx(k_set, rel=0.05)
+    off = rendered(truth, with_errors(truth, 5.0, -5.0), "index", k_set, 0.2)
+    assert off.stiffness_n_per_deg / k_set == pytest.approx(quasi_static_ratio(1.0, 5.0, -5.0), abs=0.03)
+    assert not exact.saturated and not off.saturated
+    # at 0.3 K_max the same error's bias (0.2 K_max of the 0.3) drives the chamber to its end
+    assert rendered(truth, with_errors(truth, 5.0, -5.0), "index", 0.3 * k_set, 0.2).saturated
+    # far above the loop's bandwidth (valve lag, dead time, 100 Hz step) it is not K
+    fast = rendered(truth, truth, "index", k_set, 15.0)
+    assert abs(fast.stiffness_n_per_deg / k_set - 1.0) > 0.5
