@@ -17,6 +17,7 @@ from typing import Any
 import can
 import serial
 
+from hand_service.boardcheck.slcan import BulkSlcanBus
 from hand_service.wire.can_codec import CanCodec
 from hand_service.wire.framing import CRC_BYTES, FrameDecoder, encode_frame
 from hand_service.wire.messages import DecodeStats, Message, ValveCommand
@@ -119,7 +120,11 @@ class CanBoardLink(BoardLink):
         self.description = f"can-v1 on {bus_arguments['interface']}:{bus_arguments['channel']}"
         self.n_fingers = n_fingers
         self.codec = CanCodec(dbc_path, n_fingers)
-        self.bus = can.Bus(**bus_arguments)
+        arguments = dict(bus_arguments)
+        if arguments.pop("interface") == "slcan":  # python-can's, read in bulk (slcan.py)
+            self.bus: can.BusABC = BulkSlcanBus(**arguments)
+        else:
+            self.bus = can.Bus(interface=bus_arguments["interface"], **arguments)
 
     def send(self, message: Message) -> None:
         for frame in self.codec.encode(message):
