@@ -33,6 +33,14 @@ class Received:
     t_s: float  # host monotonic time of arrival
     message: Message
     frame_sequence: int | None = None  # serial-v1's header sequence (can-v1 has none)
+    # how much later than it could have been this host read it: its own stalls since it last
+    # looked at the link (session.py); the board is not to blame for them
+    late_s: float = 0.0
+
+    @property
+    def board_t_s(self) -> float:
+        """The arrival time less this host's own lateness: what the board is judged by."""
+        return self.t_s - self.late_s
 
 
 @dataclass(frozen=True)
