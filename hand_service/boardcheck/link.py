@@ -36,6 +36,9 @@ class Received:
     # how much later than it could have been this host read it: its own stalls since it last
     # looked at the link (session.py); the board is not to blame for them
     late_s: float = 0.0
+    # a stall of this host just before that look, which a board on the same machine may have
+    # shared and caught up after (session.py): excused in a gap between samples only
+    grace_s: float = 0.0
 
     @property
     def board_t_s(self) -> float:

@@ -78,10 +78,11 @@ class Session:
     # asked for by more than STALL_MIN_S (a stall the CPU wait does not see: paging, disk),
     # whichever is longer. A message is late by those since this process last looked at the
     # link (Received.late_s): it came after that look, and waited through them at most. And as
-    # the daemon rides a stall of the host through (transports/host_stall.py), a message read
-    # within a stall's length and GRACE_PERIODS sample periods after it is excused that stall
-    # too, if it is one the daemon would ride through (host_stall_max_ms): a board on the same
-    # busy machine stalls with this process, and catches up after it
+    # the daemon rides a stall of the host through (transports/host_stall.py), a gap that ends
+    # in a message read within a stall's length and GRACE_PERIODS sample periods after it is
+    # excused that stall too (Received.grace_s), if it is one the daemon would ride through
+    # (host_stall_max_ms): a board on the same busy machine stalls with this process, and
+    # catches up after it
     stalls: list[tuple[float, float]] = field(default_factory=list)
     cpu: CpuWait = field(default_factory=CpuWait, repr=False)
     _cpu_waited_s: float | None = field(default=None, init=False, repr=False)
@@ -168,8 +169,9 @@ class Session:
         out = []
         for item in received:
             late_s = stall_s if since_s is None else min(stall_s, item.t_s - since_s)
-            late_s += self._grace_s(item.t_s, since_s)
-            out.append(dataclasses.replace(item, late_s=late_s) if late_s > 0.0 else item)
+            grace_s = self._grace_s(item.t_s, since_s)
+            out.append(dataclasses.replace(item, late_s=late_s, grace_s=grace_s)
+                       if late_s > 0.0 or grace_s > 0.0 else item)
         return out
 
     def _grace_s(self, t_s: float, since_s: float | None) -> float:

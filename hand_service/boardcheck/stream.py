@@ -36,7 +36,7 @@ def rate(session: Session, got: list[Received]) -> CheckResult:
     from scipy.stats import theilslopes  # here: the mock firmware imports this package
 
     times = np.array([t for t, _ in rows])
-    board_times = np.array([r.board_t_s for r in got if isinstance(r.message, SensorReport)])
+    board_times = np.array([r.board_t_s - r.grace_s for r in got if isinstance(r.message, SensorReport)])
     # the Theil-Sen slope of arrival time against arrival count: a stall of this computer
     # (samples queued, then read at once) is a few outlying points, not the board's rate
     period_s = float(theilslopes(times, np.arange(len(times)))[0])

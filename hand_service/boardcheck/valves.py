@@ -86,6 +86,8 @@ def echo(session: Session) -> tuple[CheckResult, float]:
     session.progress(f"commanding {cfg.pressure_kpa:g} kPa for {HOLD_S:g} s")
     before = session.command_sequence
     held = [s.command_sequence for _, s in samples(session.log)[-1:]]  # what the board held till now
+    if before == 0:  # no command yet: the board reports command_sequence 0 until the first
+        held.append(0)
     got = session.pump(HOLD_S, cfg.pressure_kpa)
     rows = samples(got)
     sent = {(before + i) % SEQUENCE_MODULO for i in range(1, session.command_sequence - before + 1)}
