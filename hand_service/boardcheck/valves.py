@@ -136,13 +136,16 @@ def echo(session: Session) -> tuple[CheckResult, float]:
 
 def _chambers_fell_ms(got: list[Received], since_s: float, held_kpa: float) -> float | None:
     """When, after since_s, every chamber began to fall: below FELL_FRACTION of what it held
-    (ms after since_s); None if they did not, or are not measured."""
+    (ms after since_s, less this process's own lateness in reading it); None if they did
+    not, or are not measured."""
     if not math.isfinite(held_kpa) or held_kpa <= VENTED_FLOOR_KPA:
         return None
-    for t, s in samples(got):
-        finite = [p for p in s.pressure_meas_kpa if math.isfinite(p)]
-        if t > since_s and finite and max(finite) < FELL_FRACTION * held_kpa:
-            return 1e3 * (t - since_s)
+    for item in got:
+        if not isinstance(item.message, SensorReport):
+            continue
+        finite = [p for p in item.message.pressure_meas_kpa if math.isfinite(p)]
+        if item.t_s > since_s and finite and max(finite) < FELL_FRACTION * held_kpa:
+            return 1e3 * max(0.0, item.board_t_s - since_s)
     return None
 
 
