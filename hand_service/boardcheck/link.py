@@ -17,6 +17,7 @@ from typing import Any
 import can
 import serial
 
+from hand_service.boardcheck.slcan import BulkSlcanBus
 from hand_service.wire.can_codec import CanCodec
 from hand_service.wire.framing import CRC_BYTES, FrameDecoder, encode_frame
 from hand_service.wire.messages import DecodeStats, Message, ValveCommand
@@ -32,6 +33,17 @@ class Received:
     t_s: float  # host monotonic time of arrival
     message: Message
     frame_sequence: int | None = None  # serial-v1's header sequence (can-v1 has none)
+    # how much later than it could have been this host read it: its own stalls since it last
+    # looked at the link (session.py); the board is not to blame for them
+    late_s: float = 0.0
+    # a stall of this host just before that look, which a board on the same machine may have
+    # shared and caught up after (session.py): excused in a gap between samples only
+    grace_s: float = 0.0
+
+    @property
+    def board_t_s(self) -> float:
+        """The arrival time less this host's own lateness: what the board is judged by."""
+        return self.t_s - self.late_s
 
 
 @dataclass(frozen=True)
@@ -119,7 +131,11 @@ class CanBoardLink(BoardLink):
         self.description = f"can-v1 on {bus_arguments['interface']}:{bus_arguments['channel']}"
         self.n_fingers = n_fingers
         self.codec = CanCodec(dbc_path, n_fingers)
-        self.bus = can.Bus(**bus_arguments)
+        arguments = dict(bus_arguments)
+        if arguments.pop("interface") == "slcan":  # python-can's, read in bulk (slcan.py)
+            self.bus: can.BusABC = BulkSlcanBus(**arguments)
+        else:
+            self.bus = can.Bus(interface=bus_arguments["interface"], **arguments)
 
     def send(self, message: Message) -> None:
         for frame in self.codec.encode(message):

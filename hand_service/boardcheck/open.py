@@ -63,6 +63,7 @@ def settings_for(profile: Profile, window_s: float, pressure_kpa: float, latency
                     clock_drift_max_ppm=float(safety["clock_drift_max_ppm"]),
                     window_s=window_s, pressure_kpa=pressure_kpa, latency_ms=latency_ms,
                     pressure_measured=bool(safety["pressure_measured"]),
+                    host_stall_max_ms=float(safety["host_stall_max_ms"]),
                     fingers=tuple(FingerSense.of(f) for f in profile.fingers))
 
 

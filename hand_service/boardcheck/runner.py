@@ -46,6 +46,15 @@ def run_checks(link: BoardLink, settings: Settings, reboot_mode: str = "debug",
     """Every check, or the handshake and those named in `only`. `progress` hears what is
     being done; `tell` (default: `progress`) what the user must do (reset the board)."""
     session = Session(link, settings, progress, tell=tell if tell is not None else progress)
+    try:
+        return _run(session, reboot_mode, on_result, only)
+    finally:
+        session.cpu.close()
+
+
+def _run(session: Session, reboot_mode: str, on_result: Callable[[CheckResult], None],
+         only: frozenset[str] | None) -> Report:
+    link, progress = session.link, session.progress
     report = Report(link.description)
     wanted = frozenset(CHECKS) if only is None else only | {"handshake"}
 

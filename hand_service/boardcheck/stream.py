@@ -14,7 +14,7 @@ import numpy as np
 from hand_service.boardcheck.link import Received
 from hand_service.boardcheck.results import CheckResult, failed, verdict
 from hand_service.boardcheck.session import Session, samples, statuses
-from hand_service.wire.messages import FirmwareState, sequence_delta
+from hand_service.wire.messages import FirmwareState, SensorReport, sequence_delta
 
 RATE_TOLERANCE = 0.05  # the board's sample rate, as timed by this host over the window
 SAMPLES_PER_STATUS = 10  # a Status with every 10th sample: 10 Hz at 100 Hz
@@ -36,6 +36,7 @@ def rate(session: Session, got: list[Received]) -> CheckResult:
     from scipy.stats import theilslopes  # here: the mock firmware imports this package
 
     times = np.array([t for t, _ in rows])
+    board_times = np.array([r.board_t_s - r.grace_s for r in got if isinstance(r.message, SensorReport)])
     # the Theil-Sen slope of arrival time against arrival count: a stall of this computer
     # (samples queued, then read at once) is a few outlying points, not the board's rate
     period_s = float(theilslopes(times, np.arange(len(times)))[0])
@@ -43,9 +44,10 @@ def rate(session: Session, got: list[Received]) -> CheckResult:
     arrival_hz = (len(times) - 1) / (times[-1] - times[0]) if times[-1] > times[0] else float("inf")
     gaps_ms = np.diff(times) * 1e3
     jitter_ms = np.abs(gaps_ms - 1e3 * cfg.period_s)
-    # a gap this process made itself (it stalled, the samples waited in the port) is not the board's
+    # a gap this process made itself (it stalled, the samples waited in the port) is not the board's:
+    # the board's gap is at least from reading one sample to when the next could have been read
+    board_gaps_ms = np.maximum(0.0, board_times[1:] - times[:-1]) * 1e3
     own_ms = np.array([1e3 * session.stalled_s(a, b) for a, b in itertools.pairwise(times)])
-    board_gaps_ms = gaps_ms - own_ms
     max_gap_ms = float(board_gaps_ms.max())
     gap_limit_ms = cfg.stale_ms + cfg.latency_ms
     values = {"rate_hz": measured_hz, "arrival_rate_hz": arrival_hz, "expected_hz": cfg.rate_hz,

@@ -16,7 +16,9 @@ import numpy as np
 from hand_service.boardcheck.link import Received
 from hand_service.boardcheck.results import CheckResult, failed, not_made, verdict
 from hand_service.boardcheck.session import Session, samples, statuses
-from hand_service.wire.messages import SEQUENCE_MODULO, FirmwareState, Status, ValveCommand
+from hand_service.transports.round_trip import WINDOW_S as ROUND_TRIP_WINDOW_S
+from hand_service.transports.round_trip import RoundTrip
+from hand_service.wire.messages import SEQUENCE_MODULO, FirmwareState, SensorReport, Status, ValveCommand
 
 HOLD_S = 0.5  # how long each valve check commands
 FAR_SEQUENCE = 128  # a bad frame's sequence: half the counter away from any good one
@@ -49,15 +51,32 @@ def _stays_out_of_running(session: Session, states: list[FirmwareState], pressur
     return not more or more[-1] != FirmwareState.RUNNING
 
 
-def _echo_ms(session: Session, got: list[Received], sent: set[int]) -> list[float]:
-    """For every command of this stretch (`sent`) that was echoed, the time from sending it to
-    the first sample echoing it."""
+def _echoes(session: Session, got: list[Received], sent: set[int]) -> list[tuple[int, float]]:
+    """For every command of this stretch (`sent`) that was echoed, in order: its sequence and
+    when the first sample echoing it could have been read (this process's own lateness is
+    not the board's), never before the command left."""
     first: dict[int, float] = {}
-    for t, s in samples(got):
-        first.setdefault(s.command_sequence, t)
-    # less this process's own stalls in between: the board did not make them
-    return [1e3 * (t - session.sent_s[seq] - session.stalled_s(session.sent_s[seq], t))
-            for seq, t in first.items() if seq in sent]
+    for item in got:
+        if isinstance(item.message, SensorReport):
+            first.setdefault(item.message.command_sequence, item.board_t_s)
+    return [(seq, max(t, session.sent_s[seq])) for seq, t in first.items() if seq in sent]
+
+
+def _latency_ms(session: Session, echoes: list[tuple[int, float]], before: int) -> float | None:
+    """The link's latency as the daemon judges it (transports/round_trip.py): the smallest
+    echo time over a sliding window, at its largest over the stretch. One echo this busy
+    host read late does not raise it; a board late with all of them does. None if the
+    window never filled."""
+    trip = RoundTrip()
+    events = [(t, False, before + i) for i, t in enumerate(session.command_times_s[before:], start=1)]
+    events += [(t, True, before + (seq - before) % SEQUENCE_MODULO) for seq, t in echoes]
+    estimates = []
+    for t, is_echo, unwrapped in sorted(events):
+        if not is_echo:
+            trip.sent(unwrapped, t)
+        elif (estimate := trip.echoed(unwrapped, t)) is not None:
+            estimates.append(1e3 * estimate)
+    return max(estimates) if estimates else None
 
 
 def echo(session: Session) -> tuple[CheckResult, float]:
@@ -67,26 +86,34 @@ def echo(session: Session) -> tuple[CheckResult, float]:
     session.progress(f"commanding {cfg.pressure_kpa:g} kPa for {HOLD_S:g} s")
     before = session.command_sequence
     held = [s.command_sequence for _, s in samples(session.log)[-1:]]  # what the board held till now
+    if before == 0:  # no command yet: the board reports command_sequence 0 until the first
+        held.append(0)
     got = session.pump(HOLD_S, cfg.pressure_kpa)
     rows = samples(got)
     sent = {(before + i) % SEQUENCE_MODULO for i in range(1, session.command_sequence - before + 1)}
     echoed = [s.command_sequence for _, s in rows]
     strangers = sorted({seq for seq in echoed if seq not in sent} - set(held))
-    delays_ms = _echo_ms(session, got, sent)
+    echoes = _echoes(session, got, sent)
+    delays_ms = [1e3 * (t - session.sent_s[seq]) for seq, t in echoes]
+    latency_ms = _latency_ms(session, echoes, before)
+    judged_ms = latency_ms if latency_ms is not None else max(delays_ms, default=math.nan)
     limit_ms = 2e3 * cfg.period_s + cfg.latency_ms
     states = [s.state for _, s in statuses(got)]
     reached_kpa = _max_pressure_kpa(got)
     values = {"commands": len(sent), "echoed": len(set(echoed) & sent), "echo_limit_ms": limit_ms,
               "echo_p50_ms": float(np.percentile(delays_ms, 50)) if delays_ms else None,
-              "echo_max_ms": max(delays_ms) if delays_ms else None, "pressure_kpa": reached_kpa,
+              "echo_max_ms": max(delays_ms) if delays_ms else None, "latency_ms": latency_ms,
+              "pressure_kpa": reached_kpa,
               "final_state": states[-1].name.lower() if states else None}
     if not rows:
         return failed(name, "no sample while commanding"), reached_kpa
     problems = []
     if not delays_ms:
         problems.append(f"no sample echoed any of {len(sent)} commands in command_sequence")
-    elif max(delays_ms) > limit_ms:
-        problems.append(f"a command took {max(delays_ms):.1f} ms to be echoed (limit {limit_ms:.0f} ms)")
+    elif judged_ms > limit_ms:
+        problems.append(f"every command for {1e3 * ROUND_TRIP_WINDOW_S:.0f} ms took {judged_ms:.1f} ms or "
+                        f"more to be echoed (limit {limit_ms:.0f} ms)" if latency_ms is not None else
+                        f"a command took {judged_ms:.1f} ms to be echoed (limit {limit_ms:.0f} ms)")
     if strangers:
         problems.append(f"command_sequence {strangers[:5]} never sent")
     pause_ms = session.longest_pause_ms(before + 1)
@@ -97,23 +124,28 @@ def echo(session: Session) -> tuple[CheckResult, float]:
           and pause_ms < cfg.watchdog_ms):
         problems.append(f"state {values['final_state']} while valid commands kept coming, not running")
     pressure = "not measured" if math.isnan(reached_kpa) else f"{reached_kpa:.1f} kPa"
+    p50_ms = math.nan if values["echo_p50_ms"] is None else values["echo_p50_ms"]
+    window = (f"the smallest over {1e3 * ROUND_TRIP_WINDOW_S:.0f} ms at most {judged_ms:.1f} ms"
+              if latency_ms is not None else f"the {1e3 * ROUND_TRIP_WINDOW_S:.0f} ms window never filled")
     text = (f"{values['echoed']} of {len(sent)} commands echoed (a sample echoes the newest), "
-            f"p50 {values['echo_p50_ms'] or math.nan:.1f} ms "
-            f"max {values['echo_max_ms'] or math.nan:.1f} ms (limit {limit_ms:.0f} ms), state "
-            f"{values['final_state']}, chamber {pressure}")
+            f"p50 {p50_ms:.1f} ms max {max(delays_ms, default=math.nan):.1f} ms, {window} "
+            f"(limit {limit_ms:.0f} ms), state {values['final_state']}, chamber {pressure}")
     result = verdict(name, not problems, "; ".join([*problems, text]) if problems else text, **values)
     return result, reached_kpa
 
 
 def _chambers_fell_ms(got: list[Received], since_s: float, held_kpa: float) -> float | None:
     """When, after since_s, every chamber began to fall: below FELL_FRACTION of what it held
-    (ms after since_s); None if they did not, or are not measured."""
+    (ms after since_s, less this process's own lateness in reading it); None if they did
+    not, or are not measured."""
     if not math.isfinite(held_kpa) or held_kpa <= VENTED_FLOOR_KPA:
         return None
-    for t, s in samples(got):
-        finite = [p for p in s.pressure_meas_kpa if math.isfinite(p)]
-        if t > since_s and finite and max(finite) < FELL_FRACTION * held_kpa:
-            return 1e3 * (t - since_s)
+    for item in got:
+        if not isinstance(item.message, SensorReport):
+            continue
+        finite = [p for p in item.message.pressure_meas_kpa if math.isfinite(p)]
+        if item.t_s > since_s and finite and max(finite) < FELL_FRACTION * held_kpa:
+            return 1e3 * max(0.0, item.board_t_s - since_s)
     return None
 
 
@@ -204,11 +236,16 @@ def watchdog(session: Session) -> CheckResult:
     give_up = time.monotonic() + (cfg.watchdog_ms + 1000.0) / 1e3
     far = (session.command_sequence + FAR_SEQUENCE) % SEQUENCE_MODULO
     vent: tuple[float, Status] | None = None
+    vent_late_s = 0.0
     got: list[Received] = []
     while vent is None and time.monotonic() < give_up:
         session.link.send_invalid(ValveCommand(far, [cfg.pressure_kpa] * cfg.n_fingers))
         got += session.pump(cfg.period_s)
-        vent = next(((t, s) for t, s in statuses(got) if s.state == FirmwareState.WATCHDOG_VENTED), None)
+        first = next((r for r in got if isinstance(r.message, Status)
+                      and r.message.state == FirmwareState.WATCHDOG_VENTED), None)
+        if first is not None:
+            assert isinstance(first.message, Status)
+            vent, vent_late_s = (first.t_s, first.message), first.late_s
     got += session.pump(HOLD_S)
     after_kpa = _max_pressure_kpa([r for r in got if vent is not None and r.t_s > vent[0]])
     values = {"watchdog_ms": cfg.watchdog_ms, "limit_ms": limit_ms, "pressure_held_kpa": held_kpa,
@@ -218,7 +255,7 @@ def watchdog(session: Session) -> CheckResult:
         return failed(name, f"no watchdog_vented Status within {cfg.watchdog_ms + 1000:.0f} ms of the last "
                       f"valid command (watchdog {cfg.watchdog_ms:g} ms); state stayed "
                       f"{'/'.join(states) or 'silent'}", **values)
-    own_ms = 1e3 * session.stalled_s(last_valid_s, vent[0])  # this process's stalls: not the board's
+    own_ms = 1e3 * vent_late_s  # this process read the Status late by its own stalls: not the board's
     vent_ms = 1e3 * (vent[0] - last_valid_s) - own_ms
     values["vent_ms"], values["own_stall_ms"] = vent_ms, own_ms
     problems = []

@@ -21,8 +21,9 @@ was measured and PASS or FAIL (N/A: the check cannot be made on this board, with
                    within sample_loss_max_percent; serial-v1: the frame sequence too
   heartbeat        Status with every 10th sample (10 Hz at 100 Hz), uptime_ms keeping
                    the host's time, state not running with no command
-  command-echo     every command echoed in command_sequence within 2 sample periods +
-                   --latency-ms; state running while commands come
+  command-echo     commands echoed in command_sequence within 2 sample periods +
+                   --latency-ms, judged as the host judges the link's latency: the
+                   smallest echo time over any 0.25 s; state running while commands come
   zero-vent        0 kPa on every finger (the vent) empties the chambers; still running
   plant            vented, then --pressure-kpa on every finger for 1.2 s: where the
                    profile says pressure is measured, every chamber reported (no NaN) and

@@ -34,5 +34,7 @@ def test_every_check_passes_on_the_mock(link: str, tmp_path: Path,
     assert result["passed"] is True
     assert [c["verdict"] for c in result["checks"]] == ["PASS"] * len(CHECKS)
     watchdog = next(c for c in result["checks"] if c["name"] == "watchdog")
-    assert watchdog["values"]["vent_ms"] >= 100 - 10  # not before the profile's 100 ms, less one sample
+    # not before the profile's 100 ms, less one sample: on the host's clock alone (vent_ms is less
+    # what this host read late)
+    assert watchdog["values"]["vent_ms"] + watchdog["values"]["own_stall_ms"] >= 100 - 10
     assert "board-check: [" in captured.err and "handshake on" in captured.err  # progress: stderr
