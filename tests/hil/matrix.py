@@ -328,6 +328,8 @@ class QuietRun:
     stall_beyond_worst_ms: float = 0.0
     trend_limit_deg_per_s: float = 0.0
     lost: int = 0  # samples that never arrived
+    # recovered: per FAULT, its causes and the stalls past host_stall_max_ms since the last
+    episodes: list[tuple[list[str], int]] = field(default_factory=list)
 
     def describe(self) -> str:
         ratio = self.innovation_ratio
@@ -345,9 +347,12 @@ class QuietRun:
                 f"{self.trend_limit_deg_per_s:g}){age}")
 
 
-def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
+def quiet_run(rig: Rig | None, profile_name: str, seconds: float, recover: bool = False) -> QuietRun:
     """Every finger on the cosine sweep for `seconds`, nothing injected: over the rig's bus,
-    or (rig None) on the in-process simulated hand."""
+    or (rig None) on the in-process simulated hand. `recover` (a bus rig): a FAULT is reset
+    and the sweep armed again, so the whole time is judged; each FAULT's causes are kept
+    with the host's stalls past host_stall_max_ms counted since the one before
+    (`episodes`)."""
     from hand_service.config.profile import load_profile
     from hand_service.transports import transport_class
 
@@ -369,14 +374,22 @@ def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
         sup.set_trajectory(sweep_trajectory(len(sup.names), sup.rate_hz), loop=True)
         sup.fire(Event.ARM)
         sup.fire(Event.START)
+        episodes: list[tuple[list[str], int]] = []
+        beyond_before = logged = 0
         for _ in range(round(seconds * sup.rate_hz)):
             sup.run_one(schedule)
+            if recover and rig is not None and sup.state is State.FAULT:
+                _rearm(sup, schedule)
+                beyond = host.transport.monitor.checks.stalls.beyond  # measured by now
+                causes = [f.cause.value for f in sup.faults.faults[-(sup.faults.total - logged):]]
+                episodes.append((causes, beyond - beyond_before))
+                beyond_before, logged = beyond, sup.faults.total
         check = sup.model_check
         run = QuietRun(profile_name, seconds, [f"{f.cause.value}: {f.detail}" for f in sup.faults.faults],
                        check.worst_ratio.copy(), check.worst_innovation_deg.copy(),
                        check.worst_bound_deg.copy(),
                        worst_trend_deg_per_s=float(check.trend.worst_deg_per_s.max()),
-                       trend_limit_deg_per_s=check.trend.limit_deg_per_s)
+                       trend_limit_deg_per_s=check.trend.limit_deg_per_s, episodes=episodes)
         if rig is not None:
             links = host.transport.monitor.checks
             run.worst_age_ms, run.drift_ppm = links.worst_age_s * 1e3, links.drift_ppm
@@ -389,3 +402,14 @@ def quiet_run(rig: Rig | None, profile_name: str, seconds: float) -> QuietRun:
     finally:
         sup.request_stop("test done")
         sup.shutdown()
+
+
+def _rearm(sup: Supervisor, schedule: clock.Schedule) -> None:
+    """FAULT -> reset -> the handshake again -> the sweep from its start."""
+    sup.reset()
+    end = time.monotonic() + WAIT_S
+    while sup.state is not State.DISARMED and time.monotonic() < end:
+        sup.run_one(schedule)
+    assert sup.state is State.DISARMED, sup.faults.faults
+    sup.fire(Event.ARM)
+    sup.fire(Event.START)
