@@ -19,6 +19,7 @@ from hand_service.diagnose.engine import diagnose
 from hand_service.diagnose.recording.response_onset import onset_delay_s
 from hand_service.diagnose.recording.timebase import regular_grid
 from hand_service.diagnose.report.diagnosis import Diagnosis
+from hand_service.diagnose.report.evidence import uncertainty
 from hand_service.diagnose.report.html import evidence_rows
 from hand_service.diagnose.report.sentence_checks import Facts, evidence_row_failures, facts_of, failures
 from hand_service.recording import read_recording
@@ -63,6 +64,15 @@ def test_the_false_sentences_real_rigs_got_are_caught(text: str, facts: Facts) -
 ])
 def test_true_sentences_pass(text: str, facts: Facts) -> None:
     assert failures(text, facts) == []
+
+
+def test_an_uncertainty_only_its_printed_digits_make_larger_says_unknown() -> None:
+    """A std of 0.01098 beside a value of 0.010983 prints as ± 0.011: over the value as
+    printed, so the report says it is unknown (two battery reports did not)."""
+    assert failures("0.010983 ± 0.011", RINGING)
+    text = f"0.010983 {uncertainty(0.01098, value=0.010983)}"
+    assert "unknown" in text and failures(text, RINGING) == []
+    assert "unknown" not in uncertainty(0.0104, value=0.010983)
 
 
 def test_the_onset_is_measured_from_the_data() -> None:
