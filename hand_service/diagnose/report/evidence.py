@@ -139,11 +139,14 @@ UNKNOWN = "unknown: over 100 % of the value"
 def uncertainty(std: float, unit: str = "", value: float | None = None) -> str:
     """`± 0.0021 s`, or "not identifiable" where the data leave the value free (an infinite
     or undefined standard deviation), never "± inf"; with the `value`, a std larger than it
-    says the value is unknown."""
+    says the value is unknown, and so does one that only its two printed digits make larger
+    (± 0.011 beside 0.010983): the reader sees the printed figures."""
     if not np.isfinite(std):
         return NOT_IDENTIFIABLE
-    text = f"± {std:.2g}{f' {unit}' if unit else ''}"
-    return f"{text} ({UNKNOWN})" if value is not None and std > abs(value) else text
+    printed = f"{std:.2g}"
+    text = f"± {printed}{f' {unit}' if unit else ''}"
+    unknown = value is not None and max(std, float(printed)) > abs(value)
+    return f"{text} ({UNKNOWN})" if unknown else text
 
 
 def estimate(value: float, std: float, unit: str = "") -> str:

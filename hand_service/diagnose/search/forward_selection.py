@@ -32,7 +32,7 @@ from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit, far_from_nominal, fit, nominal_prior, unpinned
 from hand_service.diagnose.model.problem import NO_PRIOR, Param, Problem
 from hand_service.diagnose.residual import stats
-from hand_service.diagnose.search.screening import Screen, screen, start_value
+from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
 SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
@@ -270,8 +270,10 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     with ThreadPoolExecutor(max_workers=WORKERS) as pool:
         if progress:
             progress(f"screening {', '.join(names)}")
-        screens = list(pool.map(lambda name: screen(problem, base, name), names))
-        screens.sort(key=lambda s: -s.predicted_bic)
+        # the whole-grid scans first: started last, one of them would leave a core idle at the end
+        longest_first = sorted(names, key=lambda name: name not in WHOLE_GRID)
+        screens = list(pool.map(lambda name: screen(problem, base, name), longest_first))
+        screens.sort(key=lambda s: (-s.predicted_bic, names.index(s.name)))
         chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
         if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
             # later rounds: an effect whose best point of the scan, k, B, N and the accepted
