@@ -66,9 +66,9 @@ SAFETY_SECTION = Section("Safety", "`safety:` — limits the supervisor enforces
         "and the noise: what the model leaves out (hysteresis, a sensor's calibration)", "float",
         "deg", 1.0, 0.0, 90.0, True),
     Key("sensor_drift_max_deg_per_s", "the model check's trend test: the innovation's trend, with "
-        "what the prediction and its sensitivities explain taken out (fitted over about 0.5 s), may "
-        "be this steep either way for model_mismatch_ms (docs/safety.md)", "float", "deg/s", 2.5, 0.0,
-        1000.0, True),
+        "what the prediction and its sensitivities explain taken out (fitted over about 0.5 s, less "
+        "three standard errors), may be this steep either way for model_mismatch_ms (docs/safety.md)",
+        "float", "deg/s", 2.5, 0.0, 1000.0, True),
     Key("model_mismatch_ms", "the measured angle may stay outside the model's bound this long "
         "before a fault (at least one sample period)", "float", "ms", 100.0, 1.0, 10000.0),
 ))
