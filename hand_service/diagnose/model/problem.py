@@ -192,11 +192,11 @@ class Problem:
         hooked = []  # effects that are not terms of the C model: their own simulator hooks
         for p, v in zip(params, values, strict=True):
             if p.is_effect:
-                fields = library[p.label].rtcore_fields({library[p.label].param: float(v)})
-                if fields:
-                    effect.update(fields)
+                spec = library[p.label]
+                if spec.hooked:
+                    hooked.append((spec, float(v)))
                 else:
-                    hooked.append((library[p.label], float(v)))
+                    effect.update(spec.rtcore_fields({spec.param: float(v)}))
         if effect:
             plain["effects"] = dataclasses.replace(finger.prbm.effects, **effect)
         if plain:
