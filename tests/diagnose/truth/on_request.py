@@ -1,11 +1,15 @@
-"""The library effects diagnose searches only on request (cases.ON_REQUEST: pressure
-stiffening, creep), on the independent truth, in the truth's own forms (plant.py: a power of
-the pressure; two Maxwell branches at T and 4·T), through `hand-service diagnose --search`:
+"""The library effects diagnose searches only on request, on the independent truth, in the
+truth's own forms (plant.py: pressure stiffening a power of the pressure; creep two Maxwell
+branches at T and 4·T; hysteresis Bouc-Wen's loop with β = γ; contact Hunt-Crossley's, with
+its damping), through `hand-service diagnose --search`:
 
     python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
+        [--effects pressure_stiffening creep hysteresis contact]
 
-Each case is scored as a library effect (scoring.py): named first where observable; the
-estimate's error against the truth's library equivalent (cases.library_equivalent)."""
+Hysteresis and contact are the battery's cases outside the library (cases.OUT_OF_LIBRARY:
+the same recordings), here searched for by name. Each case is scored as a library effect
+(scoring.py): named first where observable (`observable`); the estimate's error against the
+truth's library equivalent (cases.library_equivalent)."""
 
 from __future__ import annotations
 
@@ -27,6 +31,41 @@ from tests.diagnose.truth import cases as cs  # noqa: E402
 from tests.diagnose.truth.battery import diagnose_argv  # noqa: E402
 from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
 
+EFFECTS = (*cs.ON_REQUEST, *cs.OUT_OF_LIBRARY)
+# the least time past a contact's onset that shows it, and the least angle range that turns
+# a loop over (the on-request rule's 5°)
+CONTACT_TIME_S = 0.1
+LOOP_RANGE_DEG = 5.0
+
+
+def observable(case: cs.Case) -> tuple[bool, str]:
+    """The case's own rule for pressure stiffening and creep (cases.exercised and the
+    visibility floor); for hysteresis and contact, which the battery holds outside the
+    library and leaves unjudged, the same floor (visibility 0.4) and their physics exercised:
+    the finger past the contact's onset for CONTACT_TIME_S, or moved over LOOP_RANGE_DEG."""
+    effect = case.spec.effect
+    if effect in cs.ON_REQUEST:
+        return case.observable, case.reason
+    if case.visibility < 0.4:
+        return False, "absorbed by k, B and N at every plausible size tried"
+    theta_deg = case.trajectory.theta_deg
+    if effect == "contact" and np.sum(theta_deg > case.truth.contact_deg) / case.rate_hz < CONTACT_TIME_S:
+        return False, "the finger barely passes the contact's onset"
+    if effect == "hysteresis" and np.ptp(theta_deg) < LOOP_RANGE_DEG:
+        return False, f"the angle moves under {LOOP_RANGE_DEG:g} deg"
+    return True, ""
+
+
+def truth_shape(case: cs.Case) -> dict[str, float]:
+    """What the library holds at its defaults when it fits the first parameter alone."""
+    if case.spec.effect == "contact":
+        return {"onset_deg": case.truth.contact_deg, "exponent": 1.5}
+    if case.spec.effect == "hysteresis":
+        return {"travel_deg": case.truth.hysteresis_zmax_deg}
+    if case.spec.effect == "creep":
+        return {"time_s": case.truth.creep_time_s}
+    return {}
+
 
 def run_case(spec: cs.CaseSpec, folder: Path) -> dict:
     from hand_service.cli import main
@@ -43,14 +82,17 @@ def run_case(spec: cs.CaseSpec, folder: Path) -> dict:
     error = None
     if names and names[0] == spec.effect and true:
         error = abs(next(iter(first["params"].values())) - true) / abs(true)
-    return {**case.summary(), "verdict": result.get("verdict"), "named": names,
+    seen, reason = observable(case)
+    return {**case.summary(), "observable": seen, "reason": reason, "truth_shape": truth_shape(case),
+            "estimate": first.get("params") if names and names[0] == spec.effect else None,
+            "verdict": result.get("verdict"), "named": names,
             "top1": bool(names) and names[0] == spec.effect, "parameter_error": error,
             "seconds": time.perf_counter() - started}
 
 
 def summarise(rows: list[dict]) -> dict:
     out = {}
-    for effect in cs.ON_REQUEST:
+    for effect in dict.fromkeys(r["effect"] for r in rows):
         mine = [r for r in rows if r["effect"] == effect]
         seen = [r for r in mine if r["observable"]]
         errors = [r["parameter_error"] for r in seen if r["parameter_error"] is not None]
@@ -67,10 +109,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--classes", nargs="*", default=list(CLASSES))
     parser.add_argument("--magnitudes", nargs="*", default=["concealed"])
+    parser.add_argument("--effects", nargs="*", default=list(cs.ON_REQUEST), choices=EFFECTS)
     args = parser.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory(prefix="on-request-") as scratch:
-        for effect in cs.ON_REQUEST:
+        for effect in args.effects:
             for seed in range(args.seeds):
                 for cls in args.classes:
                     for magnitude in args.magnitudes:
