@@ -135,6 +135,13 @@ def searched(also: Sequence[str]) -> list[str]:
     return names + [name for name in dict.fromkeys(also) if name not in names]
 
 
+def shape_only(effects: fx.EffectParams, name: str) -> bool:
+    """The model file gives the effect's other parameters with its first at "none" (a
+    contact's onset where the lab's object sits, K 0): it is searched for, with them."""
+    spec = fx.BY_NAME[name]
+    return name in effects and len(spec.parameters) > 1 and fx.effect_value(effects, name) == spec.neutral
+
+
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
               rate_hz: float, progress: Progress | None, missing: np.ndarray | None, input_hold: str,
               noise_model: str, search: list[str]) -> Diagnosis:
@@ -188,7 +195,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                        rate_hz, start=moving)
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
-    missing = [name for name in search if name not in model.effects]
+    missing = [name for name in search if name not in model.effects or shape_only(model.effects, name)]
     relative = relative_std(refit)  # what the data alone say (the prior below may hold some)
     unidentified = unpinned(refit)
     if unidentified or far_from_nominal(problem, refit, FAR_FACTOR):

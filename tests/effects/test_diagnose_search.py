@@ -1,14 +1,16 @@
 """diagnose searches the library's searched effects; `--search` adds one it leaves out by
-default (pressure_stiffening, creep), judged by the same tests."""
+default (pressure_stiffening, creep, contact), judged by the same tests."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from hand_service.config import effects as fx
 from hand_service.config.profile import load_profile
-from hand_service.diagnose.concealed.generator import generate
-from hand_service.diagnose.engine import diagnose, searched
+from hand_service.diagnose.concealed.excitations import EXCITATIONS
+from hand_service.diagnose.concealed.generator import full_pressure_kpa, generate, perturb, record
+from hand_service.diagnose.engine import diagnose, searched, shape_only
 from hand_service.errors import UserError
 
 
@@ -29,3 +31,25 @@ def test_a_concealed_pressure_stiffening_is_named_when_searched() -> None:
     found = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0, also=("pressure_stiffening",))
     assert found.effects[0].name == "pressure_stiffening"
     assert found.effects[0].value == pytest.approx(true, rel=0.1)
+
+
+def test_a_contact_whose_onset_the_model_gives_is_searched_there() -> None:
+    """A lab that knows where its object sits writes the contact's onset with K at 0 ("none"):
+    diagnose searches for the contact there (engine.shape_only) and fits K with the onset
+    held at the lab's value (Problem.given_effects), where the library's default onset, 45°,
+    would leave the stop's torque unexplained. The project's generator, sim.yaml's index
+    finger on steps, the stop at 30°."""
+    model = load_profile(None).finger("index").model
+    rng = np.random.default_rng(2)
+    command = EXCITATIONS["steps"](full_pressure_kpa(model), 30.0, 100.0, rng)
+    stop = {"stiffness_nm_per_radn": 0.3, "onset_deg": 30.0, "exponent": 1.5}
+    measured, _ = record(model.with_changes(effects={**model.effects, "contact": stop}), command, 100.0,
+                         0.3, 0.122, 2)
+    nominal = perturb(model, 0.1, rng)
+    lab = {**stop, "stiffness_nm_per_radn": 0.0}
+    given = nominal.with_changes(effects={**nominal.effects, "contact": lab})
+    assert shape_only(given.effects, "contact") and not shape_only(nominal.effects, "contact")
+    t_s = np.arange(command.size) / 100.0
+    found = diagnose(given, t_s, command, measured, 100.0, also=("contact",))
+    assert found.effects[0].name == "contact"
+    assert found.effects[0].value == pytest.approx(0.3, rel=0.15)

@@ -4,7 +4,7 @@ branches at T and 4·T; hysteresis Bouc-Wen's loop with β = γ; contact Hunt-Cr
 its damping), through `hand-service diagnose --search`:
 
     python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
-        [--effects pressure_stiffening creep hysteresis contact]
+        [--effects pressure_stiffening creep hysteresis contact] [--shape-known]
 
 Hysteresis and contact are the battery's cases outside the library (cases.OUT_OF_LIBRARY:
 the same recordings), here searched for by name. Each case is scored as a library effect
@@ -67,10 +67,17 @@ def truth_shape(case: cs.Case) -> dict[str, float]:
     return {}
 
 
-def run_case(spec: cs.CaseSpec, folder: Path) -> dict:
+def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False) -> dict:
+    """`shape_known`: the lab's model file gives the effect's other parameters (truth_shape),
+    its first at "none", as a lab that knows where its object sits would write it."""
     from hand_service.cli import main
+    from hand_service.config.effects import BY_NAME
 
     case = cs.build(spec)
+    if shape_known and truth_shape(case):
+        library = BY_NAME[spec.effect]
+        case.nominal_effects = {**case.nominal_effects,
+                                spec.effect: {library.param: library.neutral, **truth_shape(case)}}
     rec, model = cs.write(case, folder)
     out = folder / f"{spec.id}.diagnose.json"
     started = time.perf_counter()
@@ -83,7 +90,8 @@ def run_case(spec: cs.CaseSpec, folder: Path) -> dict:
     if names and names[0] == spec.effect and true:
         error = abs(next(iter(first["params"].values())) - true) / abs(true)
     seen, reason = observable(case)
-    return {**case.summary(), "observable": seen, "reason": reason, "truth_shape": truth_shape(case),
+    return {**case.summary(), "shape_known": shape_known, "observable": seen, "reason": reason,
+            "truth_shape": truth_shape(case),
             "estimate": first.get("params") if names and names[0] == spec.effect else None,
             "verdict": result.get("verdict"), "named": names,
             "top1": bool(names) and names[0] == spec.effect, "parameter_error": error,
@@ -109,6 +117,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--classes", nargs="*", default=list(CLASSES))
     parser.add_argument("--magnitudes", nargs="*", default=["concealed"])
+    parser.add_argument("--shape-known", action="store_true",
+                        help="the model file gives each effect's parameters beyond the first, the truth's")
     parser.add_argument("--effects", nargs="*", default=list(cs.ON_REQUEST), choices=EFFECTS)
     args = parser.parse_args(argv)
     rows = []
@@ -117,7 +127,8 @@ def main(argv: list[str] | None = None) -> int:
             for seed in range(args.seeds):
                 for cls in args.classes:
                     for magnitude in args.magnitudes:
-                        row = run_case(cs.CaseSpec(effect, cls, seed, magnitude), Path(scratch))
+                        row = run_case(cs.CaseSpec(effect, cls, seed, magnitude), Path(scratch),
+                                       args.shape_known)
                         rows.append(row)
                         print(f"{row['id']}: observable {row['observable']}, named {row['named']}, "
                               f"error {row['parameter_error']}", file=sys.stderr, flush=True)
