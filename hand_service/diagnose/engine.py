@@ -120,8 +120,39 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
     and 1 kHz), would only make them wait."""
     with threadpool_limits(limits=1, user_api="blas"):
-        return _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                         noise_model, searched(also))
+        search = searched(also)
+        result = _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
+                           noise_model, search)
+        at_onset = contact_at_onset(model, result, search)
+        if at_onset is None:
+            return result
+        # the contact searched for where the residual says a torque switches on
+        again = _diagnose(at_onset, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
+                          noise_model, search)
+        if not again.effects or again.effects[0].name != "contact":
+            return result
+        onset = at_onset.effects["contact"]
+        again.seconds += result.seconds  # both searches'
+        again.warnings.append(f"contact's onset ({onset['onset_deg']:.1f}°) and exponent "
+                              f"({onset['exponent']:g}) are where the residual's torque switches on "
+                              "(its onset, fitted apart), its stiffness fitted there")
+        return again
+
+
+def contact_at_onset(model: FingerModel, result: Diagnosis, search: list[str]) -> FingerModel | None:
+    """When `contact` is searched for, not named, not in the model, and the residual shows a
+    torque switching on past an angle as the finger bends (outside_library/contact_onset.py):
+    the model with a contact there, its stiffness at "none" (searched for at that onset and
+    power: shape_only). Else None."""
+    onset = result.outside.onset
+    if ("contact" not in search or "contact" in model.effects or onset is None or not onset.closing
+            or (result.effects and result.effects[0].name == "contact")):
+        return None
+    spec = fx.BY_NAME["contact"]
+    power = spec.parameter("exponent")
+    contact = {spec.param: spec.neutral, "onset_deg": float(onset.angle_deg),
+               "exponent": float(min(max(onset.power, power.lower), power.upper))}
+    return model.with_changes(effects={**model.effects, "contact": contact})
 
 
 def searched(also: Sequence[str]) -> list[str]:
