@@ -5,6 +5,7 @@ its damping), through `hand-service diagnose --search`:
 
     python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
         [--effects pressure_stiffening creep hysteresis contact] [--shape-known]
+        [--cases-of clean gravity ...] [--skip-own]
 
 Hysteresis and contact are the battery's cases outside the library (cases.OUT_OF_LIBRARY:
 the same recordings), here searched for by name. Each case is scored as a library effect
@@ -67,7 +68,7 @@ def truth_shape(case: cs.Case) -> dict[str, float]:
     return {}
 
 
-def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False) -> dict:
+def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False, search: str | None = None) -> dict:
     """`shape_known`: the lab's model file gives the effect's other parameters (truth_shape),
     its first at "none", as a lab that knows where its object sits would write it."""
     from hand_service.cli import main
@@ -81,7 +82,7 @@ def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False) -> dict
     rec, model = cs.write(case, folder)
     out = folder / f"{spec.id}.diagnose.json"
     started = time.perf_counter()
-    code = main([*diagnose_argv(rec, model, out), "--search", spec.effect])
+    code = main([*diagnose_argv(rec, model, out), "--search", search or spec.effect])
     result = json.loads(out.read_text()) if code == 0 else {"verdict": f"exit {code}"}
     names = [e.get("name") for e in result.get("effects") or []]
     first = (result.get("effects") or [{}])[0]
@@ -90,8 +91,8 @@ def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False) -> dict
     if names and names[0] == spec.effect and true:
         error = abs(next(iter(first["params"].values())) - true) / abs(true)
     seen, reason = observable(case)
-    return {**case.summary(), "shape_known": shape_known, "observable": seen, "reason": reason,
-            "truth_shape": truth_shape(case),
+    return {**case.summary(), "shape_known": shape_known, "searched": search or spec.effect,
+            "observable": seen, "reason": reason, "truth_shape": truth_shape(case),
             "estimate": first.get("params") if names and names[0] == spec.effect else None,
             "verdict": result.get("verdict"), "named": names,
             "top1": bool(names) and names[0] == spec.effect, "parameter_error": error,
@@ -100,13 +101,20 @@ def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False) -> dict
 
 def summarise(rows: list[dict]) -> dict:
     out = {}
-    for effect in dict.fromkeys(r["effect"] for r in rows):
-        mine = [r for r in rows if r["effect"] == effect]
+    for effect in dict.fromkeys(r["effect"] for r in rows if r["searched"] == r["effect"]):
+        mine = [r for r in rows if r["effect"] == effect and r["searched"] == effect]
         seen = [r for r in mine if r["observable"]]
         errors = [r["parameter_error"] for r in seen if r["parameter_error"] is not None]
         out[effect] = {"cases": len(mine), "observable": len(seen), "top1": sum(r["top1"] for r in seen),
                        "wrong_names": sum(bool(r["named"]) and not r["top1"] for r in mine),
                        "median_parameter_error": float(np.median(errors)) if errors else None}
+    for row in rows:  # another truth searched for an effect: how often it is named
+        if row["searched"] != row["effect"]:
+            key = f"{row['searched']} on {row['effect']}"
+            seen = out.setdefault(key, {"cases": 0, "named_first": 0, "named": 0})
+            seen["cases"] += 1
+            seen["named_first"] += bool(row["named"]) and row["named"][0] == row["searched"]
+            seen["named"] += row["searched"] in row["named"]
     return out
 
 
@@ -119,11 +127,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--magnitudes", nargs="*", default=["concealed"])
     parser.add_argument("--shape-known", action="store_true",
                         help="the model file gives each effect's parameters beyond the first, the truth's")
+    parser.add_argument("--cases-of", nargs="*", default=[], choices=cs.ALL_EFFECTS,
+                        help="also the truth's cases of these (clean, the eight, ...), each searched for "
+                             "the --effects: their false names")
+    parser.add_argument("--skip-own", action="store_true", help="only the --cases-of")
     parser.add_argument("--effects", nargs="*", default=list(cs.ON_REQUEST), choices=EFFECTS)
     args = parser.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory(prefix="on-request-") as scratch:
-        for effect in args.effects:
+        for effect in [] if args.skip_own else args.effects:
             for seed in range(args.seeds):
                 for cls in args.classes:
                     for magnitude in args.magnitudes:
@@ -132,6 +144,13 @@ def main(argv: list[str] | None = None) -> int:
                         rows.append(row)
                         print(f"{row['id']}: observable {row['observable']}, named {row['named']}, "
                               f"error {row['parameter_error']}", file=sys.stderr, flush=True)
+        for truth in args.cases_of:
+            for effect in args.effects:
+                for cls in args.classes:
+                    row = run_case(cs.CaseSpec(truth, cls, 0, "concealed"), Path(scratch), search=effect)
+                    rows.append(row)
+                    print(f"{row['id']} searched for {effect}: named {row['named']}", file=sys.stderr,
+                          flush=True)
     Path(args.out).write_text(json.dumps({"summary": summarise(rows), "cases": rows}, indent=1))
     print(json.dumps(summarise(rows), indent=1))
     return 0
