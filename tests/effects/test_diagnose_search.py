@@ -58,7 +58,7 @@ def stop_recording(stop: dict[str, float]) -> StopRecording:
 
 def test_a_contact_whose_onset_the_model_gives_is_searched_there() -> None:
     """A lab that knows where its object sits writes the contact's onset with K at 0 ("none"):
-    diagnose searches for the contact there (engine.shape_only) and fits K with the onset
+    diagnose searches for the contact there (requested.shape_only) and fits K with the onset
     held at the lab's value (Problem.given_effects), where the library's default onset, 45°,
     would leave the stop's torque unexplained. The stop at 30°."""
     stop = {"stiffness_nm_per_radn": 0.3, "onset_deg": 30.0, "exponent": 1.5}
@@ -75,7 +75,7 @@ def test_a_contact_is_searched_again_where_the_residual_switches_on() -> None:
     """Without its onset in the model, a stop met at 60° (the library's default onset is
     45°) leaves a torque that switches on past an angle (outside_library/contact_onset.py);
     with contact searched for, diagnose searches again at that onset and power and names
-    it there (engine.contact_at_onset), saying where the onset came from."""
+    it there (requested.contact_at_onset), saying where the onset came from."""
     r = stop_recording({"stiffness_nm_per_radn": 1.0, "onset_deg": 60.0, "exponent": 1.5})
     plain = diagnose(r.nominal, r.t_s, r.command_kpa, r.angle_deg, 100.0)
     assert "contact" not in [e.name for e in plain.effects]
