@@ -95,6 +95,8 @@ void rtcore_finger_reset(rtcore_hand *hand, int32_t finger)
     s->impedance_stiffness_n_per_deg = 0.0;
     s->impedance_damping_n_s_per_deg = 0.0;
     s->creep_ref_deg = 0.0;
+    s->hysteresis_ref_z = 0.0;
+    s->hysteresis_ref_angle_deg = 0.0;
 }
 
 void rtcore_hand_reset(rtcore_hand *hand)

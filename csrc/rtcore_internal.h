@@ -36,6 +36,7 @@ double rtcore_effective_pressure_kpa(const rtcore_effects *e, double pressure_kp
 double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtcore_finger_state *s);
 void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered,
                                    double dt_s);
+void rtcore_hysteresis_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered);
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
                                     double force_ref_n);
 double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_pressure_kpa,

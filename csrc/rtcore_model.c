@@ -23,7 +23,10 @@ int rtcore_effects_valid(const rtcore_effects *e)
            && (e->pressure_stiffening_gain == 0.0
                || (isfinite(e->pressure_stiffening_ref_kpa) && e->pressure_stiffening_ref_kpa > 0.0))
            && isfinite(e->creep_stiffness_ratio) && e->creep_stiffness_ratio >= 0.0
-           && (e->creep_stiffness_ratio == 0.0 || (isfinite(e->creep_time_s) && e->creep_time_s > 0.0));
+           && (e->creep_stiffness_ratio == 0.0 || (isfinite(e->creep_time_s) && e->creep_time_s > 0.0))
+           && isfinite(e->hysteresis_torque_nm) && e->hysteresis_torque_nm >= 0.0
+           && (e->hysteresis_torque_nm == 0.0
+               || (isfinite(e->hysteresis_travel_deg) && e->hysteresis_travel_deg > 0.0));
 }
 
 /* The pressure's stiffening at effective pressure effective_kpa: k*c*(p_eff/p_ref)*theta. */
@@ -180,6 +183,34 @@ void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_
     s->creep_ref_deg = s->angle_ref_deg + (s->creep_ref_deg - s->angle_ref_deg) * exp(-dt_s / e->creep_time_s);
 }
 
+/* The hysteresis loop's state driven by the angle reference led by the valve lag + dead
+ * time, theta_ref + (tau + delay)*theta_ref': where the finger will be when a command sent
+ * now reaches the chamber (the lead the other terms take as a rate; the loop's rate jumps
+ * at a turn, so it is led by its angle instead). Dahl's dz/dtheta = (sign dtheta - z)/theta_h
+ * is solved exactly over that angle's travel since the last tick (a travel that does not
+ * turn is one exponential). On entering position mode the loop is taken at its middle,
+ * z = 0, from the filtered angle: the finger's own z is not known from one angle. A state
+ * gone non-finite starts over there too. */
+void rtcore_hysteresis_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered)
+{
+    const rtcore_effects *e = &c->prbm.effects;
+    const double led_deg = s->angle_ref_deg + (e->valve_lag_tau_s + e->dead_time_s) * s->velocity_ref_deg_per_s;
+    double travel_deg;
+    if (!(e->hysteresis_torque_nm > 0.0)) {
+        return;
+    }
+    if (entered || !isfinite(s->hysteresis_ref_z) || !isfinite(s->hysteresis_ref_angle_deg)) {
+        s->hysteresis_ref_z = 0.0;
+        s->hysteresis_ref_angle_deg = s->angle_filt_deg;
+    }
+    travel_deg = led_deg - s->hysteresis_ref_angle_deg;
+    if (travel_deg != 0.0 && isfinite(travel_deg)) {
+        const double toward = travel_deg > 0.0 ? 1.0 : -1.0;
+        s->hysteresis_ref_z = toward + (s->hysteresis_ref_z - toward) * exp(-fabs(travel_deg) / e->hysteresis_travel_deg);
+        s->hysteresis_ref_angle_deg = led_deg;
+    }
+}
+
 /* Position feedforward from the held references in s (deg based). Quasi-static:
  * N p = tau(th, 0). Dynamic: N p = A th'' + B th' + tau(th, th'). Both add the lead
  * (valve lag + dead time) * dp/dt, with dp/dt from the reference's own derivatives. */
@@ -214,6 +245,10 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
         const double branch_nm_per_rad = m->effects.creep_stiffness_ratio * m->stiffness_nm_per_rad;
         torque += branch_nm_per_rad * (angle - creep_rad);
         torque_rate += branch_nm_per_rad * (velocity - (angle - creep_rad) / m->effects.creep_time_s);
+    }
+    if (m->effects.hysteresis_torque_nm > 0.0) {
+        /* the loop's torque H*z, z already led (rtcore_hysteresis_reference_update): no rate */
+        torque += m->effects.hysteresis_torque_nm * s->hysteresis_ref_z;
     }
     if (m->effects.pressure_stiffening_gain > 0.0 && share > STIFFENED_GAIN_FLOOR) {
         /* p_eff = torque / G(theta), G falling with theta: d/dt adds torque*k*c/p_ref*theta'/G */

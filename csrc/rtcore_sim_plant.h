@@ -35,7 +35,8 @@ typedef struct {
     double contact_angle_deg;
     double contact_stiffness_n_per_m;
     double contact_damping_ns_per_m;
-    /* a rate-independent loop (hysteresis in the material; outside the controller's model):
+    /* a rate-independent loop (hysteresis in the material; the controller's copy, which the
+     * simulator ignores, is rtcore_effects.hysteresis_*):
      * the torque -hysteresis_torque_nm*z, z in [-1, 1] turning toward the direction of
      * travel, e-fold every hysteresis_travel_deg moved (Dahl's form); torque 0 means none */
     double hysteresis_torque_nm;

@@ -163,6 +163,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
         if (mode == RTCORE_MODE_POSITION) {
             const double rate_error = s->velocity_ref_deg_per_s - s->velocity_deg_per_s;
             rtcore_creep_reference_update(c, s, changed, dt_s);
+            rtcore_hysteresis_reference_update(c, s, changed);
             feedforward_kpa = rtcore_position_feedforward_kpa(c, s);
             error = s->angle_ref_deg - s->angle_filt_deg;
             proportional_kpa = c->kp_kpa_per_deg * error;

@@ -109,6 +109,13 @@ typedef struct {
      * dashpot of time constant creep_time_s (the simulated finger's; ratio 0: none) */
     double creep_stiffness_ratio;
     double creep_time_s;
+    /* hysteresis: the controller's model of the finger's rate-independent loop, -H*z with
+     * dz/dtheta = (sign theta' - z)/theta_h (Dahl); the position feedforward adds H*z, z
+     * driven by the angle reference led by the valve lag + dead time (the simulated finger's own loop is
+     * rtcore_sim_finger.hysteresis_*, which the simulator uses; it ignores these two).
+     * Torque 0: none */
+    double hysteresis_torque_nm;
+    double hysteresis_travel_deg;
 } rtcore_effects;
 
 /*
@@ -201,6 +208,10 @@ typedef struct {
     double impedance_damping_n_s_per_deg;
     /* the creep branch's dashpot as the angle reference would move it (position mode) */
     double creep_ref_deg;
+    /* the hysteresis loop's state as the angle reference would move it (position mode),
+     * in [-1, 1], and the led reference angle it last saw */
+    double hysteresis_ref_z;
+    double hysteresis_ref_angle_deg;
 } rtcore_finger_state;
 
 /* Allocate one of these (static, stack or ffi.new) and call rtcore_hand_configure. */

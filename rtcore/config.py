@@ -76,9 +76,14 @@ class Effects:
     pressure_stiffening_gain: float = 0.0
     pressure_stiffening_ref_kpa: float = 100.0
     # creep: a standard-linear-solid branch, a spring ratio·k in series with a dashpot of time
-    # constant creep_time_s (the simulated finger's, not the controller's); ratio 0 means none
+    # constant creep_time_s (the position feedforward keeps its own copy); ratio 0 means none
     creep_stiffness_ratio: float = 0.0
     creep_time_s: float = 1.0
+    # hysteresis: the controller's model of the finger's loop −H·z (Dahl's, z turning toward
+    # the motion within travel_deg); the position feedforward adds H·z with z driven by the
+    # reference. The simulator's loop is SimFinger.hysteresis_*; torque 0 means none
+    hysteresis_torque_nm: float = 0.0
+    hysteresis_travel_deg: float = 5.0
 
 
 @dataclass

@@ -16,8 +16,10 @@ from rtcore.config import ConfigError, FingerConfig, HandConfig
 from rtcore.reference_model import (
     RAD_PER_DEG,
     STIFFENED_GAIN_FLOOR,
+    creep_reference_update,
     deadzone_invert,
     effective_pressure,
+    hysteresis_reference_update,
     model_stiffness,
     model_torque,
     model_torque_rate,
@@ -112,6 +114,8 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
         branch = m.effects.creep_stiffness_ratio * m.stiffness_nm_per_rad
         torque += branch * (angle - creep_rad)
         torque_rate += branch * (velocity - (angle - creep_rad) / m.effects.creep_time_s)
+    if m.effects.hysteresis_torque_nm > 0.0:  # z already led: no rate
+        torque += m.effects.hysteresis_torque_nm * s.hysteresis_ref_z
     if m.effects.pressure_stiffening_gain > 0.0 and share > STIFFENED_GAIN_FLOOR:
         torque_rate += torque * stiffening_torque(m, 1.0, 1.0) * velocity / gain
     return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate / gain
@@ -191,16 +195,8 @@ class FingerState:
     impedance_stiffness_n_per_deg: float = 0.0
     impedance_damping_n_s_per_deg: float = 0.0
     creep_ref_deg: float = 0.0
-
-
-def creep_reference_update(c: FingerConfig, s: FingerState, entered: bool, dt_s: float) -> None:
-    """The creep branch's dashpot driven by the angle reference over the tick."""
-    e = c.prbm.effects
-    if not e.creep_stiffness_ratio > 0.0:
-        return
-    if entered:
-        s.creep_ref_deg = s.angle_filt_deg
-    s.creep_ref_deg = s.angle_ref_deg + (s.creep_ref_deg - s.angle_ref_deg) * math.exp(-dt_s / e.creep_time_s)
+    hysteresis_ref_z: float = 0.0
+    hysteresis_ref_angle_deg: float = 0.0
 
 
 class ReferenceHand:
@@ -324,7 +320,8 @@ class ReferenceHand:
             derivative_kpa = 0.0
             if mode == cfg.MODE_POSITION:
                 rate_error = s.velocity_ref_deg_per_s - s.velocity_deg_per_s
-                creep_reference_update(c, s, changed, dt_s)
+                creep_reference_update(c.prbm.effects, s, changed, dt_s)
+                hysteresis_reference_update(c.prbm.effects, s, changed)
                 feedforward_kpa = position_feedforward(c, s)
                 error = s.angle_ref_deg - s.angle_filt_deg
                 proportional_kpa = c.kp_kpa_per_deg * error

@@ -5,6 +5,7 @@ force estimate and `calibrate gain` share."""
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 from rtcore.config import Effects, Prbm
 
@@ -100,3 +101,43 @@ def stiffened_gain_share(m: Prbm, angle_rad: float) -> float:
     if not m.effects.pressure_stiffening_gain > 0.0 or not m.pressure_gain_nm_per_kpa > 0.0:
         return 1.0
     return max(1.0 - stiffening_torque(m, angle_rad, 1.0) / m.pressure_gain_nm_per_kpa, STIFFENED_GAIN_FLOOR)
+
+
+# --- the feedforward's own copies of the effects' states (csrc/rtcore_model.c) ----------
+
+class FingerState(Protocol):
+    """What of a finger's state (rtcore/reference.py FingerState) the copies read and keep."""
+
+    angle_filt_deg: float
+    angle_ref_deg: float
+    velocity_ref_deg_per_s: float
+    creep_ref_deg: float
+    hysteresis_ref_z: float
+    hysteresis_ref_angle_deg: float
+
+
+def creep_reference_update(e: Effects, s: FingerState, entered: bool, dt_s: float) -> None:
+    """The creep branch's dashpot driven by the angle reference over the tick."""
+    if not e.creep_stiffness_ratio > 0.0:
+        return
+    if entered:
+        s.creep_ref_deg = s.angle_filt_deg
+    s.creep_ref_deg = s.angle_ref_deg + (s.creep_ref_deg - s.angle_ref_deg) * math.exp(-dt_s / e.creep_time_s)
+
+
+def hysteresis_reference_update(e: Effects, s: FingerState, entered: bool) -> None:
+    """The hysteresis loop's z driven by the angle reference led by the valve lag + dead
+    time (Dahl's, exact over that angle's travel since the last tick); at its middle from
+    the filtered angle on entering position mode or when its state is not finite."""
+    led_deg = s.angle_ref_deg + (e.valve_lag_tau_s + e.dead_time_s) * s.velocity_ref_deg_per_s
+    if not e.hysteresis_torque_nm > 0.0:
+        return
+    if entered or not (math.isfinite(s.hysteresis_ref_z) and math.isfinite(s.hysteresis_ref_angle_deg)):
+        s.hysteresis_ref_z = 0.0
+        s.hysteresis_ref_angle_deg = s.angle_filt_deg
+    travel_deg = led_deg - s.hysteresis_ref_angle_deg
+    if travel_deg != 0.0 and math.isfinite(travel_deg):
+        toward = 1.0 if travel_deg > 0.0 else -1.0
+        decay = math.exp(-abs(travel_deg) / e.hysteresis_travel_deg)
+        s.hysteresis_ref_z = toward + (s.hysteresis_ref_z - toward) * decay
+        s.hysteresis_ref_angle_deg = led_deg

@@ -104,7 +104,7 @@ def apply_to_finger(finger: SimFinger, effects: EffectParams) -> SimFinger:
     own) applied by their simulator hooks; the C model's are in its prbm (to_rtcore)."""
     known = registry.by_name()
     for name, values in effects.items():
-        if not known[name].rtcore_fields(values):
+        if known[name].hooked:
             finger = known[name].apply(finger, values)
     return finger
 

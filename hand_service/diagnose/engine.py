@@ -18,7 +18,6 @@ from dataclasses import replace
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.fitting.output_error import (
@@ -46,6 +45,7 @@ from hand_service.diagnose.report.verdict import (
     structure_left,
     trade_offs,
 )
+from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_bound, stats
 from hand_service.diagnose.search import posture_stability
 from hand_service.diagnose.search.forward_selection import (
@@ -56,7 +56,6 @@ from hand_service.diagnose.search.forward_selection import (
     data_alone_bic,
     select,
 )
-from hand_service.errors import UserError
 
 
 def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
@@ -120,19 +119,23 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
     and 1 kHz), would only make them wait."""
     with threadpool_limits(limits=1, user_api="blas"):
-        return _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                         noise_model, searched(also))
-
-
-def searched(also: Sequence[str]) -> list[str]:
-    """The effects to search for: the library's searched ones, then `also` (UserError for
-    an unknown name)."""
-    known = fx.BY_NAME
-    for name in also:
-        if name not in known:
-            raise UserError(f"--search {name}: unknown effect (known: {', '.join(known)})")
-    names = [spec.name for spec in fx.SEARCHED]
-    return names + [name for name in dict.fromkeys(also) if name not in names]
+        search = searched(also)
+        result = _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
+                           noise_model, search)
+        at_onset = contact_at_onset(model, result, search)
+        if at_onset is None:
+            return result
+        # the contact searched for where the residual says a torque switches on
+        again = _diagnose(at_onset, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
+                          noise_model, search)
+        if not again.effects or again.effects[0].name != "contact":
+            return result
+        onset = at_onset.effects["contact"]
+        again.seconds += result.seconds  # both searches'
+        again.warnings.append(f"contact's onset ({onset['onset_deg']:.1f}°) and exponent "
+                              f"({onset['exponent']:g}) are where the residual's torque switches on "
+                              "(its onset, fitted apart), its stiffness fitted there")
+        return again
 
 
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
@@ -188,7 +191,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                        rate_hz, start=moving)
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
-    missing = [name for name in search if name not in model.effects]
+    missing = [name for name in search if name not in model.effects or shape_only(model.effects, name)]
     relative = relative_std(refit)  # what the data alone say (the prior below may hold some)
     unidentified = unpinned(refit)
     if unidentified or far_from_nominal(problem, refit, FAR_FACTOR):

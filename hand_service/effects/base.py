@@ -4,9 +4,9 @@ its simulator hook, the change it makes to a simulated finger (docs/formats.md Â
 Two kinds of hook exist. A `FieldEffect` is a term of the C model (csrc/rtcore_model.c,
 rtcore_effects): the simulator, the controller's feedforward and its force estimate all
 use it. A `FingerEffect` sets the simulated finger's own physics (csrc/rtcore_sim_plant.h:
-an object past an angle, a loop in the angle): the simulator includes it in the truth, the
-controller does not model it. A lab's effect (registry.py) may be either, built from the
-simulator's terms.
+an object past an angle, a loop in the angle): the simulator includes it in the truth; the
+controller models it only through `controller_fields` (the loop's copy in rtcore_effects).
+A lab's effect (registry.py) may be either, built from the simulator's terms.
 """
 
 from __future__ import annotations
@@ -96,6 +96,12 @@ class Effect:
         del values
         return {}
 
+    @property
+    def hooked(self) -> bool:
+        """Its simulator hook sets the simulated finger beyond the C model's fields (apply
+        must run for the simulator to include it)."""
+        return True
+
     def apply(self, finger: SimFinger, values: Mapping[str, float]) -> SimFinger:
         """`finger` with this effect at `values` (a new SimFinger)."""
         raise NotImplementedError
@@ -126,6 +132,10 @@ class FieldEffect(Effect):
         more = {field: full[param] for param, field in self.more_fields}
         return {self.rtcore_field: full[self.param], **more}
 
+    @property
+    def hooked(self) -> bool:
+        return False
+
     def apply(self, finger: SimFinger, values: Mapping[str, float]) -> SimFinger:
         effects: Effects = dataclasses.replace(finger.prbm.effects, **self.rtcore_fields(values))
         return dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, effects=effects))
@@ -141,6 +151,15 @@ class FingerEffect(Effect):
     overriding `finger_fields`)."""
 
     fields: tuple[tuple[str, str], ...] = ()  # (parameter, SimFinger field)
+    # (parameter, rtcore_effects field): the controller's model of it, where it has one (the
+    # simulator leaves these fields to the controller and simulates the finger's `fields`)
+    controller_fields: tuple[tuple[str, str], ...] = ()
+
+    def rtcore_fields(self, values: Mapping[str, float]) -> dict[str, float]:
+        if not self.controller_fields:
+            return {}
+        full = self.full(values)
+        return {field: full[param] for param, field in self.controller_fields}
 
     def finger_fields(self, finger: SimFinger, values: Mapping[str, float]) -> dict[str, float]:
         full = self.full(values)

@@ -117,5 +117,7 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
                   Parameter("travel_deg", "deg", 5.0, 0.1, 90.0, 2.0)),
                  reference="Dahl 1968 (Bouc-Wen with its shape fixed): exact between turns",
                  fields=(("torque_nm", "hysteresis_torque_nm"), ("travel_deg", "hysteresis_travel_deg")),
-                 searched=False),
+                 controller_fields=(("torque_nm", "hysteresis_torque_nm"),
+                                    ("travel_deg", "hysteresis_travel_deg")),
+                 compensated=True, searched=False),
 )

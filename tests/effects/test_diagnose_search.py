@@ -1,14 +1,19 @@
 """diagnose searches the library's searched effects; `--search` adds one it leaves out by
-default (pressure_stiffening, creep), judged by the same tests."""
+default (pressure_stiffening, creep, contact), judged by the same tests."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
 import pytest
 
 from hand_service.config import effects as fx
+from hand_service.config.model import FingerModel
 from hand_service.config.profile import load_profile
-from hand_service.diagnose.concealed.generator import generate
-from hand_service.diagnose.engine import diagnose, searched
+from hand_service.diagnose.concealed.excitations import EXCITATIONS
+from hand_service.diagnose.concealed.generator import full_pressure_kpa, generate, perturb, record
+from hand_service.diagnose.engine import diagnose, searched, shape_only
 from hand_service.errors import UserError
 
 
@@ -29,3 +34,51 @@ def test_a_concealed_pressure_stiffening_is_named_when_searched() -> None:
     found = diagnose(c.nominal, c.t_s, c.pressure_kpa, c.angle_deg, 100.0, also=("pressure_stiffening",))
     assert found.effects[0].name == "pressure_stiffening"
     assert found.effects[0].value == pytest.approx(true, rel=0.1)
+
+
+@dataclass(frozen=True)
+class StopRecording:
+    """sim.yaml's index finger on the project's generator's steps, a contact in its truth;
+    the lab's nominal (k, B, N off by up to 10 %) without it."""
+
+    nominal: FingerModel
+    t_s: np.ndarray
+    command_kpa: np.ndarray
+    angle_deg: np.ndarray
+
+
+def stop_recording(stop: dict[str, float]) -> StopRecording:
+    model = load_profile(None).finger("index").model
+    rng = np.random.default_rng(2)
+    command = EXCITATIONS["steps"](full_pressure_kpa(model), 30.0, 100.0, rng)
+    measured, _ = record(model.with_changes(effects={**model.effects, "contact": stop}), command, 100.0,
+                         0.3, 0.122, 2)
+    return StopRecording(perturb(model, 0.1, rng), np.arange(command.size) / 100.0, command, measured)
+
+
+def test_a_contact_whose_onset_the_model_gives_is_searched_there() -> None:
+    """A lab that knows where its object sits writes the contact's onset with K at 0 ("none"):
+    diagnose searches for the contact there (requested.shape_only) and fits K with the onset
+    held at the lab's value (Problem.given_effects), where the library's default onset, 45°,
+    would leave the stop's torque unexplained. The stop at 30°."""
+    stop = {"stiffness_nm_per_radn": 0.3, "onset_deg": 30.0, "exponent": 1.5}
+    r = stop_recording(stop)
+    lab = {**stop, "stiffness_nm_per_radn": 0.0}
+    given = r.nominal.with_changes(effects={**r.nominal.effects, "contact": lab})
+    assert shape_only(given.effects, "contact") and not shape_only(r.nominal.effects, "contact")
+    found = diagnose(given, r.t_s, r.command_kpa, r.angle_deg, 100.0, also=("contact",))
+    assert found.effects[0].name == "contact"
+    assert found.effects[0].value == pytest.approx(0.3, rel=0.15)
+
+
+def test_a_contact_is_searched_again_where_the_residual_switches_on() -> None:
+    """Without its onset in the model, a stop met at 60° (the library's default onset is
+    45°) leaves a torque that switches on past an angle (outside_library/contact_onset.py);
+    with contact searched for, diagnose searches again at that onset and power and names
+    it there (requested.contact_at_onset), saying where the onset came from."""
+    r = stop_recording({"stiffness_nm_per_radn": 1.0, "onset_deg": 60.0, "exponent": 1.5})
+    plain = diagnose(r.nominal, r.t_s, r.command_kpa, r.angle_deg, 100.0)
+    assert "contact" not in [e.name for e in plain.effects]
+    found = diagnose(r.nominal, r.t_s, r.command_kpa, r.angle_deg, 100.0, also=("contact",))
+    assert [e.name for e in found.effects] == ["contact"]
+    assert any("where the residual's torque switches on" in w for w in found.warnings)

@@ -43,6 +43,8 @@ effects_strategy = st.builds(
     pressure_stiffening_ref_kpa=positive(20.0, 200.0),
     creep_stiffness_ratio=maybe(positive(0.01, 2.0)),
     creep_time_s=positive(0.05, 5.0),
+    hysteresis_torque_nm=maybe(positive(1e-4, 0.05)),
+    hysteresis_travel_deg=positive(0.1, 30.0),
 )
 
 

@@ -162,6 +162,9 @@ class Problem:
     released: bool = False
     prior: Prior = NO_PRIOR  # set when the recording alone cannot pin k, B, N (engine)
     # shared by the copies that differ in their masks (rotated(), a half of the fitting set)
+    # the model file's effects block: an effect searched for keeps the parameters it gives
+    # beyond the first (a contact's onset, a loop's travel), the rest at their defaults
+    given_effects: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
     simulations: SimulationCache = dataclasses.field(default_factory=SimulationCache, repr=False,
                                                      compare=False)
 
@@ -192,17 +195,18 @@ class Problem:
         hooked = []  # effects that are not terms of the C model: their own simulator hooks
         for p, v in zip(params, values, strict=True):
             if p.is_effect:
-                fields = library[p.label].rtcore_fields({library[p.label].param: float(v)})
-                if fields:
-                    effect.update(fields)
+                spec = library[p.label]
+                values = {**self.given_effects.get(p.label, {}), spec.param: float(v)}
+                if spec.hooked:
+                    hooked.append((spec, values))
                 else:
-                    hooked.append((library[p.label], float(v)))
+                    effect.update(spec.rtcore_fields(values))
         if effect:
             plain["effects"] = dataclasses.replace(finger.prbm.effects, **effect)
         if plain:
             finger = dataclasses.replace(finger, prbm=dataclasses.replace(finger.prbm, **plain))
-        for spec, v in hooked:  # its other parameters at their defaults
-            finger = spec.apply(finger, {spec.param: v})
+        for spec, values in hooked:
+            finger = spec.apply(finger, values)
         return finger
 
     def simulate(self, finger: SimFinger) -> np.ndarray:
@@ -365,4 +369,4 @@ def build_problem(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray,
                    np.ascontiguousarray(angle_deg, dtype=float), np.asarray(t_s, dtype=float), rate_hz,
                    substeps, angle0, float(pressure_kpa[0]), fit, held, blocks, input_hold, from_start,
                    missing=None if missing is None or not missing.any() else np.asarray(missing, dtype=bool),
-                   released=release)
+                   released=release, given_effects={name: dict(v) for name, v in model.effects.items()})

@@ -267,6 +267,10 @@ def library_equivalent(effect: str, truth: Truth) -> dict[str, float]:
         "pressure_stiffening": lambda: {"gain": 100.0 * truth.stiffening_s * (3.0 / 2.7)
                                         / truth.family.full_scale_kpa},
         "creep": lambda: {"stiffness_ratio": truth.creep_beta},  # both branches together
+        # Bouc-Wen's saturated torque K_h·z_max against Dahl's H (its travel, z_max, against θh)
+        "hysteresis": lambda: {"torque_nm": truth.hysteresis_nm_per_rad * truth.hysteresis_zmax_deg * DEG},
+        # Hunt-Crossley's stiffness, its damping left out (the library's onset θc, n = 1.5)
+        "contact": lambda: {"stiffness_nm_per_radn": truth.contact_nm_per_rad15},
     }.get(effect, dict)()
 
 

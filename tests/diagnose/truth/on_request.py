@@ -1,11 +1,16 @@
-"""The library effects diagnose searches only on request (cases.ON_REQUEST: pressure
-stiffening, creep), on the independent truth, in the truth's own forms (plant.py: a power of
-the pressure; two Maxwell branches at T and 4·T), through `hand-service diagnose --search`:
+"""The library effects diagnose searches only on request, on the independent truth, in the
+truth's own forms (plant.py: pressure stiffening a power of the pressure; creep two Maxwell
+branches at T and 4·T; hysteresis Bouc-Wen's loop with β = γ; contact Hunt-Crossley's, with
+its damping), through `hand-service diagnose --search`:
 
     python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
+        [--effects pressure_stiffening creep hysteresis contact] [--shape-known]
+        [--cases-of clean gravity ...] [--skip-own]
 
-Each case is scored as a library effect (scoring.py): named first where observable; the
-estimate's error against the truth's library equivalent (cases.library_equivalent)."""
+Hysteresis and contact are the battery's cases outside the library (cases.OUT_OF_LIBRARY:
+the same recordings), here searched for by name. Each case is scored as a library effect
+(scoring.py): named first where observable (`observable`); the estimate's error against the
+truth's library equivalent (cases.library_equivalent)."""
 
 from __future__ import annotations
 
@@ -27,15 +32,57 @@ from tests.diagnose.truth import cases as cs  # noqa: E402
 from tests.diagnose.truth.battery import diagnose_argv  # noqa: E402
 from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
 
+EFFECTS = (*cs.ON_REQUEST, *cs.OUT_OF_LIBRARY)
+# the least time past a contact's onset that shows it, and the least angle range that turns
+# a loop over (the on-request rule's 5°)
+CONTACT_TIME_S = 0.1
+LOOP_RANGE_DEG = 5.0
 
-def run_case(spec: cs.CaseSpec, folder: Path) -> dict:
+
+def observable(case: cs.Case) -> tuple[bool, str]:
+    """The case's own rule for pressure stiffening and creep (cases.exercised and the
+    visibility floor); for hysteresis and contact, which the battery holds outside the
+    library and leaves unjudged, the same floor (visibility 0.4) and their physics exercised:
+    the finger past the contact's onset for CONTACT_TIME_S, or moved over LOOP_RANGE_DEG."""
+    effect = case.spec.effect
+    if effect in cs.ON_REQUEST:
+        return case.observable, case.reason
+    if case.visibility < 0.4:
+        return False, "absorbed by k, B and N at every plausible size tried"
+    theta_deg = case.trajectory.theta_deg
+    if effect == "contact" and np.sum(theta_deg > case.truth.contact_deg) / case.rate_hz < CONTACT_TIME_S:
+        return False, "the finger barely passes the contact's onset"
+    if effect == "hysteresis" and np.ptp(theta_deg) < LOOP_RANGE_DEG:
+        return False, f"the angle moves under {LOOP_RANGE_DEG:g} deg"
+    return True, ""
+
+
+def truth_shape(case: cs.Case) -> dict[str, float]:
+    """What the library holds at its defaults when it fits the first parameter alone."""
+    if case.spec.effect == "contact":
+        return {"onset_deg": case.truth.contact_deg, "exponent": 1.5}
+    if case.spec.effect == "hysteresis":
+        return {"travel_deg": case.truth.hysteresis_zmax_deg}
+    if case.spec.effect == "creep":
+        return {"time_s": case.truth.creep_time_s}
+    return {}
+
+
+def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False, search: str | None = None) -> dict:
+    """`shape_known`: the lab's model file gives the effect's other parameters (truth_shape),
+    its first at "none", as a lab that knows where its object sits would write it."""
     from hand_service.cli import main
+    from hand_service.config.effects import BY_NAME
 
     case = cs.build(spec)
+    if shape_known and truth_shape(case):
+        library = BY_NAME[spec.effect]
+        case.nominal_effects = {**case.nominal_effects,
+                                spec.effect: {library.param: library.neutral, **truth_shape(case)}}
     rec, model = cs.write(case, folder)
     out = folder / f"{spec.id}.diagnose.json"
     started = time.perf_counter()
-    code = main([*diagnose_argv(rec, model, out), "--search", spec.effect])
+    code = main([*diagnose_argv(rec, model, out), "--search", search or spec.effect])
     result = json.loads(out.read_text()) if code == 0 else {"verdict": f"exit {code}"}
     names = [e.get("name") for e in result.get("effects") or []]
     first = (result.get("effects") or [{}])[0]
@@ -43,20 +90,31 @@ def run_case(spec: cs.CaseSpec, folder: Path) -> dict:
     error = None
     if names and names[0] == spec.effect and true:
         error = abs(next(iter(first["params"].values())) - true) / abs(true)
-    return {**case.summary(), "verdict": result.get("verdict"), "named": names,
+    seen, reason = observable(case)
+    return {**case.summary(), "shape_known": shape_known, "searched": search or spec.effect,
+            "observable": seen, "reason": reason, "truth_shape": truth_shape(case),
+            "estimate": first.get("params") if names and names[0] == spec.effect else None,
+            "verdict": result.get("verdict"), "named": names,
             "top1": bool(names) and names[0] == spec.effect, "parameter_error": error,
             "seconds": time.perf_counter() - started}
 
 
 def summarise(rows: list[dict]) -> dict:
     out = {}
-    for effect in cs.ON_REQUEST:
-        mine = [r for r in rows if r["effect"] == effect]
+    for effect in dict.fromkeys(r["effect"] for r in rows if r["searched"] == r["effect"]):
+        mine = [r for r in rows if r["effect"] == effect and r["searched"] == effect]
         seen = [r for r in mine if r["observable"]]
         errors = [r["parameter_error"] for r in seen if r["parameter_error"] is not None]
         out[effect] = {"cases": len(mine), "observable": len(seen), "top1": sum(r["top1"] for r in seen),
                        "wrong_names": sum(bool(r["named"]) and not r["top1"] for r in mine),
                        "median_parameter_error": float(np.median(errors)) if errors else None}
+    for row in rows:  # another truth searched for an effect: how often it is named
+        if row["searched"] != row["effect"]:
+            key = f"{row['searched']} on {row['effect']}"
+            seen = out.setdefault(key, {"cases": 0, "named_first": 0, "named": 0})
+            seen["cases"] += 1
+            seen["named_first"] += bool(row["named"]) and row["named"][0] == row["searched"]
+            seen["named"] += row["searched"] in row["named"]
     return out
 
 
@@ -67,17 +125,32 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=1)
     parser.add_argument("--classes", nargs="*", default=list(CLASSES))
     parser.add_argument("--magnitudes", nargs="*", default=["concealed"])
+    parser.add_argument("--shape-known", action="store_true",
+                        help="the model file gives each effect's parameters beyond the first, the truth's")
+    parser.add_argument("--cases-of", nargs="*", default=[], choices=cs.ALL_EFFECTS,
+                        help="also the truth's cases of these (clean, the eight, ...), each searched for "
+                             "the --effects: their false names")
+    parser.add_argument("--skip-own", action="store_true", help="only the --cases-of")
+    parser.add_argument("--effects", nargs="*", default=list(cs.ON_REQUEST), choices=EFFECTS)
     args = parser.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory(prefix="on-request-") as scratch:
-        for effect in cs.ON_REQUEST:
+        for effect in [] if args.skip_own else args.effects:
             for seed in range(args.seeds):
                 for cls in args.classes:
                     for magnitude in args.magnitudes:
-                        row = run_case(cs.CaseSpec(effect, cls, seed, magnitude), Path(scratch))
+                        row = run_case(cs.CaseSpec(effect, cls, seed, magnitude), Path(scratch),
+                                       args.shape_known)
                         rows.append(row)
                         print(f"{row['id']}: observable {row['observable']}, named {row['named']}, "
                               f"error {row['parameter_error']}", file=sys.stderr, flush=True)
+        for truth in args.cases_of:
+            for effect in args.effects:
+                for cls in args.classes:
+                    row = run_case(cs.CaseSpec(truth, cls, 0, "concealed"), Path(scratch), search=effect)
+                    rows.append(row)
+                    print(f"{row['id']} searched for {effect}: named {row['named']}", file=sys.stderr,
+                          flush=True)
     Path(args.out).write_text(json.dumps({"summary": summarise(rows), "cases": rows}, indent=1))
     print(json.dumps(summarise(rows), indent=1))
     return 0
