@@ -11,6 +11,7 @@ The HIL tests and the I/O benchmarks (bench/io.py) both build on it.
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -35,8 +36,12 @@ class RigError(RuntimeError):
 
 
 class Rig:
-    def __init__(self, name: str, workdir: Path, profile: Profile | None = None) -> None:
+    def __init__(self, name: str, workdir: Path, profile: Profile | None = None,
+                 board_priority: int | None = None) -> None:
         self.name = name
+        # the mock process's SCHED_FIFO priority (None: the normal scheduler): a board is an MCU
+        # that the PC's load never delays, which a soak beside the test suite wants
+        self.board_priority = board_priority
         # the mock process loads the profile from its file: the given one's, or the shipped one
         self.profile_path = profile.path if profile is not None else PROFILE_DIR / RIG_PROFILES[name]
         self.profile = profile or load_profile(self.profile_path)
@@ -79,6 +84,8 @@ class Rig:
         if protocol_version is not None:
             command += ["--protocol-version", str(protocol_version)]
         self.process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        if self.board_priority is not None:  # before its interpreter starts the threads that inherit it
+            os.sched_setscheduler(self.process.pid, os.SCHED_FIFO, os.sched_param(self.board_priority))
         threading.Thread(target=self._collect, args=(self.process,), daemon=True).start()
         self.wait_for_line(r"^ready: ", START_TIMEOUT_S)
 
