@@ -47,7 +47,8 @@ class SetFound:
         names = " and ".join(c.name for c in self.selection.accepted)
         gone = " and ".join(self.withdrawn)
         return (f"{gone} was picked but does not hold across the recording's postures; "
-                f"fitted together instead, {names} explain the recording, each significant beside the others")
+                f"without it, {names} were fitted together, each significant beside the others "
+                "(the checks that follow decide what is named)")
 
 
 def withdrawn(problem: Problem, selection: Selection) -> list[str]:
