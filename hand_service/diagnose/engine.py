@@ -47,7 +47,7 @@ from hand_service.diagnose.report.verdict import (
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_bound, stats
-from hand_service.diagnose.search import posture_stability
+from hand_service.diagnose.search import posture_stability, set_search
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Candidate,
@@ -206,6 +206,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     # the plain model's adequacy first: no effect is searched for on a model that cannot
     # follow the recording at all
     selection = Selection(final=refit) if lost else select(problem, refit, missing, progress)
+    if (found_set := set_search.search(problem, selection, progress)) is not None:
+        warnings.append(found_set.sentence())  # a first pick the posture check withdraws: sets
+        selection = found_set.selection
     if unidentified and selection.accepted:
         first = selection.accepted[0]
         free_bic = data_alone_bic(problem, refit, first)

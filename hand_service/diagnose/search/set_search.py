@@ -1,0 +1,133 @@
+"""Sets after a withdrawn pick: when an effect the forward selection picked does not hold
+across the recording's postures (posture_stability), the path it opened is closed, but the
+effects it may have crowded out are not. Dry friction, gravity and an asymmetric spring on
+steps: dry friction, then a cubic spring, then the asymmetric spring were picked; the cubic
+failed the posture check, and the greedy path never fitted gravity and the asymmetric
+spring together (neither gains alone beside dry friction; each gains ΔBIC 800 to 1 000
+beside the other).
+
+The effects accepted before the first withdrawn pick are kept; of the others, those picked
+beside a withdrawn one first, then the screen's strongest on the kept model, SET_TOP in
+all, are paired and fitted together, and the best pair that passes is extended by a third
+while the set stays within MAX_EFFECTS. Each member of a pair must pass the forward
+selection's own gate (`Candidate.significant`: ΔBIC, held-out z, determined, not at a
+bound) fitted beside the other, a third beside the pair; the set must hold across the
+postures, its first effect alone too. The set found goes on through the same checks as any
+other (the posture check again, the outside-library checks, the raw-signal gate in the
+engine).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+from hand_service.diagnose.fitting.output_error import Fit
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.search import posture_stability
+from hand_service.diagnose.search.forward_selection import (
+    MAX_EFFECTS,
+    Candidate,
+    Progress,
+    Round,
+    Selection,
+    score,
+)
+from hand_service.diagnose.search.screening import screen
+
+SET_TOP = 4  # the first round's strongest effects (the withdrawn one aside) that are paired
+
+
+@dataclass
+class SetFound:
+    selection: Selection
+    withdrawn: list[str]  # the picks that did not hold across the postures
+
+    def sentence(self) -> str:
+        names = " and ".join(c.name for c in self.selection.accepted)
+        gone = " and ".join(self.withdrawn)
+        return (f"{gone} was picked but does not hold across the recording's postures; "
+                f"without it, {names} were fitted together, each significant beside the others "
+                "(the checks that follow decide what is named)")
+
+
+def withdrawn(problem: Problem, selection: Selection) -> list[str]:
+    """The accepted effects that fail the posture check: in the final fit beside the others,
+    and the first fitted alone (its own round's fit). The engine would withdraw them and
+    name at most the first of what is left ([] when every one holds)."""
+    if not selection.accepted or selection.final is None:
+        return []
+    names = [c.name for c in selection.accepted]
+    failed = [u.name for u in posture_stability.check(problem, selection.final, names)]
+    if len(names) > 1 and posture_stability.first_alone_unstable(problem, selection):
+        failed.append(names[0])
+    return list(dict.fromkeys(failed))
+
+
+def add(problem: Problem, base: Fit, name: str) -> Candidate:
+    """`name` fitted jointly with every parameter of `base` (the effects before it included)."""
+    sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
+    return score(problem, base, screen(problem, base, name), sigma)
+
+
+def holds(problem: Problem, members: list[Candidate]) -> bool:
+    """Every posture-dependent member holds in the set's fit, and the first alone too."""
+    names = [c.name for c in members]
+    return not posture_stability.check(problem, members[-1].fit, names) and not (
+        posture_stability.check(problem, members[0].fit, [names[0]]))
+
+
+def total_bic(members: list[Candidate]) -> float:
+    return sum(c.delta_bic for c in members)
+
+
+def search(problem: Problem, selection: Selection, progress: Progress | None = None) -> SetFound | None:
+    """The best set that passes every gate without the withdrawn picks: the effects accepted
+    before the first of them, and two or three more from the round it was picked in; None
+    when every pick holds, or no set passes."""
+    gone = withdrawn(problem, selection)
+    if not gone or not selection.rounds:
+        return None
+    at = min(i for i, c in enumerate(selection.accepted) if c.name in gone)
+    prefix = selection.accepted[:at]
+    base = prefix[-1].fit if prefix else selection.rounds[0].base
+    carried = {c.name for c in selection.carried}
+    if carried:
+        return None  # a tie carried in the model: its round's base is not the prefix's
+    taken = {c.name for c in prefix} | set(gone)
+    names = [c.name for c in selection.rounds[0].candidates if c.name not in taken]
+    screens = sorted((screen(problem, base, name) for name in names), key=lambda s: -s.predicted_bic)
+    after = [c.name for c in selection.accepted[at:] if c.name not in gone]  # picked beside a withdrawn one
+    pool = [*after, *[s.name for s in screens if s.name not in after]][:SET_TOP]
+    alone: dict[str, Candidate] = {}
+    sets: list[list[Candidate]] = []
+    rounds: list[Round] = []
+    for a, b in itertools.combinations(pool, 2):  # the screen's order
+        if progress:
+            progress(f"{' and '.join(gone)} withdrawn: fitting {a} and {b} together")
+        for name in (a, b):
+            if name not in alone:
+                alone[name] = add(problem, base, name)
+        b_beside_a = add(problem, alone[a].fit, b)
+        if not b_beside_a.significant:
+            continue
+        a_beside_b = add(problem, alone[b].fit, a)  # each must earn its place beside the other
+        pair = [*prefix, a_beside_b, b_beside_a]
+        if a_beside_b.significant and holds(problem, pair):
+            sets.append(pair)
+            rounds += [Round(alone[b].fit, [a_beside_b]), Round(alone[a].fit, [b_beside_a])]
+    if not sets:
+        return None
+    best = max(sets, key=total_bic)
+    if len(best) < MAX_EFFECTS:
+        for name in pool:
+            if name in {c.name for c in best}:
+                continue
+            if progress:
+                progress(f"adding {name} to {' and '.join(c.name for c in best)}")
+            third = add(problem, best[-1].fit, name)
+            if third.significant and holds(problem, [*best, third]):
+                sets.append([*best, third])
+                rounds.append(Round(best[-1].fit, [third]))
+    best = max(sets, key=total_bic)
+    return SetFound(Selection(rounds=[*selection.rounds, *rounds], accepted=best, final=best[-1].fit), gone)
