@@ -119,7 +119,7 @@ def test_every_fixture_report_passes_the_checks(folder: str, name: str) -> None:
     assert _report_failures(_diagnosed(base / f"{name}.csv", model, hold)) == []
 
 
-# the real rigs the cheap test above leaves out (Silverbox's 12 200 samples: thorough, below)
+# the real rigs the cheap test above leaves out (Silverbox's 12 200 samples: its own test, below)
 OTHER_RIGS = [rig for rig in REAL_RIGS if ("real", rig) not in FIXTURES and rig != "silverbox"]
 
 
@@ -129,7 +129,7 @@ def test_every_real_rig_report_passes_the_checks(rig: str) -> None:
     test_every_fixture_report_passes_the_checks("real", rig)
 
 
-@pytest.mark.thorough
+@pytest.mark.slow  # with the other rigs': the longest of test-thorough, which .ci/run's 25 minutes hold
 def test_the_silverbox_report_passes_the_checks() -> None:
     base = HERE / "real"
     hold = json.loads((base / "silverbox_expected.json").read_text())["input_hold"]
