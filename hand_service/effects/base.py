@@ -12,6 +12,7 @@ A lab's effect (registry.py) may be either, built from the simulator's terms.
 from __future__ import annotations
 
 import dataclasses
+from abc import ABC, abstractmethod
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Protocol
@@ -45,7 +46,7 @@ class FitScales(Protocol):
 
 
 @dataclass(frozen=True)
-class Effect:
+class Effect(ABC):
     """A named effect. `parameters[0]` is the one `diagnose` fits; the others (if any) keep
     the value the model file gives, or their neutral."""
 
@@ -102,13 +103,13 @@ class Effect:
         must run for the simulator to include it)."""
         return True
 
+    @abstractmethod
     def apply(self, finger: SimFinger, values: Mapping[str, float]) -> SimFinger:
         """`finger` with this effect at `values` (a new SimFinger)."""
-        raise NotImplementedError
 
+    @abstractmethod
     def read(self, finger: SimFinger) -> float:
         """The primary parameter's value in `finger`."""
-        raise NotImplementedError
 
     # --- diagnose ----------------------------------------------------------------------
     def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
