@@ -34,7 +34,7 @@ from hand_service.export.table import Table
 from hand_service.export.units import unit_of
 from hand_service.service.recorder_writer import HEAD, QUANTITIES, STATE_NAMES, csv_header
 from hand_service.view.daemon_link import STATUS_EVERY_S, DaemonLink, LinkOptions
-from hand_service.view.ring_tap import RingGone, RingTap
+from hand_service.view.ring_tap import RingFollower
 from rtcore.config import MODE_FORCE, MODE_NAMES, MODE_POSITION
 
 log = logging.getLogger(__name__)
@@ -42,7 +42,6 @@ log = logging.getLogger(__name__)
 HOST = "127.0.0.1"  # loopback only
 DEFAULT_PORT = 8765  # Foxglove's own default for a WebSocket connection
 POLL_HZ = 50.0  # ring reads per second; every row is published, in batches
-MAX_BEHIND_S = 2.0
 
 
 def ring_table(rows: np.ndarray, fingers: list[str]) -> Table:
@@ -97,11 +96,10 @@ class Publisher:
         self.port = self.server.port
         self.with_daemon = with_daemon
         self.rows_published = 0
-        self._tap: RingTap | None = None
+        self._ring = RingFollower()
         self._fingers: list[str] = []
         self._channels: list[tuple[ChannelSpec, Any]] = []
         self._offset_ns: int | None = None  # wall clock minus the ring's t, set when attached
-        self._max_rows = 1
         self._stop = threading.Event()
         self.ring = ring
 
@@ -148,19 +146,11 @@ class Publisher:
     def _attach(self, status: dict[str, Any]) -> None:
         rec = status.get("recording", {})
         path = rec.get("ring_path") if rec.get("active") else None
-        if path is None:
-            self._detach()
-            return
-        if self._tap is not None and str(self._tap.path) == path:
-            return
-        self._detach()
-        try:
-            self._tap = RingTap(path)
-        except RingGone as exc:
-            log.warning("foxglove: %s", exc)
+        if not self._ring.follow(path, float(status.get("rate_hz", 100.0))):
+            if self._ring.note is not None and self._ring.tap is None and path is not None:
+                log.warning("foxglove: %s", self._ring.note)
             return
         fingers = list(status.get("fingers", {}))
-        self._max_rows = max(1, int(MAX_BEHIND_S * float(status.get("rate_hz", 100.0))))
         # wall clock minus t: from the status's t, or (a ring given outright) the first rows read
         t_s = None if self.ring is not None else float(status["t_s"])
         self._offset_ns = None if t_s is None else time.time_ns() - round(t_s * 1e9)
@@ -180,18 +170,13 @@ class Publisher:
         log.info("foxglove: %s", ", ".join(spec.topic for spec, _ in self._channels))
 
     def _detach(self) -> None:
-        if self._tap is not None:
-            self._tap.close()
-        self._tap = None
+        self._ring.close()
 
     def _publish_new(self) -> None:
-        if self._tap is None:
+        got = self._ring.read_new()
+        if got is None:
             return
-        try:
-            rows, _first = self._tap.read_new(max_rows=self._max_rows)
-        except RingGone:
-            self._detach()
-            return
+        rows, _first = got
         if not rows.shape[0]:
             return
         if self._offset_ns is None:

@@ -24,6 +24,7 @@ import numpy as np
 RING_MAGIC = 0x48414E4452494E47  # "HANDRING", rtcore/ring.py MAGIC
 HEADER_INT64 = 8  # [magic, n_cols, capacity, count, drained, lost, error, failed_at]
 COUNT_AT = 3
+MAX_BEHIND_S = 2.0  # after a stall a follower catches up with the last 2 s of rows only
 
 
 class RingGone(Exception):
@@ -109,4 +110,55 @@ class RingTap:
             os.close(self.fd)
 
 
-__all__ = ["RingGone", "RingTap"]
+class RingFollower:
+    """The ring a daemon's status names, followed: opened while the status says it records,
+    opened again when the name changes, closed when the recording stops or the ring is gone.
+    After a stall only the newest `max_behind_s` of rows are read (the older count as missed)."""
+
+    def __init__(self, max_behind_s: float = MAX_BEHIND_S) -> None:
+        self.max_behind_s = max_behind_s
+        self.tap: RingTap | None = None
+        self.note: str | None = None  # why no ring is followed, when it is not
+        self._max_rows = 1
+
+    def follow(self, ring_path: str | None, rate_hz: float) -> bool:
+        """Follow the ring at `ring_path` (None: no recording); True when a ring was opened
+        now (the caller sets up what depends on the fingers and rate)."""
+        if ring_path is None:
+            self.close()
+            return False
+        if self.tap is not None and str(self.tap.path) == ring_path:
+            return False
+        self.close()
+        try:
+            self.tap = RingTap(ring_path)
+        except RingGone as exc:
+            self.note = str(exc)
+            return False
+        self._max_rows = max(1, int(self.max_behind_s * rate_hz))
+        self.note = None
+        return True
+
+    def read_new(self) -> tuple[np.ndarray, int] | None:
+        """The rows pushed since the last call and the first's index, or None when no ring is
+        followed (a ring that went away between two statuses is closed, `note` says why)."""
+        if self.tap is None:
+            return None
+        try:
+            return self.tap.read_new(max_rows=self._max_rows)
+        except RingGone as exc:
+            self.note = str(exc)
+            self.close()
+            return None
+
+    @property
+    def rows_missed(self) -> int:
+        return 0 if self.tap is None else self.tap.rows_missed
+
+    def close(self) -> None:
+        if self.tap is not None:
+            self.tap.close()
+        self.tap = None
+
+
+__all__ = ["RingFollower", "RingGone", "RingTap"]

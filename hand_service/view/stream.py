@@ -18,12 +18,11 @@ from typing import Any
 from hand_service.api.client import ApiError
 from hand_service.view.daemon_link import STATUS_EVERY_S, DaemonLink, brief_status
 from hand_service.view.frames import FrameMaker
-from hand_service.view.ring_tap import RingGone, RingTap
+from hand_service.view.ring_tap import RingFollower
 
 log = logging.getLogger(__name__)
 
 FRAME_HZ = 30.0
-MAX_BEHIND_S = 2.0  # after a stall the view catches up with the last 2 s of rows only
 QUEUE_FRAMES = 30  # a second of frames per page, then its oldest are dropped
 NOT_RECORDING = ("the daemon is not recording: its ring exists only while it records "
                  "(run --record FILE, ctl record-start, or view --record FILE)")
@@ -39,9 +38,8 @@ class Stream:
         self.frames_sent = 0
         self.status: dict[str, Any] | None = None
         self.ring_note: str | None = "waiting for the daemon's status"
-        self._tap: RingTap | None = None
+        self._ring = RingFollower()
         self._maker: FrameMaker | None = None
-        self._max_rows = 1
         self._subscribers: list[queue.Queue[str]] = []
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -117,42 +115,36 @@ class Stream:
             self.ring_note = f"the daemon cannot be reached: {exc}"
             self._detach()
             return
-        rec, rate_hz = self.status["recording"], self.status["rate_hz"]
+        rec, rate_hz = self.status["recording"], float(self.status["rate_hz"])
         path = rec["ring_path"] if rec["active"] else None
         if path is None:
             self._detach()
             self.ring_note = NOT_RECORDING
-            return
-        if self._tap is not None and str(self._tap.path) == path:
-            return
-        self._detach()
-        try:
-            self._tap = RingTap(path)
-            self._maker = FrameMaker(self.status["fingers"], float(rate_hz))
-            self._max_rows = max(1, int(MAX_BEHIND_S * float(rate_hz)))
+        elif self._ring.follow(path, rate_hz):
+            self._maker = FrameMaker(self.status["fingers"], rate_hz)
             self.ring_note = None
             log.info("view: reading the recording ring %s", path)
-        except RingGone as exc:
-            self.ring_note = str(exc)
+        elif self._ring.tap is None:
+            self._maker = None
+            self.ring_note = self._ring.note
 
     def _detach(self) -> None:
-        if self._tap is not None:
-            self._tap.close()
-        self._tap, self._maker = None, None
+        self._ring.close()
+        self._maker = None
 
     def frame(self) -> str:
         """The next frame: the rows pushed since the last one and the latest status, as JSON."""
         self.seq += 1
         signals = None
         missed = 0
-        if self._tap is not None and self._maker is not None:
-            try:
-                rows, first = self._tap.read_new(max_rows=self._max_rows)
-                signals = self._maker.signals(rows, first)
-                missed = self._tap.rows_missed
-            except RingGone as exc:  # the recording stopped between two status polls
-                self.ring_note = str(exc)
-                self._detach()
+        if self._maker is not None:
+            got = self._ring.read_new()
+            if got is None:  # the recording stopped between two status polls
+                self.ring_note = self._ring.note
+                self._maker = None
+            else:
+                signals = self._maker.signals(*got)
+                missed = self._ring.rows_missed
         frame = {"seq": self.seq, "status": self.status, "signals": signals, "ring_note": self.ring_note,
                  "rows_missed": missed}
         return json.dumps(frame, separators=(",", ":"), allow_nan=False)
