@@ -74,17 +74,18 @@ def cdef_from_headers(headers: tuple[Path, ...] = HEADERS) -> str:
     return "".join(f"\n/* {path.name} */" + cdef_from_header(path.read_text()) for path in headers)
 
 
-def generate_can_v1(dbc: Path = DBC, out: Path = GENERATED) -> Path:
-    """rtcore_can_v1.c and .h from the DBC by cantools (doubles, as the Python codec decodes);
-    rewritten only when their text changes, so an unchanged DBC rebuilds nothing."""
-    header, source, _, _ = generate(load_file(str(dbc), database_format="dbc", strict=True), CAN_V1,
-                                    f"{CAN_V1}.h", f"{CAN_V1}.c", f"{CAN_V1}_fuzzer.c")
+def generate_can_v1(dbc: Path = DBC, out: Path = GENERATED, name: str = CAN_V1, **options: bool) -> Path:
+    """NAME.c and .h from the DBC by cantools (rtcore's: doubles, as the Python codec decodes;
+    the board's: `options` as board/Makefile gives them); rewritten only when their text
+    changes, so an unchanged DBC rebuilds nothing."""
+    header, source, _, _ = generate(load_file(str(dbc), database_format="dbc", strict=True), name,
+                                    f"{name}.h", f"{name}.c", f"{name}_fuzzer.c", **options)
     out.mkdir(parents=True, exist_ok=True)
-    for name, text in ((f"{CAN_V1}.h", header), (f"{CAN_V1}.c", source)):
-        path = out / name
+    for file_name, text in ((f"{name}.h", header), (f"{name}.c", source)):
+        path = out / file_name
         if not path.exists() or path.read_text() != text:
             path.write_text(text)
-    return out / f"{CAN_V1}.c"
+    return out / f"{name}.c"
 
 
 ffibuilder = cffi.FFI()

@@ -11,12 +11,12 @@ DBC by cantools with board/Makefile's options (build/gen/can_v1.[ch], never comm
 
 from __future__ import annotations
 
+import importlib.util
 import re
 from pathlib import Path
+from types import ModuleType
 
 import cffi
-from cantools.database import load_file
-from cantools.database.can.c_source import generate
 
 ROOT = Path(__file__).resolve().parents[2]
 BOARD = ROOT / "board"
@@ -26,8 +26,6 @@ INCLUDE_DIRS = ("core", "plant", "host", "inprocess", "../csrc")
 DBC = ROOT / "firmware_profiles" / "can-v1.dbc"
 GENERATED = ROOT / "build" / "gen"  # can_v1.c and .h (rtcore's are rtcore_can_v1.*)
 CAN_V1 = "can_v1"  # board/Makefile's --database-name
-COMPILE_ARGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffp-contract=off"]
-BEGIN, END = "/* BEGIN CDEF */", "/* END CDEF */"
 
 
 def makefile_variable(name: str, makefile: Path = BOARD / "Makefile") -> list[str]:
@@ -38,23 +36,22 @@ def makefile_variable(name: str, makefile: Path = BOARD / "Makefile") -> list[st
     return match.group(1).split()
 
 
-def cdef(header: Path = HEADER) -> str:
-    text = header.read_text()
-    return text[text.index(BEGIN) + len(BEGIN):text.index(END)]
+def rtcore_build() -> ModuleType:
+    """rtcore/_build.py, loaded by its path (a build script runs before its package is built):
+    its compile flags, CDEF markers and cantools generator serve the board's binding too."""
+    spec = importlib.util.spec_from_file_location("rtcore_build", ROOT / "rtcore" / "_build.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def generate_can_v1(dbc: Path = DBC, out: Path = GENERATED) -> Path:
-    """can_v1.c and .h as board/Makefile generates them (--use-float --use-round); rewritten
-    only when their text changes."""
-    header, source, _, _ = generate(load_file(str(dbc), database_format="dbc", strict=True), CAN_V1,
-                                    f"{CAN_V1}.h", f"{CAN_V1}.c", f"{CAN_V1}_fuzzer.c", use_float=True,
-                                    use_round=True)
-    out.mkdir(parents=True, exist_ok=True)
-    for name, text in ((f"{CAN_V1}.h", header), (f"{CAN_V1}.c", source)):
-        path = out / name
-        if not path.exists() or path.read_text() != text:
-            path.write_text(text)
-    return out / f"{CAN_V1}.c"
+RTCORE = rtcore_build()
+
+
+def generate_can_v1() -> Path:
+    """can_v1.c and .h as board/Makefile generates them (--use-float --use-round)."""
+    return RTCORE.generate_can_v1(DBC, GENERATED, CAN_V1, use_float=True, use_round=True)
 
 
 def board_sources() -> list[str]:
@@ -69,14 +66,14 @@ def defines() -> list[tuple[str, str | None]]:
 
 
 ffibuilder = cffi.FFI()
-ffibuilder.cdef(cdef())
+ffibuilder.cdef(RTCORE.cdef_from_header(HEADER.read_text()))
 ffibuilder.set_source(
     "hand_service.firmware._board",
     f'#include "{HEADER.name}"\n',
     sources=[*board_sources(), str(generate_can_v1().relative_to(ROOT))],
     include_dirs=[*(f"board/{name}" for name in INCLUDE_DIRS), str(GENERATED.relative_to(ROOT))],
     define_macros=defines(),
-    extra_compile_args=COMPILE_ARGS,
+    extra_compile_args=RTCORE.COMPILE_ARGS,
     libraries=["m"],
 )
 
