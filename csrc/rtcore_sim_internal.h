@@ -93,11 +93,21 @@ void rtcore_sim_span_emit(sim_span *out, const rtcore_exact_plant *linear, doubl
 int32_t rtcore_sim_span_eligible(const sim_plant *p);
 double rtcore_sim_span_cap_s(const sim_plant *p, double dt_s);
 
+/* rtcore_sim_torque.c: g(θ, θ') and its parts, and the finger's local plant */
+double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s);
+int32_t rtcore_sim_touches(const rtcore_sim_finger *f, double angle_rad);
+double rtcore_sim_loop_z(const rtcore_sim_finger *f, const rtcore_sim_motion *from, double angle_rad);
+double rtcore_sim_creep_angle_rad(const rtcore_effects *e, const rtcore_sim_motion *from, double angle_rad,
+                                  double elapsed_s);
+double rtcore_sim_nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motion *from, double angle_rad,
+                                      double velocity_rad_per_s, int32_t touching, double drive_nm,
+                                      double elapsed_s);
+double rtcore_sim_pressure_torque_nm(const rtcore_sim_finger *f, double chamber_kpa);
+void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p);
+
 /* rtcore_sim_plant.c: a held valve input over duration_s, cut where the chamber crosses the
  * dead zone's threshold (steps of at most request_cap_s and what the dynamics allow; over a
  * span of samples when span is not NULL) */
-double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s);
-void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p);
 void rtcore_sim_integrate_held(const sim_plant *p, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
                                double input_kpa, double external_torque_nm, double duration_s, double request_cap_s,
                                sim_span *span);

@@ -1,6 +1,6 @@
-/* The simulated finger's dynamics (rtcore_sim_plant.h): the torques beyond its linear part
- * (the effects, the object), its local linear plant, one ETDRK4 step, the kinks that cut a step, and the
- * integration of a segment under a held valve input (the step sizes it takes:
+/* The simulated finger's dynamics (rtcore_sim_plant.h): one ETDRK4 step, the kinks that cut a
+ * step, and the integration of a segment under a held valve input (the torques beyond the
+ * linear part and the local linear plant: rtcore_sim_torque.c; the step sizes:
  * rtcore_sim_step_size.c). */
 #include <math.h>
 
@@ -19,120 +19,6 @@
  * without a valve lag is exact at any step; with effects the step resolves what the
  * explicit g needs (rtcore_sim_parameter_step_s, rtcore_sim_state_step_s), with a lag
  * the chamber's exponential (integrate_segment). */
-
-/* The object's normal force at the force point while touching: the spring-damper,
- * pushing only (>= 0), continued across the surface so that a step keeps one formula. */
-static double touching_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s)
-{
-    const double force_n = f->prbm.lever_arm_m
-                           * (f->contact_stiffness_n_per_m * (angle_rad - f->contact_angle_deg * RTCORE_RAD_PER_DEG)
-                              + f->contact_damping_ns_per_m * velocity_rad_per_s);
-    return force_n > 0.0 ? force_n : 0.0;
-}
-
-static int32_t touches(const rtcore_sim_finger *f, double angle_rad)
-{
-    return f->contact_stiffness_n_per_m > 0.0
-           && f->prbm.lever_arm_m * (angle_rad - f->contact_angle_deg * RTCORE_RAD_PER_DEG) > 0.0;
-}
-
-/* normal force of the object on the finger at the force point (>= 0, pushes back) */
-double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s)
-{
-    return touches(f, angle_rad) ? touching_force_n(f, angle_rad, velocity_rad_per_s) : 0.0;
-}
-
-/* The loop's z at angle_rad, from `from` (the state at a step's start) moving one way:
- * Dahl's dz/dθ = (sign(dθ) − z)/d solved over the travel, so a step that does not turn
- * integrates it exactly (a turn inside a step is resolved by the step's bound on the loop's
- * slope, rtcore_sim_plant_for). */
-static double loop_z(const rtcore_sim_finger *f, const rtcore_sim_motion *from, double angle_rad)
-{
-    const double travel_rad = angle_rad - from->angle_rad;
-    const double toward = travel_rad > 0.0 ? 1.0 : -1.0;
-    if (travel_rad == 0.0) {
-        return from->hysteresis_z;
-    }
-    return toward + (from->hysteresis_z - toward) * exp(-fabs(travel_rad) / (f->hysteresis_travel_deg * RTCORE_RAD_PER_DEG));
-}
-
-/* The creep branch's dashpot x at angle_rad, elapsed_s after `from` (the state at the
- * step's start), the angle taken as moving linearly over that time: T·x' = θ − x solved
- * exactly for it, x = x0·d + θ − θ0·d − (θ − θ0)·(T/t)·(1 − d), d = e^(−t/T). */
-static double creep_angle_rad(const rtcore_effects *e, const rtcore_sim_motion *from, double angle_rad,
-                              double elapsed_s)
-{
-    const double time_s = e->creep_time_s;
-    double decay;
-    if (!(elapsed_s > 0.0)) {
-        return from->creep_angle_rad;
-    }
-    decay = exp(-elapsed_s / time_s);
-    return from->creep_angle_rad * decay + angle_rad - from->angle_rad * decay
-           + (angle_rad - from->angle_rad) * (time_s / elapsed_s) * expm1(-elapsed_s / time_s);
-}
-
-/* g(θ, θ'): the torque beyond N·p_eff − k·θ − B·θ', with the object touching or not as a
- * step has it (the damper makes the force jump as the finger reaches the surface, so a
- * step that reaches it ends there and the next one starts touching), and the loop's as it
- * has moved from `from`, the state at the step's start. rtcore_model_torque_nm (shared
- * with the controller) includes the plain k·θ, which the linear part takes. drive_nm is
- * the drive at that instant, N·p_eff plus the segment's external torque: the pressure's
- * stiffening, k·c·(p_eff/p_ref)·θ, takes p_eff from it; the creep branch, β·k·(θ − x),
- * its dashpot x elapsed_s after `from`. */
-static double nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motion *from, double angle_rad,
-                                  double velocity_rad_per_s, int32_t touching, double drive_nm, double elapsed_s)
-{
-    const rtcore_sim_finger *f = p->finger;
-    const rtcore_prbm *m = &f->prbm;
-    double torque_nm = m->stiffness_nm_per_rad * angle_rad - rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);
-    if (m->effects.pressure_stiffening_gain > 0.0 && m->pressure_gain_nm_per_kpa > 0.0) {
-        torque_nm -= rtcore_stiffening_torque_nm(m, angle_rad,
-                                                 (drive_nm - p->external_torque_nm) / m->pressure_gain_nm_per_kpa);
-    }
-    if (m->effects.creep_stiffness_ratio > 0.0) {
-        torque_nm -= m->effects.creep_stiffness_ratio * m->stiffness_nm_per_rad
-                     * (angle_rad - creep_angle_rad(&m->effects, from, angle_rad, elapsed_s));
-    }
-    if (f->hysteresis_torque_nm > 0.0) {
-        torque_nm -= f->hysteresis_torque_nm * loop_z(f, from, angle_rad);
-    }
-    return touching ? torque_nm - m->lever_arm_m * touching_force_n(f, angle_rad, velocity_rad_per_s) : torque_nm;
-}
-
-static double pressure_torque_nm(const rtcore_sim_finger *f, double chamber_kpa)
-{
-    return f->prbm.pressure_gain_nm_per_kpa
-           * rtcore_effective_pressure_kpa(&f->prbm.effects, chamber_kpa);
-}
-
-void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p)
-{
-    const rtcore_prbm *m = &f->prbm;
-    const rtcore_effects *e = &m->effects;
-    const int32_t contact = f->contact_stiffness_n_per_m > 0.0;
-    const double r2 = m->lever_arm_m * m->lever_arm_m;
-    p->finger = f;
-    rtcore_exact_plant_init(&p->linear, m->inertia_kgm2, m->damping_nms_per_rad, m->stiffness_nm_per_rad);
-    p->state_dependent = e->quadratic_damping_nms2_per_rad2 > 0.0 || e->cubic_stiffness_nm_per_rad3 != 0.0
-                         || e->contact_stiffness_nm_per_radn > 0.0;
-    p->nonlinear = p->state_dependent || contact || e->coulomb_torque_nm > 0.0 || e->gravity_torque_nm != 0.0
-                   || e->asymmetric_stiffness_ratio != 1.0 || f->hysteresis_torque_nm > 0.0
-                   || e->pressure_stiffening_gain > 0.0 || e->creep_stiffness_ratio > 0.0;
-    p->external_torque_nm = 0.0;
-    p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0 || e->contact_stiffness_nm_per_radn > 0.0;
-    p->damping_slope_nms_per_rad = contact ? f->contact_damping_ns_per_m * r2 : 0.0;
-    p->stiffness_slope_nm_per_rad = fabs(e->asymmetric_stiffness_ratio - 1.0) * m->stiffness_nm_per_rad
-                                    + fabs(e->gravity_torque_nm)
-                                    + (contact ? f->contact_stiffness_n_per_m * r2 : 0.0)
-                                    + (f->hysteresis_torque_nm > 0.0
-                                           ? f->hysteresis_torque_nm / (f->hysteresis_travel_deg * RTCORE_RAD_PER_DEG)
-                                           : 0.0) /* the loop's steepest, just after a turn */
-                                    + (e->pressure_stiffening_gain > 0.0
-                                           ? rtcore_stiffening_torque_nm(m, 1.0, fmax(f->supply_max_kpa, 0.0))
-                                           : 0.0) /* the pressure's, at the supply's most */
-                                    + e->creep_stiffness_ratio * m->stiffness_nm_per_rad; /* the creep branch's spring */
-}
 
 /* The same plant with the damping B + extra: the linear part a step integrates exactly. */
 static void with_damping(const sim_plant *base, double extra_nms_per_rad, sim_plant *out)
@@ -177,11 +63,11 @@ static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propa
     }
     n_x = p_start + g_start;
     rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_x, &th_a, &w_a);
-    n_a = p_mid + nonlinear_torque_nm(p, from, th_a, w_a, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_a;
+    n_a = p_mid + rtcore_sim_nonlinear_torque_nm(p, from, th_a, w_a, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_a;
     rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_a, &th_b, &w_b);
-    n_b = p_mid + nonlinear_torque_nm(p, from, th_b, w_b, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_b;
+    n_b = p_mid + rtcore_sim_nonlinear_torque_nm(p, from, th_b, w_b, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_b;
     rtcore_exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
-    n_c = p_end + nonlinear_torque_nm(p, from, th_c, w_c, touching, p_end, h) + linearized_nms_per_rad * w_c;
+    n_c = p_end + rtcore_sim_nonlinear_torque_nm(p, from, th_c, w_c, touching, p_end, h) + linearized_nms_per_rad * w_c;
     torque_nm[0] = n_x;
     torque_nm[1] = 0.5 * (n_a + n_b);
     torque_nm[2] = n_c;
@@ -242,7 +128,7 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_motion *s, double
                           double torque_last_nm, double step_cap_s, double floor_s, int32_t en_route)
 {
     const rtcore_sim_finger *f = p->finger;
-    const double g_nm = nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touches(f, s->angle_rad),
+    const double g_nm = rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, rtcore_sim_touches(f, s->angle_rad),
                                             torque_now_nm, 0.0);
     const double spring_nm = p->linear.stiffness_nm_per_rad * s->angle_rad;
     const double linear_nm = spring_nm + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
@@ -289,8 +175,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
     const double unit_s = span != 0 ? fmin(duration_s, span->dt_s) : duration_s;
     const double min_step_s = unit_s * MIN_STEP_PER_SEGMENT;
     const double lag_span_kpa = fmax(f->supply_max_kpa - f->supply_min_kpa, 1.0);
-    const double torque_last = pressure_torque_nm(f, end_kpa) + external_torque_nm;
-    double torque_start = pressure_torque_nm(f, start_kpa) + external_torque_nm;
+    const double torque_last = rtcore_sim_pressure_torque_nm(f, end_kpa) + external_torque_nm;
+    double torque_start = rtcore_sim_pressure_torque_nm(f, start_kpa) + external_torque_nm;
     const double step_cap_s = fmin(request_cap_s, s->max_step_s);
     const double state_floor_s = (span != 0 ? fmin(step_cap_s, span->dt_s) : step_cap_s) / STATE_STEP_SHRINK;
     const double settle_range_rad = rtcore_sim_settle_range_rad_for(p);
@@ -316,14 +202,14 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
     }
     while (!last) {
         const double remaining_s = duration_s - t_s;
-        int32_t touching = next_touching >= 0 ? next_touching : touches(f, s->angle_rad);
+        int32_t touching = next_touching >= 0 ? next_touching : rtcore_sim_touches(f, s->angle_rad);
         if (p->state_dependent && span != 0 && t_s > 0.0) {
             /* a span lasts many periods: the reach from the state now, as a step per
              * sample would take it at each sample */
             cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
         }
         double g_start = p->nonlinear
-                             ? nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
+                             ? rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
                              : 0.0;
         const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
                                      ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
@@ -380,7 +266,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             /* the chamber's torque moves within the step by no more than over h from now (it
              * is monotonic): over a span of held samples the segment's whole change would
              * hold every step to what the chamber does in the first */
-            const double drift_nm = moving ? pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s,
+            const double drift_nm = moving ? rtcore_sim_pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s,
                                                                               fmin(t_s + h, duration_s)))
                                                  + external_torque_nm - torque_start
                                            : 0.0;
@@ -404,12 +290,12 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             double torque_nm[3];
             int32_t surface = 0;
             if (moving) {
-                torque_mid = pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h))
+                torque_mid = rtcore_sim_pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + 0.5 * h))
                              + external_torque_nm;
                 if (!last) {
                     chamber_end_kpa = rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s + h);
                 }
-                torque_end = last ? torque_last : pressure_torque_nm(f, chamber_end_kpa) + external_torque_nm;
+                torque_end = last ? torque_last : rtcore_sim_pressure_torque_nm(f, chamber_end_kpa) + external_torque_nm;
             }
             step(&local, s, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
                  touching, slope0, torque_nm);
@@ -427,7 +313,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             if (fraction < 1.0 && surface && !flipped) {
                 touching = !touching; /* the surface is where the step starts: take it past */
                 flipped = 1;
-                g_start = nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
+                g_start = rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
                           + slope0 * s->velocity_rad_per_s;
                 continue;
             }
@@ -436,10 +322,10 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                                      angle_rad, velocity_rad_per_s);
             }
             if (f->hysteresis_torque_nm > 0.0) {
-                s->hysteresis_z = loop_z(f, s, angle_rad);
+                s->hysteresis_z = rtcore_sim_loop_z(f, s, angle_rad);
             }
             if (f->prbm.effects.creep_stiffness_ratio > 0.0) {
-                s->creep_angle_rad = creep_angle_rad(&f->prbm.effects, s, angle_rad, h);
+                s->creep_angle_rad = rtcore_sim_creep_angle_rad(&f->prbm.effects, s, angle_rad, h);
             }
             s->angle_rad = angle_rad;
             s->velocity_rad_per_s = velocity_rad_per_s;
