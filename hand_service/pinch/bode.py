@@ -2,16 +2,23 @@
 a small sinusoidal push, with the controller's model exact or ±5 % off.
 
     python -m hand_service.pinch.bode [--finger index] [--share 1.0] [--plot PATH] [--quick]
+                                      [--plant model|mismatched] [--calibrate]
+                                      [--amplitude-deg 2] [--reference-deg 80]
 
 A probe fixed to the force point (hand_service.pinch.compliance.closed_loop's push: it
 pushes and pulls, so the finger cannot leave it) pushes the finger open with a
 sinusoidal force of K·AMPLITUDE_DEG at one frequency at a time, about the 80° reference.
+The finger is the PRBM (--plant model) or the pinch's mismatched plant (hand_service.
+pinch.mismatch.PAPER_MISMATCH; the probe then acts at the drifting contact point).
 Over whole periods after the settling, the probe's force and the true angle are each
 fitted with a sinusoid at that frequency (least squares, a lock-in): their complex ratio
 Z = F / (θ_ref − θ) (N/deg) is the rendered impedance; Re Z the stiffness, Im Z / ω the
 damping. The finger's own inertia and damping are in it, as they are for a real probe.
 Model errors (`ERRORS`): the controller's joint stiffness k and pressure gain N each
-5 % up or down, the four corners. Prints one markdown table per finger: per frequency
+5 % up or down, the four corners; with --calibrate the lab's `calibrate sensor` and
+`calibrate gain` then run on the plant (identify_on_plant), which measures N again for
+the erroneous k: the free sweep's angle per pressure fixes the ratio N/k, so only k's
+error remains (the table's "N in use"). Prints one markdown table per finger: per frequency
 and model error, the stiffness's error against the set K (%) and the damping
 (N·s/deg), "saturated" where the chamber reached 0 or the finger's limit (the valve, not
 the impedance law, then sets the stiffness); with --plot, the Bode plot (|Z|, its phase
@@ -24,6 +31,7 @@ import argparse
 import dataclasses
 import math
 import sys
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,6 +40,7 @@ import numpy as np
 from hand_service.api.impedance import gain_limits
 from hand_service.config.profile import Profile, load_profile
 from hand_service.pinch.compliance import closed_loop
+from hand_service.pinch.mismatch import NONE, PLANTS, Mismatch, identify_on_plant
 
 AMPLITUDE_DEG = 2.0
 REFERENCE_DEG = 80.0
@@ -84,19 +93,20 @@ class Point:
 
 
 def rendered(truth: Profile, controller: Profile, finger: str, stiffness_n_per_deg: float,
-             frequency_hz: float, seed: int = 1, periods: int | None = None) -> Point:
+             frequency_hz: float, seed: int = 1, periods: int | None = None, mismatch: Mismatch = NONE,
+             amplitude_deg: float = AMPLITUDE_DEG, reference_deg: float = REFERENCE_DEG) -> Point:
     """The rendered impedance at one frequency (see the module's docstring)."""
     omega = 2.0 * math.pi * frequency_hz
     count = periods or max(3, math.ceil(4.0 * frequency_hz))
     duration_s = SETTLE_S + count / frequency_hz
-    amplitude_n = stiffness_n_per_deg * AMPLITUDE_DEG
+    amplitude_n = stiffness_n_per_deg * amplitude_deg
 
     loop = closed_loop(truth, finger, stiffness_n_per_deg, DAMPING_N_S_PER_DEG, duration_s,
-                       lambda _: REFERENCE_DEG, lambda _: None, seed, controller,
-                       push_n=lambda t_s: amplitude_n * math.sin(omega * t_s))
+                       lambda _: reference_deg, lambda _: None, seed, controller,
+                       push_n=lambda t_s: amplitude_n * math.sin(omega * t_s), mismatch=mismatch)
     t_s = np.arange(loop.angle_deg.size) / truth.control.rate_hz
     last = t_s >= duration_s - count / frequency_hz
-    shortfall = _phasor(t_s[last], REFERENCE_DEG - loop.angle_deg[last], omega)
+    shortfall = _phasor(t_s[last], reference_deg - loop.angle_deg[last], omega)
     force = _phasor(t_s[last], loop.force_n[last], omega)
     chamber = loop.chamber_kpa[last]
     limit_kpa = truth.finger(finger).pressure_max_kpa
@@ -106,8 +116,10 @@ def rendered(truth: Profile, controller: Profile, finger: str, stiffness_n_per_d
 
 
 def sweep(truth: Profile, controller: Profile, finger: str, stiffness_n_per_deg: float,
-          frequencies_hz: tuple[float, ...] = FREQUENCIES_HZ, seed: int = 1) -> list[Point]:
-    return [rendered(truth, controller, finger, stiffness_n_per_deg, f, seed) for f in frequencies_hz]
+          frequencies_hz: tuple[float, ...] = FREQUENCIES_HZ, seed: int = 1, mismatch: Mismatch = NONE,
+          amplitude_deg: float = AMPLITUDE_DEG, reference_deg: float = REFERENCE_DEG) -> list[Point]:
+    return [rendered(truth, controller, finger, stiffness_n_per_deg, f, seed, mismatch=mismatch,
+                     amplitude_deg=amplitude_deg, reference_deg=reference_deg) for f in frequencies_hz]
 
 
 def bandwidth_hz(points: list[Point], set_n_per_deg: float, tolerance: float = TOLERANCE) -> float:
@@ -145,6 +157,20 @@ def bode_figure(curves: dict[str, list[Point]], set_n_per_deg: float, title: str
     return save(fig, path)
 
 
+def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pct: float,
+                      mismatch: Mismatch, calibrate: bool, seed: int) -> tuple[Profile, float]:
+    """The controller with k and N off by these percentages; with calibrate, the lab's
+    `calibrate sensor` and `calibrate gain` then run on the plant (N measured again for
+    that k). Returns it and its N's error against the truth's (%)."""
+    controller = with_errors(truth, stiffness_pct, gain_pct)
+    if calibrate:
+        with tempfile.TemporaryDirectory(prefix="pinch-bode-") as scratch:
+            controller = identify_on_plant(truth, controller, mismatch, seed, Path(scratch))
+    ratio = (controller.finger(finger).model.pressure_gain_nm_per_kpa
+             / truth.finger(finger).model.pressure_gain_nm_per_kpa)
+    return controller, 100.0 * (ratio - 1.0)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m hand_service.pinch.bode", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -153,31 +179,48 @@ def main(argv: list[str] | None = None) -> int:
                         help="K as a share of the finger's K_max (default 1)")
     parser.add_argument("--plot", type=Path, help="write the Bode plot of the first finger here (.png)")
     parser.add_argument("--quick", action="store_true", help="three frequencies, no model error")
+    parser.add_argument("--plant", choices=sorted(PLANTS), default="model",
+                        help="the PRBM (model, default) or the pinch's mismatched plant")
+    parser.add_argument("--calibrate", action="store_true",
+                        help="after the model error, the lab's calibrate sensor and gain on the plant")
+    parser.add_argument("--amplitude-deg", type=float, default=AMPLITUDE_DEG,
+                        help=f"the push's amplitude as K times this angle (default {AMPLITUDE_DEG:g})")
+    parser.add_argument("--reference-deg", type=float, default=REFERENCE_DEG,
+                        help=f"the impedance's reference angle (default {REFERENCE_DEG:g})")
     args = parser.parse_args(argv)
     if not 0.0 < args.share <= 1.0:
         parser.error("--share must be above 0 and at most 1")
+    if args.amplitude_deg <= 0.0:
+        parser.error("--amplitude-deg must be above 0")
     truth = load_profile(None)
+    mismatch = PLANTS[args.plant]
     frequencies = (0.1, 1.0, 5.0) if args.quick else FREQUENCIES_HZ
     errors = ERRORS[:1] if args.quick else ERRORS
     for n, finger in enumerate(args.finger or ["index"]):
         k_set = args.share * gain_limits(truth.finger(finger).model)[0]
         curves = {}
-        title = f"{finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), D = {DAMPING_N_S_PER_DEG:g} N·s/deg"
-        print(f"\n{title}: stiffness error against K (%); damping (N·s/deg)\n")
-        print("| model error (k, N) | quasi-static | " + " | ".join(f"{f:g} Hz" for f in frequencies)
-              + " | within 10 % up to |")
-        print("| --- | --- |" + " --- |" * len(frequencies) + " --- |")
+        head = f"{finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), D = {DAMPING_N_S_PER_DEG:g} N·s/deg"
+        tail = (f"{args.plant} plant{', calibrated' if args.calibrate else ''}, "
+                f"push K·{args.amplitude_deg:g}° about {args.reference_deg:g}°")
+        print(f"\n{head}, {tail}: stiffness error against K (%); damping (N·s/deg)\n")
+        print("| model error (k, N) | N in use | PRBM quasi-static | "
+              + " | ".join(f"{f:g} Hz" for f in frequencies) + " | within 10 % up to |")
+        print("| --- | --- | --- |" + " --- |" * len(frequencies) + " --- |")
         for k_pct, n_pct in errors:
             label = f"k {k_pct:+g} %, N {n_pct:+g} %"
-            points = sweep(truth, with_errors(truth, k_pct, n_pct), finger, k_set, frequencies)
+            controller, n_used_pct = corner_controller(truth, finger, k_pct, n_pct, mismatch,
+                                                       args.calibrate, seed=1)
+            points = sweep(truth, controller, finger, k_set, frequencies, mismatch=mismatch,
+                           amplitude_deg=args.amplitude_deg, reference_deg=args.reference_deg)
             curves[label] = points
             cells = [f"{100 * (p.stiffness_n_per_deg / k_set - 1):+.1f}; {p.damping_n_s_per_deg:.5f}"
                      + (" (saturated)" if p.saturated else "") for p in points]
             top = bandwidth_hz(points, k_set)
-            print(f"| {label} | {100 * (quasi_static_ratio(args.share, k_pct, n_pct) - 1):+.1f} | "
+            print(f"| {label} | {n_used_pct:+.1f} % | "
+                  f"{100 * (quasi_static_ratio(args.share, k_pct, n_used_pct) - 1):+.1f} | "
                   + " | ".join(cells) + f" | {'none' if top == 0 else f'{top:g} Hz'} |", flush=True)
         if args.plot is not None and n == 0:
-            bode_figure(curves, k_set, title, args.plot)
+            bode_figure(curves, k_set, f"{head}\n{tail}", args.plot)
     return 0
 
 

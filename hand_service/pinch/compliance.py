@@ -31,11 +31,11 @@ import numpy as np
 import rtcore
 from hand_service.config.effects import effect_value
 from hand_service.config.profile import Profile
+from hand_service.pinch.mismatch import NONE, Hysteresis, Mismatch, ValveLag
 from rtcore.motion import FingerMotions
 from rtcore.sim import SimFinger
 
 WALL_STIFFNESS_N_PER_M = 5000.0
-NO_TORQUE_NM = np.zeros(1)  # the wall is the simulator's contact, not an external torque
 SUBSTEPS = 10
 ONSET_DEG = 5.0
 ONSET_FORCE_N = 0.25
@@ -79,21 +79,29 @@ class Loop:
 def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
                 duration_s: float, reference_deg: Callable[[float], float],
                 wall_deg: Callable[[float], float | None], seed: int = 1,
-                controller: Profile | None = None, push_n: Callable[[float], float] | None = None) -> Loop:
+                controller: Profile | None = None, push_n: Callable[[float], float] | None = None,
+                mismatch: Mismatch = NONE) -> Loop:
     """The truth's finger under the C step in impedance mode, the controller's model from
     `controller` (default: the truth's); wall_deg(t) is where the wall stands, held over each
     tick (None at t = 0: no wall in this run). The wall is the simulator's contact. push_n(t)
     (N, opening the finger; may pull) acts on the force point as well, held over each tick,
-    and adds to the recorded force."""
+    and adds to the recorded force. With a mismatch (hand_service.pinch.mismatch) the finger
+    is the pinch's mismatched plant: the stiffening and hysteresis torques, the push acting
+    at the drifting contact lever, the bowed sensor and the board's valves in place of the
+    profile's lag and dead time (the wall, the simulator's contact, stays at the model's r)."""
     f = truth.finger(finger)
     config = (controller or truth).finger(finger).rtcore_config(truth.control)
     hand = rtcore.Hand(rtcore.HandConfig([config], sample_rate_hz=truth.control.rate_hz))
     m = f.model
     rate_hz = truth.control.rate_hz
     dt_s = 1.0 / (rate_hz * SUBSTEPS)
-    tau_s = max(effect_value(m.effects, "valve_lag"), 1e-4)
-    delay = round(effect_value(m.effects, "dead_time") / dt_s)
+    board = mismatch.valves
+    tau_s = max(effect_value(m.effects, "valve_lag"), 1e-4) if board is None else 0.0
+    delay = round(effect_value(m.effects, "dead_time") / dt_s) if board is None else 0
     pipe = np.zeros(delay + 1)
+    valves = None if board is None else ValveLag(board, np.array([board.fill_tau_of(finger)]), dt_s)
+    hysteresis = Hysteresis(np.radians(mismatch.hysteresis_deg), (1,))
+    stiffness = np.array([m.stiffness_nm_per_rad])
     rng = np.random.default_rng(seed)
     noise_deg = float(truth.simulation["sensor_noise_deg"])
     noise_kpa = float(truth.simulation["pressure_noise_kpa"])
@@ -101,7 +109,7 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
     hand.inputs.impedance_stiffness_n_per_deg[0] = stiffness_n_per_deg
     hand.inputs.impedance_damping_n_s_per_deg[0] = damping_n_s_per_deg
     ticks = round(duration_s * rate_hz)
-    # the plain PRBM and the lag; the dead time is the pipe's
+    # the plain PRBM and the lag; the dead time is the pipe's (with the board's valves: theirs)
     prbm = dataclasses.replace(m.prbm("the impedance loop"), effects=rtcore.Effects(valve_lag_tau_s=tau_s))
     walled = wall_deg(0.0) is not None
     motion = FingerMotions([SimFinger(prbm, contact_angle_deg=wall_deg(0.0) or 0.0,
@@ -114,17 +122,23 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
         if wall is not None:
             motion.move_contact(0, wall)
         hand.inputs.angle_ref_deg[0] = reference_deg(t_s)
-        angle_deg = np.degrees(angle) + noise_deg * rng.standard_normal()
+        angle_deg = float(mismatch.sensed_deg(np.degrees(angle))) + noise_deg * rng.standard_normal()
         hand.inputs.sensor_mv[0] = (angle_deg - f.sensor_offset_deg) / f.sensor_gain_deg_per_mv
         hand.inputs.pressure_meas_kpa[0] = chamber + noise_kpa * rng.standard_normal()
         hand.step()
         command = float(hand.outputs.pressure_cmd_kpa[0])
         push = 0.0 if push_n is None else push_n(t_s)
-        torque = NO_TORQUE_NM if push_n is None else np.array([-m.lever_arm_m * push])
         for k in range(SUBSTEPS):
             pipe[(tick * SUBSTEPS + k) % pipe.size] = command
-            delayed = pipe[(tick * SUBSTEPS + k - delay) % pipe.size]
-            motion.advance(np.array([delayed]), torque, dt_s)
+            delayed = np.array([pipe[(tick * SUBSTEPS + k - delay) % pipe.size]])
+            if valves is not None:
+                delayed = valves.step(delayed)
+            bend = motion.angle_rad[:1].copy()
+            torque = (-mismatch.contact_lever_m(np.array([m.lever_arm_m]), bend) * push
+                      - mismatch.stiffening_torque_nm(stiffness, bend, motion.chamber_kpa[:1]))
+            if mismatch.hysteresis_deg > 0.0:
+                torque = torque - hysteresis.torque_nm(stiffness, bend)
+            motion.advance(delayed, torque, dt_s)
         angle, chamber = float(motion.angle_rad[0]), float(motion.chamber_kpa[0])
         depth_m = 0.0 if wall is None else m.lever_arm_m * (angle - np.radians(wall))
         force = max(WALL_STIFFNESS_N_PER_M * depth_m, 0.0) + push

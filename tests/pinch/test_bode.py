@@ -4,6 +4,7 @@ value above the loop's bandwidth."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -11,7 +12,16 @@ import pytest
 
 from hand_service.api.impedance import gain_limits
 from hand_service.config.profile import Profile
-from hand_service.pinch.bode import Point, _phasor, bandwidth_hz, quasi_static_ratio, rendered, with_errors
+from hand_service.pinch.bode import (
+    Point,
+    _phasor,
+    bandwidth_hz,
+    corner_controller,
+    quasi_static_ratio,
+    rendered,
+    with_errors,
+)
+from hand_service.pinch.mismatch import NONE, PAPER_MISMATCH
 
 
 def test_the_lock_in_finds_amplitude_and_phase() -> None:
@@ -40,3 +50,23 @@ def test_slow_probe_renders_the_set_stiffness_and_the_model_errors_offset(truth:
     # far above the loop's bandwidth (valve lag, dead time, 100 Hz step) it is not K
     fast = rendered(truth, truth, "index", k_set, 15.0)
     assert abs(fast.stiffness_n_per_deg / k_set - 1.0) > 0.5
+
+
+def test_calibrate_gain_restores_the_ratio_that_opposite_errors_break(truth: Profile) -> None:
+    k_set = gain_limits(truth.finger("index").model)[0]
+    controller, gain_pct = corner_controller(truth, "index", 5.0, -5.0, NONE, calibrate=True, seed=1)
+    assert gain_pct == pytest.approx(5.0, abs=0.5)  # N measured again for the high k: the ratio is right
+    got = rendered(truth, controller, "index", k_set, 0.2).stiffness_n_per_deg / k_set
+    assert got == pytest.approx(quasi_static_ratio(1.0, 5.0, gain_pct), abs=0.03)
+    assert abs(got - 1.0) < 0.10  # uncalibrated, the same corner renders about -16 %
+
+
+def test_the_mismatched_plants_hysteresis_stiffens_a_small_push(truth: Profile) -> None:
+    k_set = gain_limits(truth.finger("index").model)[0]
+    plants = {name: dataclasses.replace(PAPER_MISMATCH, lever_drift_per_rad=0.0, hysteresis_deg=h)
+              for name, h in (("with", PAPER_MISMATCH.hysteresis_deg), ("without", 0.0))}
+    got = {name: rendered(truth, truth, "index", k_set, 0.2, mismatch=plant).stiffness_n_per_deg / k_set
+           for name, plant in plants.items()}
+    assert got["with"] - got["without"] > 0.2  # a joint friction the force estimate cannot see
+    wide = rendered(truth, truth, "index", k_set, 0.2, mismatch=plants["with"], amplitude_deg=10.0)
+    assert wide.stiffness_n_per_deg / k_set < got["with"]  # it weighs less under a wider push
