@@ -20,13 +20,19 @@ static double shift_per_s(const sim_plant *p, double damping, double stiffness)
 }
 
 /* The longest step for explicit slopes of g: a damping-like c >= 0 and a stiffness-like
- * ±K, each by how far it moves the plant's eigenvalues. */
+ * ±K, each by how far it moves the plant's eigenvalues. A slope of 0 moves none: its
+ * shift is 0 without the three eigenvalue solutions (dry friction asks at every step). */
 static double slope_step_s(const sim_plant *p, double damping_slope, double stiffness_slope)
 {
-    const double damping_per_s = shift_per_s(p, p->linear.damping_nms_per_rad + damping_slope,
-                                             p->linear.stiffness_nm_per_rad);
-    const double stiffer_per_s = shift_per_s(p, p->linear.damping_nms_per_rad, p->linear.stiffness_nm_per_rad + stiffness_slope);
-    const double softer_per_s = shift_per_s(p, p->linear.damping_nms_per_rad, p->linear.stiffness_nm_per_rad - stiffness_slope);
+    const double damping_per_s = damping_slope != 0.0 ? shift_per_s(p, p->linear.damping_nms_per_rad + damping_slope,
+                                                                     p->linear.stiffness_nm_per_rad)
+                                                      : 0.0;
+    const double stiffer_per_s = stiffness_slope != 0.0 ? shift_per_s(p, p->linear.damping_nms_per_rad,
+                                                                      p->linear.stiffness_nm_per_rad + stiffness_slope)
+                                                        : 0.0;
+    const double softer_per_s = stiffness_slope != 0.0 ? shift_per_s(p, p->linear.damping_nms_per_rad,
+                                                                     p->linear.stiffness_nm_per_rad - stiffness_slope)
+                                                       : 0.0;
     const double stiffness_per_s = softer_per_s > stiffer_per_s ? softer_per_s : stiffer_per_s;
     double step_s = INFINITY;
     if (damping_per_s > 0.0) {

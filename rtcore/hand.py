@@ -27,14 +27,32 @@ def struct_view(struct: object, name: str, n: int) -> np.ndarray:
     return np.frombuffer(ffi.buffer(member), dtype=dtype)[:n]
 
 
-def _fill(target: object, source: object) -> None:
-    """Copy a (nested) dataclass into a C struct field by field, by name."""
-    for f in dataclasses.fields(source):
-        value = getattr(source, f.name)
-        if dataclasses.is_dataclass(value):
-            _fill(getattr(target, f.name), value)
+_Plan = tuple[tuple[str, "_Plan | None"], ...]
+_PLANS: dict[type, _Plan] = {}  # per dataclass: its fields, and the nested ones' plans
+
+
+def _plan(source: object) -> _Plan:
+    fields = dataclasses.fields(source)  # type: ignore[arg-type]
+    values = [getattr(source, f.name) for f in fields]
+    return tuple((f.name, _plan(v) if dataclasses.is_dataclass(v) else None)
+                 for f, v in zip(fields, values, strict=True))
+
+
+def _copy(target: object, source: object, plan: _Plan) -> None:
+    for name, nested in plan:
+        if nested is None:
+            setattr(target, name, getattr(source, name))
         else:
-            setattr(target, f.name, value)
+            _copy(getattr(target, name), getattr(source, name), nested)
+
+
+def _fill(target: object, source: object) -> None:
+    """Copy a (nested) dataclass into a C struct field by field, by name (the fields found
+    once per dataclass: diagnose fills a finger for every simulation)."""
+    plan = _PLANS.get(type(source))
+    if plan is None:
+        plan = _PLANS.setdefault(type(source), _plan(source))
+    _copy(target, source, plan)
 
 
 def to_c_config(config: HandConfig) -> object:
