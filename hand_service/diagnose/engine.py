@@ -47,7 +47,7 @@ from hand_service.diagnose.report.verdict import (
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_bound, stats
-from hand_service.diagnose.search import posture_stability, set_members, set_search
+from hand_service.diagnose.search import posture_stability, set_members, set_search, tie_revisit
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Candidate,
@@ -209,6 +209,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if (found_set := set_search.search(problem, selection, progress)) is not None:
         warnings.append(found_set.sentence())  # a first pick the posture check withdraws: sets
         selection = found_set.selection
+    if (tie := tie_revisit.revisit(problem, selection, progress)) is not None:
+        warnings.append(tie.sentence())  # a first-round tie told apart beside the effects found since
+        selection = tie.selection
     if unidentified and selection.accepted:
         first = selection.accepted[0]
         free_bic = data_alone_bic(problem, refit, first)
