@@ -47,7 +47,7 @@ from hand_service.diagnose.report.verdict import (
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_bound, stats
-from hand_service.diagnose.search import posture_stability, set_search
+from hand_service.diagnose.search import posture_stability, set_members, set_search, tie_revisit
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Candidate,
@@ -209,6 +209,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if (found_set := set_search.search(problem, selection, progress)) is not None:
         warnings.append(found_set.sentence())  # a first pick the posture check withdraws: sets
         selection = found_set.selection
+    if (tie := tie_revisit.revisit(problem, selection, progress)) is not None:
+        warnings.append(tie.sentence())  # a first-round tie told apart beside the effects found since
+        selection = tie.selection
     if unidentified and selection.accepted:
         first = selection.accepted[0]
         free_bic = data_alone_bic(problem, refit, first)
@@ -245,7 +248,12 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     extra: list[FoundEffect] = []
     kept = list(selection.accepted)
     unstable_later = posture_stability.later_unstable(problem, final, selection) if len(found) > 1 else []
-    if len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
+    left_beside = len(found) > 1 and not unstable_later and bool(structure_left(final_white, final_cross))
+    members = (set_members.standing(problem, final, [c.name for c in selection.accepted], fitted, scored_held)
+               if left_beside else None)
+    if members is not None and members.all_stand_out:
+        warnings.append(members.sentence())  # named as a set, graded over the structure left
+    elif len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
         # Structure outside the library remains even with every effect, or a later effect
         # does not hold across the postures while the first alone does: the later ones may
         # be absorbing it (an even spring taken for gravity, sharp friction's shape taken

@@ -33,7 +33,7 @@ GAINS = {("refit+coulomb", "gravity"): False, ("refit+coulomb", "asymmetric_stif
          ("refit+coulomb+gravity", "asymmetric_stiffness"): True,
          ("refit+coulomb+asymmetric_stiffness", "gravity"): True}
 SCREEN = {"gravity": 50.0, "quadratic_damping": 20.0, "valve_lag": 10.0, "asymmetric_stiffness": -5.0,
-          "dead_time": -8.0}
+          "dead_time": -8.0, "cubic_stiffness": -10.0}
 
 
 def selection_with(picks: list[str]) -> Selection:
@@ -41,7 +41,7 @@ def selection_with(picks: list[str]) -> Selection:
     for name in picks:
         fit = f"{fit}+{name}"
         accepted.append(FakeCandidate(name, fit, True, 100.0))
-    others = [FakeCandidate(n, f"refit+{n}", False, 10.0) for n in ("cubic_stiffness", *SCREEN)]
+    others = [FakeCandidate(n, f"refit+{n}", False, 10.0) for n in SCREEN if n not in picks]
     round1 = [accepted[0], *others]
     later = [Round(a.fit, [b]) for a, b in itertools.pairwise(accepted)]
     return Selection(rounds=[Round("refit", round1), *later], accepted=accepted, final=fit)
@@ -90,9 +90,27 @@ def test_a_pair_is_taken_only_where_each_member_gains_beside_the_other(stand_ins
     assert set_search.search(None, selection) is None
 
 
-def test_nothing_is_searched_where_every_pick_holds(stand_ins, monkeypatch):
+def test_nothing_is_searched_where_every_pick_holds_and_leaves_no_structure(stand_ins, monkeypatch):
     monkeypatch.setattr(set_search, "withdrawn", lambda problem, selection: [])
-    assert set_search.search(None, selection_with(["coulomb", "cubic_stiffness"])) is None
+    monkeypatch.setattr(set_search, "leaves_structure", lambda problem, final: False)
+    assert set_search.search(None, selection_with(["coulomb"])) is None
+    assert stand_ins == []
+
+
+def test_a_pick_that_leaves_structure_is_kept_and_pairs_are_fitted_beside_it(stand_ins, monkeypatch):
+    monkeypatch.setattr(set_search, "withdrawn", lambda problem, selection: [])
+    monkeypatch.setattr(set_search, "leaves_structure", lambda problem, final: True)
+    found = set_search.search(None, selection_with(["coulomb"]))
+    assert found is not None
+    assert [c.name for c in found.selection.accepted] == ["coulomb", "gravity", "asymmetric_stiffness"]
+    assert all(base.startswith("refit+coulomb") for base, _ in stand_ins)  # the pick stays in every fit
+    assert found.sentence().startswith("with coulomb alone a structured residual is left")
+
+
+def test_no_pair_is_sought_where_a_pair_would_pass_the_most_effects(stand_ins, monkeypatch):
+    monkeypatch.setattr(set_search, "withdrawn", lambda problem, selection: [])
+    monkeypatch.setattr(set_search, "leaves_structure", lambda problem, final: True)
+    assert set_search.search(None, selection_with(["coulomb", "quadratic_damping"])) is None
     assert stand_ins == []
 
 
@@ -106,11 +124,12 @@ def test_a_set_failing_the_posture_check_is_not_taken(stand_ins, monkeypatch):
 @pytest.mark.thorough
 def test_friction_gravity_and_an_asymmetric_spring_on_steps(tmp_path):
     """The measured case: the cubic spring picked second fails the posture check; the set
-    search finds the truth's three (the engine's later gates decide what is named)."""
+    search finds the truth's three, and each explains more of the raw angle than the
+    structure the truth's static friction peak leaves: all three are named."""
     from tests.diagnose.truth import combinations
 
     effects = ("coulomb_friction", "gravity", "asymmetric_stiffness")
     row = combinations.run(effects, "steps", 0, tmp_path)
     assert row["observable"]
     assert "cubic_stiffness" not in row["named"] + row["partial"]
-    assert set(effects) <= set(row["named"] + row["partial"])
+    assert set(effects) <= set(row["named"])

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.report.verdict import structure_left
+from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import posture_stability
 from hand_service.diagnose.search.forward_selection import (
     MAX_EFFECTS,
@@ -41,10 +43,15 @@ SET_TOP = 4  # the first round's strongest effects (the withdrawn one aside) tha
 @dataclass
 class SetFound:
     selection: Selection
-    withdrawn: list[str]  # the picks that did not hold across the postures
+    withdrawn: list[str]  # the picks that did not hold across the postures ([]: the picks left structure)
+    picked: list[str]  # what the forward selection accepted
 
     def sentence(self) -> str:
         names = " and ".join(c.name for c in self.selection.accepted)
+        if not self.withdrawn:
+            return (f"with {' and '.join(self.picked)} alone a structured residual is left; "
+                    f"{names} were fitted together, each significant beside the others "
+                    "(the checks that follow decide what is named)")
         gone = " and ".join(self.withdrawn)
         return (f"{gone} was picked but does not hold across the recording's postures; "
                 f"without it, {names} were fitted together, each significant beside the others "
@@ -81,19 +88,41 @@ def total_bic(members: list[Candidate]) -> float:
     return sum(c.delta_bic for c in members)
 
 
+def leaves_structure(problem: Problem, final: Fit) -> bool:
+    """The model's innovations are structured or still follow the command (the engine's
+    structure-left test, report/verdict.py)."""
+    mask = problem.fit_mask
+    e = problem.innovations(final.angle_deg)[mask]
+    lags = stats.whiteness_lags(problem.rate_hz)
+    first_lag = 1 if problem.input_hold == "zoh" else 0
+    return bool(structure_left(stats.ljung_box(e, lags),
+                               stats.input_independence(e, problem.pressure_kpa[mask], lags, first_lag)))
+
+
 def search(problem: Problem, selection: Selection, progress: Progress | None = None) -> SetFound | None:
     """The best set that passes every gate without the withdrawn picks: the effects accepted
-    before the first of them, and two or three more from the round it was picked in; None
-    when every pick holds, or no set passes."""
+    before the first of them, and two or three more from the round it was picked in. Where
+    every pick holds but the picks leave structure (and room for more), the same beside all
+    of them: two effects that each gain nothing alone beside the picks may gain together.
+    None when no set passes, or nothing asks for one."""
+    if not selection.rounds or not selection.accepted or selection.final is None or selection.carried:
+        return None  # (a tie carried in the model: its round's base is not the picks')
+    picked = [c.name for c in selection.accepted]
     gone = withdrawn(problem, selection)
-    if not gone or not selection.rounds:
-        return None
+    if not gone:
+        if len(picked) + 2 > MAX_EFFECTS or not leaves_structure(problem, selection.final):
+            return None
+        return pairs(problem, selection, len(picked), [], progress)
     at = min(i for i, c in enumerate(selection.accepted) if c.name in gone)
+    return pairs(problem, selection, at, gone, progress)
+
+
+def pairs(problem: Problem, selection: Selection, at: int, gone: list[str],
+          progress: Progress | None) -> SetFound | None:
+    """The picks before `at` kept, the others (but `gone`) and the screen's strongest paired
+    beside them, the best pair that passes extended by a third."""
     prefix = selection.accepted[:at]
     base = prefix[-1].fit if prefix else selection.rounds[0].base
-    carried = {c.name for c in selection.carried}
-    if carried:
-        return None  # a tie carried in the model: its round's base is not the prefix's
     taken = {c.name for c in prefix} | set(gone)
     names = [c.name for c in selection.rounds[0].candidates if c.name not in taken]
     screens = sorted((screen(problem, base, name) for name in names), key=lambda s: -s.predicted_bic)
@@ -104,7 +133,8 @@ def search(problem: Problem, selection: Selection, progress: Progress | None = N
     rounds: list[Round] = []
     for a, b in itertools.combinations(pool, 2):  # the screen's order
         if progress:
-            progress(f"{' and '.join(gone)} withdrawn: fitting {a} and {b} together")
+            why = f"{' and '.join(gone)} withdrawn" if gone else "structure left"
+            progress(f"{why}: fitting {a} and {b} together")
         for name in (a, b):
             if name not in alone:
                 alone[name] = add(problem, base, name)
@@ -130,4 +160,5 @@ def search(problem: Problem, selection: Selection, progress: Progress | None = N
                 sets.append([*best, third])
                 rounds.append(Round(best[-1].fit, [third]))
     best = max(sets, key=total_bic)
-    return SetFound(Selection(rounds=[*selection.rounds, *rounds], accepted=best, final=best[-1].fit), gone)
+    return SetFound(Selection(rounds=[*selection.rounds, *rounds], accepted=best, final=best[-1].fit), gone,
+                    [c.name for c in selection.accepted])
