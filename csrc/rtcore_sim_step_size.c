@@ -129,22 +129,43 @@ double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double veloci
 }
 
 /* The longest step, up to h_cap, over which the velocity stays within `reach`. The torque
- * out of balance is net_nm at the start and moves by drift_nm (the chamber's torque) plus
- * k·|θ'|·h (the spring, as the finger moves) within the step; it moves the velocity by at
- * most its size·h/A, and, when the plant with B + c0 is over-damped, by no more than its
- * size/(B + c0), where that damping has caught up. */
+ * out of balance is net_nm at the start and moves by drift_nm (the chamber's torque over
+ * h_cap) plus k·|θ'|·h (the spring, as the finger moves) within the step; it moves the
+ * velocity by at most its size·h/A, and, when the plant with B + c0 is over-damped, by no
+ * more than its size/(B + c0), where that damping has caught up. The chamber's torque moves
+ * no faster than drift_rate_nm_per_s (its rate now: an exponential slows), so over a
+ * shorter step it moves by no more than that rate times the step: of the bounds with the
+ * drift held at drift_nm and with it growing at that rate, the longer holds. The damper's
+ * bound with a growing torque: A·θ'' + D·θ' = u(t) gives |Δθ'| <= max|u − u0 + net|/D, the
+ * spring's share taken at the fastest the finger can move within the step. */
 double rtcore_sim_damping_step_s(const sim_plant *local, double velocity_rad_per_s, double reach, double net_nm,
-                                 double drift_nm, double h_cap_s)
+                                 double drift_nm, double drift_rate_nm_per_s, double h_cap_s)
 {
+    const double inertia_kgm2 = local->linear.inertia_kgm2;
+    const double damping_nms_per_rad = local->linear.damping_nms_per_rad;
     const double spring_nm_per_s = local->linear.stiffness_nm_per_rad * fabs(velocity_rad_per_s);
     const double torque_nm = fabs(net_nm) + fabs(drift_nm);
+    const double growth_nm_per_s = spring_nm_per_s + drift_rate_nm_per_s;
     double rate;
-    if (local->linear.disc_per_s2 > 0.0 && torque_nm + spring_nm_per_s * h_cap_s <= reach * local->linear.damping_nms_per_rad) {
+    double step_s;
+    double growing_s;
+    if (local->linear.disc_per_s2 > 0.0 && torque_nm + spring_nm_per_s * h_cap_s <= reach * damping_nms_per_rad) {
         return INFINITY;
     }
     /* the root h of (spring·h² + torque·h)/A = reach */
-    rate = torque_nm / local->linear.inertia_kgm2;
-    return 2.0 * reach / (rate + sqrt(rate * rate + 4.0 * spring_nm_per_s * reach / local->linear.inertia_kgm2));
+    rate = torque_nm / inertia_kgm2;
+    step_s = 2.0 * reach / (rate + sqrt(rate * rate + 4.0 * spring_nm_per_s * reach / inertia_kgm2));
+    /* the root h of ((spring + drift rate)·h² + |net|·h)/A = reach */
+    rate = fabs(net_nm) / inertia_kgm2;
+    growing_s = 2.0 * reach / (rate + sqrt(rate * rate + 4.0 * growth_nm_per_s * reach / inertia_kgm2));
+    step_s = fmax(step_s, growing_s);
+    if (local->linear.disc_per_s2 > 0.0 && fabs(net_nm) < reach * damping_nms_per_rad) {
+        /* (|net| + (k·(|θ'| + reach) + drift rate)·h)/(B + c0) = reach */
+        const double damped_growth_nm_per_s
+            = local->linear.stiffness_nm_per_rad * (fabs(velocity_rad_per_s) + reach) + drift_rate_nm_per_s;
+        step_s = fmax(step_s, (reach * damping_nms_per_rad - fabs(net_nm)) / damped_growth_nm_per_s);
+    }
+    return step_s;
 }
 
 /* The longest step the parameters allow: infinite for the plain linear finger (exact at
