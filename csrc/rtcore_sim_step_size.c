@@ -99,7 +99,8 @@ static double friction_reach_rad_per_s(const rtcore_effects *e, double velocity_
  * both act), and, with friction, no further than KNEE_REACH·ω_s within its knee. A floor
  * of 1e-3 of critical damping (and 1e-6 of the friction's peak slope) keeps a plant
  * without damping, at rest, from steps of nothing. */
-double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0)
+double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0,
+                                           double step_s)
 {
     const rtcore_effects *e = &local->finger->prbm.effects;
     const int32_t friction = e->coulomb_torque_nm > 0.0;
@@ -109,7 +110,11 @@ double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double veloci
                friction ? 1e-6 * e->coulomb_torque_nm / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG) : 0.0);
     const double exact_nms_per_rad = fmax(local->linear.damping_nms_per_rad, floor_nms_per_rad)
                                      / (friction && drag ? 2.0 : 1.0);
-    const double allowed = FRICTION_SLOPE_SHARE * exact_nms_per_rad;
+    /* the damping A/h that a step of h, or any shorter one, takes explicitly as accurately as
+     * the motion's own (h·c/A within the share) */
+    const double inertial_nms_per_rad = step_s > 0.0 ? local->linear.inertia_kgm2 / step_s / (friction && drag ? 2.0 : 1.0)
+                                                     : 0.0;
+    const double allowed = FRICTION_SLOPE_SHARE * fmax(exact_nms_per_rad, inertial_nms_per_rad);
     const double allowed_drag = DRAG_SLOPE_SHARE * exact_nms_per_rad;
     double reach = INFINITY;
     if (friction) {
