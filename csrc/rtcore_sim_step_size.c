@@ -96,7 +96,8 @@ static double friction_reach_rad_per_s(const rtcore_effects *e, double velocity_
 /* How far the velocity may move before the damping-like slopes taken into the exact part
  * at the step's start, the friction's c_f and the drag's 2·c2·|θ'|, change by more than
  * FRICTION_SLOPE_SHARE and DRAG_SLOPE_SHARE of the exact damping B + c0 (half of each when
- * both act), and, with friction, no further than KNEE_REACH·ω_s within its knee. A floor
+ * both act; the friction's of B + c0 or of A/step_s, the larger, step_s the step proposed
+ * before this bound), and, with friction, no further than KNEE_REACH·ω_s within its knee. A floor
  * of 1e-3 of critical damping (and 1e-6 of the friction's peak slope) keeps a plant
  * without damping, at rest, from steps of nothing. */
 double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0,
