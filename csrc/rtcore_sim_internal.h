@@ -60,9 +60,10 @@ typedef struct {
 
 /* rtcore_sim_step_size.c */
 double rtcore_sim_friction_slope_nms_per_rad(const rtcore_effects *e, double velocity_rad_per_s);
-double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0);
+double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0,
+                                           double step_s);
 double rtcore_sim_damping_step_s(const sim_plant *local, double velocity_rad_per_s, double reach, double net_nm,
-                                 double drift_nm, double h_cap_s);
+                                 double drift_nm, double drift_rate_nm_per_s, double h_cap_s);
 double rtcore_sim_parameter_step_s(const sim_plant *p);
 double rtcore_sim_state_step_s(const sim_plant *p, double angle_rad, double accel_torque_nm);
 double rtcore_sim_settle_range_rad_for(const sim_plant *p);

@@ -270,9 +270,14 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                                                                               fmin(t_s + h, duration_s)))
                                                  + external_torque_nm - torque_start
                                            : 0.0;
+            /* its rate now, which an exponential does not exceed later (the dead zone's
+             * slope is at most 1) */
+            const double drift_rate_nm_per_s = moving ? f->prbm.pressure_gain_nm_per_kpa
+                                                            * fabs(input_kpa - chamber_now_kpa) / tau_s
+                                                      : 0.0;
             h = fmin(h, rtcore_sim_damping_step_s(&local, s->velocity_rad_per_s,
-                                                  rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0), net_nm,
-                                                  drift_nm, h));
+                                                  rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0, h), net_nm,
+                                                  drift_nm, drift_rate_nm_per_s, h));
             g_start += slope0 * s->velocity_rad_per_s;
         }
         if (span != 0) {

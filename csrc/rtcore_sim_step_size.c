@@ -96,10 +96,12 @@ static double friction_reach_rad_per_s(const rtcore_effects *e, double velocity_
 /* How far the velocity may move before the damping-like slopes taken into the exact part
  * at the step's start, the friction's c_f and the drag's 2·c2·|θ'|, change by more than
  * FRICTION_SLOPE_SHARE and DRAG_SLOPE_SHARE of the exact damping B + c0 (half of each when
- * both act), and, with friction, no further than KNEE_REACH·ω_s within its knee. A floor
+ * both act; the friction's of B + c0 or of A/step_s, the larger, step_s the step proposed
+ * before this bound), and, with friction, no further than KNEE_REACH·ω_s within its knee. A floor
  * of 1e-3 of critical damping (and 1e-6 of the friction's peak slope) keeps a plant
  * without damping, at rest, from steps of nothing. */
-double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0)
+double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0,
+                                           double step_s)
 {
     const rtcore_effects *e = &local->finger->prbm.effects;
     const int32_t friction = e->coulomb_torque_nm > 0.0;
@@ -109,7 +111,11 @@ double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double veloci
                friction ? 1e-6 * e->coulomb_torque_nm / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG) : 0.0);
     const double exact_nms_per_rad = fmax(local->linear.damping_nms_per_rad, floor_nms_per_rad)
                                      / (friction && drag ? 2.0 : 1.0);
-    const double allowed = FRICTION_SLOPE_SHARE * exact_nms_per_rad;
+    /* the damping A/h that a step of h, or any shorter one, takes explicitly as accurately as
+     * the motion's own (h·c/A within the share) */
+    const double inertial_nms_per_rad = step_s > 0.0 ? local->linear.inertia_kgm2 / step_s / (friction && drag ? 2.0 : 1.0)
+                                                     : 0.0;
+    const double allowed = FRICTION_SLOPE_SHARE * fmax(exact_nms_per_rad, inertial_nms_per_rad);
     const double allowed_drag = DRAG_SLOPE_SHARE * exact_nms_per_rad;
     double reach = INFINITY;
     if (friction) {
@@ -129,22 +135,43 @@ double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double veloci
 }
 
 /* The longest step, up to h_cap, over which the velocity stays within `reach`. The torque
- * out of balance is net_nm at the start and moves by drift_nm (the chamber's torque) plus
- * k·|θ'|·h (the spring, as the finger moves) within the step; it moves the velocity by at
- * most its size·h/A, and, when the plant with B + c0 is over-damped, by no more than its
- * size/(B + c0), where that damping has caught up. */
+ * out of balance is net_nm at the start and moves by drift_nm (the chamber's torque over
+ * h_cap) plus k·|θ'|·h (the spring, as the finger moves) within the step; it moves the
+ * velocity by at most its size·h/A, and, when the plant with B + c0 is over-damped, by no
+ * more than its size/(B + c0), where that damping has caught up. The chamber's torque moves
+ * no faster than drift_rate_nm_per_s (its rate now: an exponential slows), so over a
+ * shorter step it moves by no more than that rate times the step: of the bounds with the
+ * drift held at drift_nm and with it growing at that rate, the longer holds. The damper's
+ * bound with a growing torque: A·θ'' + D·θ' = u(t) gives |Δθ'| <= max|u − u0 + net|/D, the
+ * spring's share taken at the fastest the finger can move within the step. */
 double rtcore_sim_damping_step_s(const sim_plant *local, double velocity_rad_per_s, double reach, double net_nm,
-                                 double drift_nm, double h_cap_s)
+                                 double drift_nm, double drift_rate_nm_per_s, double h_cap_s)
 {
+    const double inertia_kgm2 = local->linear.inertia_kgm2;
+    const double damping_nms_per_rad = local->linear.damping_nms_per_rad;
     const double spring_nm_per_s = local->linear.stiffness_nm_per_rad * fabs(velocity_rad_per_s);
     const double torque_nm = fabs(net_nm) + fabs(drift_nm);
+    const double growth_nm_per_s = spring_nm_per_s + drift_rate_nm_per_s;
     double rate;
-    if (local->linear.disc_per_s2 > 0.0 && torque_nm + spring_nm_per_s * h_cap_s <= reach * local->linear.damping_nms_per_rad) {
+    double step_s;
+    double growing_s;
+    if (local->linear.disc_per_s2 > 0.0 && torque_nm + spring_nm_per_s * h_cap_s <= reach * damping_nms_per_rad) {
         return INFINITY;
     }
     /* the root h of (spring·h² + torque·h)/A = reach */
-    rate = torque_nm / local->linear.inertia_kgm2;
-    return 2.0 * reach / (rate + sqrt(rate * rate + 4.0 * spring_nm_per_s * reach / local->linear.inertia_kgm2));
+    rate = torque_nm / inertia_kgm2;
+    step_s = 2.0 * reach / (rate + sqrt(rate * rate + 4.0 * spring_nm_per_s * reach / inertia_kgm2));
+    /* the root h of ((spring + drift rate)·h² + |net|·h)/A = reach */
+    rate = fabs(net_nm) / inertia_kgm2;
+    growing_s = 2.0 * reach / (rate + sqrt(rate * rate + 4.0 * growth_nm_per_s * reach / inertia_kgm2));
+    step_s = fmax(step_s, growing_s);
+    if (local->linear.disc_per_s2 > 0.0 && fabs(net_nm) < reach * damping_nms_per_rad) {
+        /* (|net| + (k·(|θ'| + reach) + drift rate)·h)/(B + c0) = reach */
+        const double damped_growth_nm_per_s
+            = local->linear.stiffness_nm_per_rad * (fabs(velocity_rad_per_s) + reach) + drift_rate_nm_per_s;
+        step_s = fmax(step_s, (reach * damping_nms_per_rad - fabs(net_nm)) / damped_growth_nm_per_s);
+    }
+    return step_s;
 }
 
 /* The longest step the parameters allow: infinite for the plain linear finger (exact at
