@@ -382,7 +382,11 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
     final = selection.final
     assert final is not None
     value = final.value(c.name)
-    std = float(final.std()[[p.label for p in final.params].index(c.name)])
+    stds = final.std()
+    std = float(stds[[p.label for p in final.params].index(c.name)])
+    shape = final.shape(c.name)
+    shape_std = {p.member: float(s) for p, s in zip(final.params, stds, strict=True)
+                 if p.label == c.name and p.member}
     angle = final.angle_deg
     context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
                       final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
@@ -392,4 +396,4 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
     # without and with the effect, against the raw angle, a constant offset each
     errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
     text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain)
-    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)
+    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr, shape, shape_std)
