@@ -125,16 +125,16 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
         at_onset = contact_at_onset(model, result, search)
         if at_onset is None:
             return result
-        # the contact searched for where the residual says a torque switches on
+        # the contact searched for from where the residual says a torque switches on
         again = _diagnose(at_onset, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
                           noise_model, search)
         if not again.effects or again.effects[0].name != "contact":
             return result
         onset = at_onset.effects["contact"]
         again.seconds += result.seconds  # both searches'
-        again.warnings.append(f"contact's onset ({onset['onset_deg']:.1f}°) and exponent "
-                              f"({onset['exponent']:g}) are where the residual's torque switches on "
-                              "(its onset, fitted apart), its stiffness fitted there")
+        again.warnings.append(f"contact's fit started with its onset ({onset['onset_deg']:.1f}°) and "
+                              f"exponent ({onset['exponent']:g}) where the residual's torque switches on "
+                              "(its onset, fitted apart), and fitted them with its stiffness from there")
         return again
 
 

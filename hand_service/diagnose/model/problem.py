@@ -176,8 +176,8 @@ class Problem:
     released: bool = False
     prior: Prior = NO_PRIOR  # set when the recording alone cannot pin k, B, N (engine)
     # shared by the copies that differ in their masks (rotated(), a half of the fitting set)
-    # the model file's effects block: an effect searched for keeps the parameters it gives
-    # beyond the first (a contact's onset, a loop's travel), the rest at their defaults
+    # the model file's effects block: an effect searched for starts its shape (a contact's
+    # onset, a loop's travel) at the values it gives, else at Effect.shape_start
     given_effects: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
     simulations: SimulationCache = dataclasses.field(default_factory=SimulationCache, repr=False,
                                                      compare=False)
