@@ -86,3 +86,20 @@ def test_a_contact_is_named_with_its_onset_and_exponent_fitted() -> None:
     assert params["exponent"] == pytest.approx(1.5, abs=0.2)
     assert params["stiffness_nm_per_radn"] == pytest.approx(1.0, rel=0.15)
     assert found.refit_model().effects["contact"] == pytest.approx(params)
+
+
+def test_a_loop_is_named_with_its_travel_fitted() -> None:
+    """A Dahl loop of 10° travel (the library's default start is 5°) on the project's
+    generator's sweep: searched for, its torque and travel are fitted together (a
+    FingerEffect's shape read back through read_parameter), both within 5 %."""
+    model = load_profile(None).finger("index").model
+    rng = np.random.default_rng(2)
+    command = EXCITATIONS["sweep"](full_pressure_kpa(model), 30.0, 100.0, rng)
+    loop = {"torque_nm": 0.02, "travel_deg": 10.0}
+    measured, _ = record(model.with_changes(effects={**model.effects, "hysteresis": loop}), command, 100.0,
+                         0.3, 0.122, 2)
+    found = diagnose(perturb(model, 0.1, rng), np.arange(command.size) / 100.0, command, measured, 100.0,
+                     also=("hysteresis",))
+    assert [e.name for e in found.effects] == ["hysteresis"]
+    assert found.effects[0].params == pytest.approx(loop, rel=0.05)
+    assert set(found.effects[0].shape_std) == {"travel_deg"}
