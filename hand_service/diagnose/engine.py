@@ -395,5 +395,6 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
         without_with = (base, c.fit.angle_deg)
     # without and with the effect, against the raw angle, a constant offset each
     errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
-    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain)
+    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain,
+                    {member: (value, shape_std[member]) for member, value in shape.items()})
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr, shape, shape_std)
