@@ -55,8 +55,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "independent samples (see docs/diagnose.md)")
     parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
                         help="search also for a library effect diagnose leaves out by default "
-                             "(pressure_stiffening, creep: their first parameter fitted, the others at "
-                             "their defaults; docs/effects.md); repeatable")
+                             "(contact, hysteresis, pressure_stiffening, creep: each fitted with its "
+                             "shape, a contact's onset and exponent, a loop's travel, creep's time; "
+                             "docs/diagnose.md); repeatable")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress on stderr (else a bar on a terminal, a line every few "
                              "seconds elsewhere)")

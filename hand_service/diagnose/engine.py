@@ -125,16 +125,16 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
         at_onset = contact_at_onset(model, result, search)
         if at_onset is None:
             return result
-        # the contact searched for where the residual says a torque switches on
+        # the contact searched for from where the residual says a torque switches on
         again = _diagnose(at_onset, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
                           noise_model, search)
         if not again.effects or again.effects[0].name != "contact":
             return result
         onset = at_onset.effects["contact"]
         again.seconds += result.seconds  # both searches'
-        again.warnings.append(f"contact's onset ({onset['onset_deg']:.1f}°) and exponent "
-                              f"({onset['exponent']:g}) are where the residual's torque switches on "
-                              "(its onset, fitted apart), its stiffness fitted there")
+        again.warnings.append(f"contact's fit started with its onset ({onset['onset_deg']:.1f}°) and "
+                              f"exponent ({onset['exponent']:g}) where the residual's torque switches on "
+                              "(its onset, fitted apart), and fitted them with its stiffness from there")
         return again
 
 
@@ -390,7 +390,11 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
     final = selection.final
     assert final is not None
     value = final.value(c.name)
-    std = float(final.std()[[p.label for p in final.params].index(c.name)])
+    stds = final.std()
+    std = float(stds[[p.label for p in final.params].index(c.name)])
+    shape = final.shape(c.name)
+    shape_std = {p.member: float(s) for p, s in zip(final.params, stds, strict=True)
+                 if p.label == c.name and p.member}
     angle = final.angle_deg
     context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
                       final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
@@ -399,5 +403,6 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
         without_with = (base, c.fit.angle_deg)
     # without and with the effect, against the raw angle, a constant offset each
     errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
-    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain)
-    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr)
+    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain,
+                    {member: (value, shape_std[member]) for member, value in shape.items()})
+    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr, shape, shape_std)

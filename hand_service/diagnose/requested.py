@@ -1,7 +1,7 @@
 """The effects `diagnose` searches for (docs/diagnose.md, "The effect library"): the
 library's searched ones and those asked for (`--search`), an effect the model file gives
-with its first parameter at "none" (its others, a contact's onset or a loop's travel, held
-there), and a contact searched for again where the residual's torque switches on."""
+with its first parameter at "none" (its shape, a contact's onset or a loop's travel, fitted
+from there), and a contact searched for again where the residual's torque switches on."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from hand_service.errors import UserError
 def contact_at_onset(model: FingerModel, result: Diagnosis, search: list[str]) -> FingerModel | None:
     """When `contact` is searched for, not named, not in the model, and the residual shows a
     torque switching on past an angle as the finger bends (outside_library/contact_onset.py):
-    the model with a contact there, its stiffness at "none" (searched for at that onset and
+    the model with a contact there, its stiffness at "none" (searched for from that onset and
     power: shape_only). Else None."""
     onset = result.outside.onset
     if ("contact" not in search or "contact" in model.effects or onset is None or not onset.closing
@@ -42,6 +42,7 @@ def searched(also: Sequence[str]) -> list[str]:
 
 def shape_only(effects: fx.EffectParams, name: str) -> bool:
     """The model file gives the effect's other parameters with its first at "none" (a
-    contact's onset where the lab's object sits, K 0): it is searched for, with them."""
+    contact's onset where the lab's object sits, K 0): it is searched for, its shape fitted
+    from them."""
     spec = fx.BY_NAME[name]
     return name in effects and len(spec.parameters) > 1 and fx.effect_value(effects, name) == spec.neutral

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -33,6 +33,10 @@ class Parameter:
     lower: float
     upper: float
     scale: float
+    # `diagnose` fits it (beside the first) when it searches for the effect; false for a
+    # parameter the recording cannot tell apart from another (a reference that only sets
+    # the first one's units)
+    fitted: bool = True
 
 
 class FitScales(Protocol):
@@ -47,8 +51,9 @@ class FitScales(Protocol):
 
 @dataclass(frozen=True)
 class Effect(ABC):
-    """A named effect. `parameters[0]` is the one `diagnose` fits; the others (if any) keep
-    the value the model file gives, or their neutral."""
+    """A named effect. `diagnose` fits `parameters[0]` (its size: neutral is "no effect")
+    and, beside it, the others marked `fitted` (its shape: an onset, a travel, a time), each
+    from the value the model file gives, else from `shape_start`."""
 
     name: str
     physics: str  # the form, in one line (docs/formats.md §2.1)
@@ -111,6 +116,24 @@ class Effect(ABC):
     def read(self, finger: SimFinger) -> float:
         """The primary parameter's value in `finger`."""
 
+    def read_parameter(self, finger: SimFinger, name: str) -> float:
+        """Parameter `name`'s value in `finger` (the primary's by default: a subclass with
+        more parameters reads them)."""
+        if name != self.param:
+            raise KeyError(f"{self.name}: cannot read {name} from a simulated finger")
+        return self.read(finger)
+
+    @property
+    def shape_parameters(self) -> tuple[Parameter, ...]:
+        """The parameters beyond the first that `diagnose` fits beside it."""
+        return tuple(p for p in self.parameters[1:] if p.fitted)
+
+    def shape_start(self, name: str, angle_deg: Sequence[float]) -> float:
+        """Where the fit of shape parameter `name` starts when the model file does not give
+        it, from the recorded angle (`angle_deg`): by default its neutral."""
+        del angle_deg
+        return self.parameter(name).neutral
+
     # --- diagnose ----------------------------------------------------------------------
     def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
         """The fit's bounds in a recording (`scale`, `lower`, `upper`: the table's, already
@@ -144,6 +167,11 @@ class FieldEffect(Effect):
     def read(self, finger: SimFinger) -> float:
         return float(getattr(finger.prbm.effects, self.rtcore_field))
 
+    def read_parameter(self, finger: SimFinger, name: str) -> float:
+        if name == self.param:
+            return self.read(finger)
+        return float(getattr(finger.prbm.effects, dict(self.more_fields)[name]))
+
 
 @dataclass(frozen=True)
 class FingerEffect(Effect):
@@ -171,3 +199,6 @@ class FingerEffect(Effect):
 
     def read(self, finger: SimFinger) -> float:
         return float(getattr(finger, dict(self.fields)[self.param]))
+
+    def read_parameter(self, finger: SimFinger, name: str) -> float:
+        return float(getattr(finger, dict(self.fields)[name]))

@@ -5,7 +5,10 @@ the simulated finger's loop in the angle (csrc/rtcore_sim_plant.c)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+
+import numpy as np
 
 from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S
 from hand_service.effects.base import FieldEffect, FingerEffect, FitScales, Parameter
@@ -61,6 +64,23 @@ class DeadZone(FieldEffect):
         return lower, max(upper, 0.5 * scales.command_max_kpa)
 
 
+# a contact's fit starts with its onset at this quantile of the recorded angle (a stop or an
+# object the finger meets only near the top of its travel, else the recording would be mostly
+# in contact) and Hertz's exponent, the middle of the usual 1 to 2
+CONTACT_ONSET_QUANTILE = 0.8
+HERTZ_EXPONENT = 1.5
+
+
+@dataclass(frozen=True)
+class Contact(FieldEffect):
+    def shape_start(self, name: str, angle_deg: Sequence[float]) -> float:
+        if name == "onset_deg" and len(angle_deg):
+            return float(np.quantile(np.asarray(angle_deg, dtype=float), CONTACT_ONSET_QUANTILE))
+        if name == "exponent":
+            return HERTZ_EXPONENT
+        return super().shape_start(name, angle_deg)
+
+
 def _one(name: str, unit: str, neutral: float, lower: float, upper: float,
          scale: float) -> tuple[Parameter, ...]:
     return (Parameter(name, unit, neutral, lower, upper, scale),)
@@ -91,7 +111,7 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
     DeadZone("pressure_deadzone", "no torque until the pressure passes a threshold",
              _one("threshold_kpa", "kPa", 0.0, 0.0, 100.0, 5.0),
              reference="a membrane's pre-tension", rtcore_field="pressure_deadzone_kpa"),
-    FieldEffect("contact", "a stop or object met past θc: Kc·(θ − θc)^n, one side",
+    Contact("contact", "a stop or object met past θc: Kc·(θ − θc)^n, one side",
                 (Parameter("stiffness_nm_per_radn", "N·m/radⁿ", 0.0, 0.0, 50.0, 0.5),
                  Parameter("onset_deg", "deg", 45.0, -90.0, 180.0, 5.0),
                  Parameter("exponent", "1", 1.0, 1.0, 3.0, 0.5)),
@@ -101,7 +121,8 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
                 searched=False),
     FieldEffect("pressure_stiffening", "the chamber pressure stiffens the finger: k·(1 + c·p/p_ref)",
                 (Parameter("gain", "1", 0.0, 0.0, 5.0, 0.2),
-                 Parameter("reference_kpa", "kPa", 100.0, 1.0, 1000.0, 20.0)),
+                 # c and p_ref act only as c/p_ref: p_ref sets c's units, never fitted
+                 Parameter("reference_kpa", "kPa", 100.0, 1.0, 1000.0, 20.0, fitted=False)),
                 reference="a fibre-reinforced actuator's pressure-dependent stiffness "
                           "(Polygerinos et al. 2015)",
                 rtcore_field="pressure_stiffening_gain",

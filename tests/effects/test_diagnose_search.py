@@ -71,14 +71,35 @@ def test_a_contact_whose_onset_the_model_gives_is_searched_there() -> None:
     assert found.effects[0].value == pytest.approx(0.3, rel=0.15)
 
 
-def test_a_contact_is_searched_again_where_the_residual_switches_on() -> None:
+def test_a_contact_is_named_with_its_onset_and_exponent_fitted() -> None:
     """Without its onset in the model, a stop met at 60° (the library's default onset is
-    45°) leaves a torque that switches on past an angle (outside_library/contact_onset.py);
-    with contact searched for, diagnose searches again at that onset and power and names
-    it there (requested.contact_at_onset), saying where the onset came from."""
+    45°): with contact searched for, diagnose fits its stiffness, onset and exponent together
+    (Effect.shape_parameters, from shape_start's onset at a high quantile of the angle) and
+    names it with all three; without it searched, nothing names it."""
     r = stop_recording({"stiffness_nm_per_radn": 1.0, "onset_deg": 60.0, "exponent": 1.5})
     plain = diagnose(r.nominal, r.t_s, r.command_kpa, r.angle_deg, 100.0)
     assert "contact" not in [e.name for e in plain.effects]
     found = diagnose(r.nominal, r.t_s, r.command_kpa, r.angle_deg, 100.0, also=("contact",))
     assert [e.name for e in found.effects] == ["contact"]
-    assert any("where the residual's torque switches on" in w for w in found.warnings)
+    params = found.effects[0].params
+    assert params["onset_deg"] == pytest.approx(60.0, abs=2.0)
+    assert params["exponent"] == pytest.approx(1.5, abs=0.2)
+    assert params["stiffness_nm_per_radn"] == pytest.approx(1.0, rel=0.15)
+    assert found.refit_model().effects["contact"] == pytest.approx(params)
+
+
+def test_a_loop_is_named_with_its_travel_fitted() -> None:
+    """A Dahl loop of 10° travel (the library's default start is 5°) on the project's
+    generator's sweep: searched for, its torque and travel are fitted together (a
+    FingerEffect's shape read back through read_parameter), both within 5 %."""
+    model = load_profile(None).finger("index").model
+    rng = np.random.default_rng(2)
+    command = EXCITATIONS["sweep"](full_pressure_kpa(model), 30.0, 100.0, rng)
+    loop = {"torque_nm": 0.02, "travel_deg": 10.0}
+    measured, _ = record(model.with_changes(effects={**model.effects, "hysteresis": loop}), command, 100.0,
+                         0.3, 0.122, 2)
+    found = diagnose(perturb(model, 0.1, rng), np.arange(command.size) / 100.0, command, measured, 100.0,
+                     also=("hysteresis",))
+    assert [e.name for e in found.effects] == ["hysteresis"]
+    assert found.effects[0].params == pytest.approx(loop, rel=0.05)
+    assert set(found.effects[0].shape_std) == {"travel_deg"}

@@ -46,7 +46,7 @@ class Fit:
     def without(self, problem: Problem, names: Iterable[str]) -> SimFinger:
         """This fit's finger with its effects `names` at their neutral values: left out."""
         left_out = set(names)
-        params = [p for p in self.params if p.label in left_out]
+        params = [p for p in self.params if p.label in left_out and p.is_size]
         return problem.finger(params, [fx.BY_NAME[p.label].neutral for p in params], self.finger)
 
     @property
@@ -88,11 +88,18 @@ class Fit:
         with np.errstate(invalid="ignore", divide="ignore"):
             return cov / np.outer(d, d)
 
-    def value(self, label: str) -> float:
+    def value(self, label: str, member: str = "") -> float:
+        """A parameter's value: plain, an effect's first (`label` its name) or one of its
+        shape (`member`)."""
         for p, v in zip(self.params, self.values, strict=True):
-            if p.label == label:
+            if p.label == label and p.member == member:
                 return float(v)
         raise KeyError(label)
+
+    def shape(self, name: str) -> dict[str, float]:
+        """Effect `name`'s fitted shape parameters (none when only its size was fitted)."""
+        return {p.member: float(v) for p, v in zip(self.params, self.values, strict=True)
+                if p.label == name and p.member}
 
 
 def _scaled_bounds(params: Sequence[Param]) -> tuple[np.ndarray, np.ndarray]:

@@ -43,7 +43,8 @@ HISTORY_SAMPLES = 1000  # the simulator's command history (RTCORE_SIM_HISTORY) w
 
 @dataclass(frozen=True)
 class Param:
-    """One free parameter: a PRBM field, or a library effect's rtcore field."""
+    """One free parameter: a PRBM field, or a library effect's parameter (its first, or one
+    of its shape: `member`)."""
 
     label: str  # plain field name, or the effect's name
     field: str  # rtcore Prbm field, or rtcore Effects field
@@ -52,6 +53,19 @@ class Param:
     lower: float
     upper: float
     unit: str = ""
+    member: str = ""  # an effect's parameter beyond the first (Effect.shape_parameters); "" the first
+
+    @property
+    def is_size(self) -> bool:
+        """An effect's first parameter: its size (neutral is "no effect")."""
+        return self.is_effect and not self.member
+
+    @staticmethod
+    def shape(name: str, member: str) -> Param:
+        """The effect's shape parameter `member` (an onset, a travel, a time), its range the
+        library's."""
+        p = fx.BY_NAME[name].parameter(member)
+        return Param(name, member, True, p.scale, p.lower, p.upper, p.unit, member)
 
     @staticmethod
     def plain(name: str, nominal: float) -> Param:
@@ -162,11 +176,30 @@ class Problem:
     released: bool = False
     prior: Prior = NO_PRIOR  # set when the recording alone cannot pin k, B, N (engine)
     # shared by the copies that differ in their masks (rotated(), a half of the fitting set)
-    # the model file's effects block: an effect searched for keeps the parameters it gives
-    # beyond the first (a contact's onset, a loop's travel), the rest at their defaults
+    # the model file's effects block: an effect searched for starts its shape (a contact's
+    # onset, a loop's travel) at the values it gives, else at Effect.shape_start
     given_effects: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
     simulations: SimulationCache = dataclasses.field(default_factory=SimulationCache, repr=False,
                                                      compare=False)
+    _shape_starts: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict, repr=False,
+                                                                    compare=False)
+
+    def shape_start(self, name: str) -> dict[str, float]:
+        """Where effect `name`'s shape parameters start (Effect.shape_start, from the
+        recorded angle), once per recording."""
+        if name not in self._shape_starts:
+            spec = fx.BY_NAME[name]
+            self._shape_starts[name] = {q.name: spec.shape_start(q.name, self.measured_deg)
+                                        for q in spec.shape_parameters}
+        return self._shape_starts[name]
+
+    def shape_of(self, name: str) -> tuple[list[Param], list[float]]:
+        """Effect `name`'s shape parameters, fitted beside its size, and their starts: the
+        model file's values, else shape_start's."""
+        spec = fx.BY_NAME[name]
+        start = {**self.shape_start(name), **self.given_effects.get(name, {})}
+        params = [Param.shape(name, q.name) for q in spec.shape_parameters]
+        return params, [float(np.clip(start[p.member], p.lower, p.upper)) for p in params]
 
     @property
     def n_fit(self) -> int:
@@ -193,14 +226,21 @@ class Problem:
         library = fx.registry.by_name()
         effect: dict[str, float] = {}
         hooked = []  # effects that are not terms of the C model: their own simulator hooks
+        given: dict[str, dict[str, float]] = {}  # each effect's parameters set here
         for p, v in zip(params, values, strict=True):
             if p.is_effect:
-                spec = library[p.label]
-                values = {**self.given_effects.get(p.label, {}), spec.param: float(v)}
-                if spec.hooked:
-                    hooked.append((spec, values))
-                else:
-                    effect.update(spec.rtcore_fields(values))
+                given.setdefault(p.label, {})[p.member or library[p.label].param] = float(v)
+        for name, own in given.items():
+            spec = library[name]
+            # a shape parameter not set here: the one in `finger` when it carries the effect
+            # (a later round's fit), else the model file's, else its start (shape_start)
+            carried = {q.name: spec.read_parameter(finger, q.name) for q in spec.shape_parameters
+                       if q.name not in own and spec.read(finger) != spec.neutral}
+            merged = {**self.shape_start(name), **self.given_effects.get(name, {}), **carried, **own}
+            if spec.hooked:
+                hooked.append((spec, merged))
+            else:
+                effect.update(spec.rtcore_fields(merged))
         if effect:
             plain["effects"] = dataclasses.replace(finger.prbm.effects, **effect)
         if plain:
@@ -288,8 +328,8 @@ class Problem:
     def values(self, params: Sequence[Param], finger: SimFinger | None = None) -> np.ndarray:
         finger = finger or self.base
         library = fx.registry.by_name()
-        return np.array([library[p.label].read(finger) if p.is_effect else getattr(finger.prbm, p.field)
-                         for p in params])
+        return np.array([library[p.label].read_parameter(finger, p.member or library[p.label].param)
+                         if p.is_effect else getattr(finger.prbm, p.field) for p in params])
 
 
 def settle_time_s(finger: SimFinger) -> float:

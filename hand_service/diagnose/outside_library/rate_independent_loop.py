@@ -96,8 +96,8 @@ def loop_check(problem: Problem, final: Fit, found: list[str]) -> Loop | None:
     linear = linear_finger(problem, final)
     loops = [detrend(linear.response_deg(path_state(command, share * span))) for share in SPANS]
     # every fitted parameter's sensitivity, a timed effect's only where it stays beside another
-    columns = {p.label: detrend(sensitivity(problem, p, final.finger, final.angle_deg)) for p in final.params
-               if p.label not in timed or len(timed) > 1}
+    columns = {(p.label, p.member): detrend(sensitivity(problem, p, final.finger, final.angle_deg))
+               for p in final.params if p.label not in timed or len(timed) > 1}
     best: Loop | None = None
     for name in timed:
         loop = _against(problem, final, name, columns, loops, span)
@@ -106,12 +106,13 @@ def loop_check(problem: Problem, final: Fit, found: list[str]) -> Loop | None:
     return best if best is not None and best.delta_bic > SIGNIFICANT_BIC else None
 
 
-def _against(problem: Problem, final: Fit, name: str, columns: dict[str, np.ndarray], loops: list[np.ndarray],
+def _against(problem: Problem, final: Fit, name: str, columns: dict[tuple[str, str], np.ndarray],
+             loops: list[np.ndarray],
              span: float) -> Loop | None:
     """The best loop (`loops`: each SPANS' response, detrended) in place of the timed effect
     `name`, with its ΔBIC over it; `columns`: every fitted parameter's sensitivity."""
     mask = problem.fit_mask
-    shared = [column for label, column in columns.items() if label != name]
+    shared = [column for (label, _), column in columns.items() if label != name]
     alone = problem.simulate(final.without(problem, [name]))
     target = problem.misfit(alone)
     lag = problem.noise.detrend(final.angle_deg - alone)  # the timed effect's whole signature, as fitted

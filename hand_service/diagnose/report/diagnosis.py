@@ -6,7 +6,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.fitting.output_error import Fit
@@ -56,7 +55,7 @@ class Diagnosis:
         effects = dict(self.model.effects)
         if with_effects:
             for found in self.effects:
-                effects[found.name] = {fx.BY_NAME[found.name].param: found.value}
+                effects[found.name] = {**effects.get(found.name, {}), **found.params}
         return self.model.with_changes(**changes, effects=effects)
 
     def to_json(self) -> dict:

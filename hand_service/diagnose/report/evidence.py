@@ -165,11 +165,16 @@ def error_change(errors: RawErrors) -> str:
 
 
 def sentence(name: str, context: Context, std: float, delta_bic: float, z_heldout: float,
-             errors: RawErrors, prior_gain: float = 0.0) -> str:
-    """`errors`: "before" and "after" the effect, against the raw angle (raw_error.py)."""
+             errors: RawErrors, prior_gain: float = 0.0,
+             shape: dict[str, tuple[float, float]] | None = None) -> str:
+    """`errors`: "before" and "after" the effect, against the raw angle (raw_error.py);
+    `shape`: its shape parameters fitted beside its size, (value, std) each."""
     spec = fx.BY_NAME[name]
     physics = SENTENCES[name](context) if name in SENTENCES else spec.physics
-    text = (f"{physics}. Estimate {spec.param} = {estimate(context.value, std, spec.unit)}; "
+    units = {p.name: "" if p.unit == "1" else p.unit for p in spec.parameters}  # "1": a pure number
+    fitted = "".join(f", {member} = {estimate(value, s, units[member])}"
+                     for member, (value, s) in (shape or {}).items())
+    text = (f"{physics}. Estimate {spec.param} = {estimate(context.value, std, spec.unit)}{fitted}; "
             f"the information criterion favours it by ΔBIC = {delta_bic:.0f}")
     if z_heldout > 2.0:
         return text + f"; {error_change(errors)} (z = {z_heldout:.1f})."

@@ -4,7 +4,7 @@ missing_physics with its grade, unexplained, insufficient_excitation)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,12 +29,20 @@ class FoundEffect:
     delta_bic: float
     z_heldout: float
     signature_corr: float
+    # its shape parameters fitted beside its size (an onset, a travel, a time) and their stds
+    shape: dict[str, float] = field(default_factory=dict)
+    shape_std: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def params(self) -> dict[str, float]:
+        """Every parameter fitted: its size, then its shape."""
+        return {fx.BY_NAME[self.name].param: self.value, **self.shape}
 
     def to_json(self) -> dict:
         param = fx.BY_NAME[self.name].param
-        return {"name": self.name, "params": {param: self.value}, "evidence": self.evidence,
-                "std": {param: self.std}, "delta_bic": self.delta_bic, "heldout_z": self.z_heldout,
-                "signature_corr": self.signature_corr}
+        return {"name": self.name, "params": self.params, "evidence": self.evidence,
+                "std": {param: self.std, **self.shape_std}, "delta_bic": self.delta_bic,
+                "heldout_z": self.z_heldout, "signature_corr": self.signature_corr}
 
 
 DOMINANT_SHARE = 0.6  # the share of the mismatch an effect must explain to be named over structure

@@ -63,12 +63,17 @@ class Candidate:
     prior_gain: float = 0.0  # how much closer to the nominal (prior's χ²) the effect lets k, B, N stay
 
     @property
+    def index(self) -> int:
+        """Where the effect's size is among the fit's parameters (its shape follows it)."""
+        return next(i for i, p in enumerate(self.fit.params) if p.label == self.name and p.is_size)
+
+    @property
     def estimate(self) -> float:
-        return float(self.fit.values[-1])
+        return float(self.fit.values[self.index])
 
     @property
     def std(self) -> float:
-        return float(self.fit.std()[-1])
+        return float(self.fit.std()[self.index])
 
     @property
     def at_bound(self) -> bool:
@@ -164,7 +169,9 @@ def evidence(problem: Problem, base: Fit, before: np.ndarray, joint: Fit) -> tup
     far = bool(far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR))
     prior_gain = prior_chi2(problem, base) - prior_chi2(problem, joint) if far else 0.0
     after = problem.innovations(joint.angle_deg)
-    bic = stats.delta_bic(problem.fit_rss(before), problem.fit_rss(after), problem.n_fit) + prior_gain
+    # the effect's size and its shape parameters (an onset, a travel) each pay the penalty
+    extra = len(joint.params) - len(base.params)
+    bic = stats.delta_bic(problem.fit_rss(before), problem.fit_rss(after), problem.n_fit, extra) + prior_gain
     return bic, prior_gain, after
 
 
@@ -178,11 +185,12 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     (ΔBIC above 0). The screen's own prediction cannot decide it: it is taken on the raw
     residual, which correlated noise inflates (it predicted ΔBIC 1 882 for a dead zone
     whose fit lost 15)."""
-    params = (*joint_range(problem, base), screened.param)
-    starts = [[*base.values, s] for s in screened.starts]
+    shape, shaped = problem.shape_of(screened.name)  # fitted beside its size
+    params = (*joint_range(problem, base), screened.param, *shape)
+    starts = [[*base.values, s, *shaped] for s in screened.starts]
     reset = nominal_start(problem, base)
     if reset is not None:
-        starts.append([*reset, screened.starts[-1]])
+        starts.append([*reset, screened.starts[-1], *shaped])
     promising = starts[-1:] if len(screened.starts) > 1 else starts[:1]  # the scan's best point
 
     def fit_from(starts: list[list[float]], problem: Problem) -> Fit:
@@ -204,7 +212,7 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
         joint = fit_from(starts, problem)
     if joint.cost_deg2 > base.cost_deg2:  # every start ended worse than no effect at all: from there
         neutral = start_value(screened.param, fx.BY_NAME[screened.name].neutral, 0.0)
-        joint = min(joint, fit(problem, params, [*base.values, neutral], base=base.finger),
+        joint = min(joint, fit(problem, params, [*base.values, neutral, *shaped], base=base.finger),
                     key=lambda f: f.cost_deg2)
     if problem.prior.weight_deg == 0.0 and unpinned(joint):
         # The plain refit was pinned by the data, but with the effect beside it k, B and N

@@ -108,10 +108,12 @@ def specs(
     return sorted(out, key=lambda s: (s.seed, s.magnitude != "concealed", CLASSES.index(s.excitation)))
 
 
-def diagnose_argv(recording: Path, model: Path, out: Path, noise_model: str = "ar") -> list[str]:
-    """The arguments of `hand-service diagnose` for one case: its JSON to `out`, quiet."""
+def diagnose_argv(recording: Path, model: Path, out: Path, noise_model: str = "ar",
+                  search: tuple[str, ...] = ()) -> list[str]:
+    """The arguments of `hand-service diagnose` for one case: its JSON to `out`, quiet;
+    `search`: effects searched for beyond the default (`--search`)."""
     return ["diagnose", str(recording), "--model", str(model), "--json", str(out), "--quiet",
-            "--noise-model", noise_model]
+            "--noise-model", noise_model, *[arg for name in search for arg in ("--search", name)]]
 
 
 def diagnose_in_process(recording: Path, model: Path, folder: Path) -> dict:
@@ -126,10 +128,12 @@ def diagnose_in_process(recording: Path, model: Path, folder: Path) -> dict:
 
 
 def diagnose_cli(
-    recording: Path, model: Path, out: Path, noise_model: str = "ar", timeout_s: float = 600.0
+    recording: Path, model: Path, out: Path, noise_model: str = "ar", timeout_s: float = 600.0,
+    search: tuple[str, ...] = ()
 ) -> tuple[dict, float, str]:
     """Runs `hand-service diagnose` as a subprocess; (its JSON, seconds, stderr)."""
-    cmd = [sys.executable, "-m", "hand_service.cli", *diagnose_argv(recording, model, out, noise_model)]
+    argv = diagnose_argv(recording, model, out, noise_model, search)
+    cmd = [sys.executable, "-m", "hand_service.cli", *argv]
     env = dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
     t0 = time.perf_counter()
     try:
@@ -168,7 +172,8 @@ def param_error(summary: dict, result: dict) -> float | None:
     return abs(est - true) / abs(true - neutral) if true != neutral else None
 
 
-def run_case(spec: cs.CaseSpec, folder: str, noise_model: str, timeout_s: float = 600.0) -> dict:
+def run_case(spec: cs.CaseSpec, folder: str, noise_model: str, timeout_s: float = 600.0,
+             search: tuple[str, ...] = ()) -> dict:
     folder_p = Path(folder)
     try:
         rec, model, summary, gen_s = generate(spec, folder_p)
@@ -197,7 +202,7 @@ def run_case(spec: cs.CaseSpec, folder: str, noise_model: str, timeout_s: float 
     out = folder_p / f"{spec.id}.{noise_model}.diagnose.json"
     out.unlink(missing_ok=True)
     engine = engine_fingerprint()["engine_files_sha256"]
-    result, diag_s, stderr = diagnose_cli(rec, model, out, noise_model, timeout_s)
+    result, diag_s, stderr = diagnose_cli(rec, model, out, noise_model, timeout_s, search)
     scored = scoring.score(spec, summary["observable"], result)
     on_target = None
     if summary["magnitude"] in cs.ACCEPT:
@@ -247,6 +252,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--effects", nargs="*", choices=cs.ALL_EFFECTS)
     ap.add_argument("--classes", nargs="*", choices=CLASSES)
     ap.add_argument("--noise-model", choices=("ar", "white"), default="ar")
+    ap.add_argument("--search", nargs="*", default=[], help="effects diagnose searches beyond its default")
     ap.add_argument(
         "--cache",
         type=Path,
@@ -331,11 +337,13 @@ def main(argv: list[str] | None = None) -> int:
         if args.jobs <= 1:
             for spec in todo:
                 progress.say(f"running {spec.id}")
-                note(run_case(spec, str(folder), args.noise_model, args.timeout))
+                note(run_case(spec, str(folder), args.noise_model, args.timeout, tuple(args.search)))
         else:
             with ProcessPoolExecutor(max_workers=args.jobs) as pool:
                 futures = [
-                    pool.submit(run_case, spec, str(folder), args.noise_model, args.timeout) for spec in todo
+                    pool.submit(run_case, spec, str(folder), args.noise_model, args.timeout,
+                                tuple(args.search))
+                    for spec in todo
                 ]
                 for fut in futures:
                     note(fut.result())

@@ -83,17 +83,37 @@ def distinct_visibility(effect: str, theta_deg: np.ndarray, command_kpa: np.ndar
     along the ratio to absorb an effect, and a slow valve that a free refit mimics by
     scaling all three stays visible); the nuisance and the competitor enter freely."""
     competitor, form = COMPETITORS.get(effect, ("", None))
+    torques = [] if form is None else [form(np.asarray(theta_deg, dtype=float) * DEG)]
+    return competitor, left_over(theta_deg, command_kpa, rate_hz, plain_model, theta0_deg, noise_rms_deg,
+                                 torques)
+
+
+def library_torques(theta_deg: np.ndarray, omega_rad_s: np.ndarray) -> list[np.ndarray]:
+    """The shapes of the eight's torques that are functions of the finger's state, in the
+    library's forms (docs/formats.md): a cubic spring θ³, gravity 1 − cos θ, dry friction
+    sign θ' (tanh-smoothed at 0.01 rad/s), air drag |θ'|·θ', and the backward spring's
+    extra θ·[θ < 0]. (The valve lag, dead time and dead zone act on the command.)"""
+    theta = np.asarray(theta_deg, dtype=float) * DEG
+    omega = np.asarray(omega_rad_s, dtype=float)
+    return [theta**3, 1.0 - np.cos(theta), np.tanh(omega / 0.01), np.abs(omega) * omega,
+            np.minimum(theta, 0.0)]
+
+
+def left_over(theta_deg: np.ndarray, command_kpa: np.ndarray, rate_hz: float, plain_model: LinearModel,
+              theta0_deg: float, noise_rms_deg: float, torques: list[np.ndarray]) -> float:
+    """What the truth's effect leaves over the noise RMS once k, B and N (held by a lab's
+    ±25 %), the sensor's offset and drift and each torque of `torques` (free, through the
+    plain finger, linearised) are fitted to its signature (the truth's angle less its plain
+    finger's)."""
     plain_deg = response_deg(plain_model, command_kpa, rate_hz, theta0_deg)
     signature = np.asarray(theta_deg, dtype=float) - plain_deg
     plain = plain_sensitivities(plain_model, command_kpa, rate_hz, theta0_deg)
     columns = [plain, nuisance_columns(len(signature))]
-    if form is not None:
-        theta_rad = np.asarray(theta_deg, dtype=float) * DEG
-        columns.append(torque_response_rad(plain_model, form(theta_rad), rate_hz)[:, None] / DEG)
+    columns += [torque_response_rad(plain_model, torque, rate_hz)[:, None] / DEG for torque in torques]
     stacked = np.column_stack(columns)
     prior = np.zeros((plain.shape[1], stacked.shape[1]))
     prior[:, : plain.shape[1]] = np.eye(plain.shape[1]) * noise_rms_deg / NOMINAL_RELATIVE_WIDTH
     target = np.concatenate((signature, np.zeros(plain.shape[1])))
     coeffs, *_ = np.linalg.lstsq(np.vstack((stacked, prior)), target, rcond=None)
     left = signature - stacked @ coeffs
-    return competitor, float(np.sqrt(np.mean(left**2)) / noise_rms_deg)
+    return float(np.sqrt(np.mean(left**2)) / noise_rms_deg)

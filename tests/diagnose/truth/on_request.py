@@ -30,6 +30,7 @@ import numpy as np  # noqa: E402
 
 from tests.diagnose.truth import cases as cs  # noqa: E402
 from tests.diagnose.truth.battery import diagnose_argv  # noqa: E402
+from tests.diagnose.truth.distinct import left_over, library_torques  # noqa: E402
 from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
 
 EFFECTS = (*cs.ON_REQUEST, *cs.OUT_OF_LIBRARY)
@@ -39,14 +40,32 @@ CONTACT_TIME_S = 0.1
 LOOP_RANGE_DEG = 5.0
 
 
+# the battery's observability bar: what the effect leaves over the noise RMS
+OBSERVABLE_LEFT = 0.4
+
+
+def library_left(case: cs.Case) -> float:
+    """What the truth's effect leaves of its signature over the sensor's noise RMS once k, B
+    and N (a lab's ±25 %), the sensor's offset and drift and the eight's state torques
+    (distinct.library_torques: θ³, 1 − cos θ, dry friction, air drag, a backward spring)
+    are fitted to it, linearised about the truth's plain finger: its part that neither the
+    plain model nor a stand-in among the eight can take (distinct.left_over)."""
+    spec = case.spec.resolved()
+    _, tau0, delay0 = cs.known_effects(spec.effect, cs.shape_of(spec))
+    start = cs.plain_finger(cs.FAMILIES[spec.family], case.truth, tau0, delay0)
+    traj = case.trajectory
+    return left_over(traj.theta_deg, traj.command_kpa, case.rate_hz, start, case.plan.theta0_deg,
+                     case.sensor.noise_rms_deg, library_torques(traj.theta_deg, traj.omega_rad_s))
+
+
 def observable(case: cs.Case) -> tuple[bool, str]:
-    """The case's own rule for pressure stiffening and creep (cases.exercised and the
-    visibility floor); for hysteresis and contact, which the battery holds outside the
-    library and leaves unjudged, the same floor (visibility 0.4) and their physics exercised:
-    the finger past the contact's onset for CONTACT_TIME_S, or moved over LOOP_RANGE_DEG."""
+    """Observable: the physics exercised (for pressure stiffening and creep the case's own
+    rule, cases.exercised; the finger past the contact's onset for CONTACT_TIME_S; the angle
+    moved over LOOP_RANGE_DEG for a loop), visibility 0.4 (the plain refit leaves 0.4 × the
+    noise), and library_left ≥ OBSERVABLE_LEFT: measured on the truth, apart from diagnose."""
     effect = case.spec.effect
-    if effect in cs.ON_REQUEST:
-        return case.observable, case.reason
+    if effect in cs.ON_REQUEST and not case.observable:
+        return False, case.reason
     if case.visibility < 0.4:
         return False, "absorbed by k, B and N at every plausible size tried"
     theta_deg = case.trajectory.theta_deg
@@ -54,6 +73,10 @@ def observable(case: cs.Case) -> tuple[bool, str]:
         return False, "the finger barely passes the contact's onset"
     if effect == "hysteresis" and np.ptp(theta_deg) < LOOP_RANGE_DEG:
         return False, f"the angle moves under {LOOP_RANGE_DEG:g} deg"
+    left = library_left(case)
+    if left < OBSERVABLE_LEFT:
+        return False, (f"k, B, N, the sensor's offset and drift and the eight's state torques leave "
+                       f"{left:.2f} × the noise of it")
     return True, ""
 
 
