@@ -29,7 +29,8 @@ from hand_service.diagnose.fitting.output_error import (
     relative_std,
     unpinned,
 )
-from hand_service.diagnose.model.problem import PLAIN, Param, Problem, build_problem
+from hand_service.diagnose.model.params import Param
+from hand_service.diagnose.model.problem import PLAIN, Problem, build_problem
 from hand_service.diagnose.model.unit_check import check_nominal
 from hand_service.diagnose.outside_library.checks import Outside, outside_checks
 from hand_service.diagnose.recording import excitation

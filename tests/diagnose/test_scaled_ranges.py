@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from hand_service.config import effects as fx
-from hand_service.diagnose.model.problem import EffectScales, Param
+from hand_service.diagnose.model.params import EffectScales, Param
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import diagnose_argv
 

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from hand_service.diagnose.fitting.output_error import fit
-from hand_service.diagnose.model.problem import PLAIN, Param
+from hand_service.diagnose.model.params import Param
+from hand_service.diagnose.model.problem import PLAIN
 from hand_service.diagnose.residual import noise
 from hand_service.diagnose.search import forward_selection as search
 from tests.diagnose.linear_truth import lab_sensor_noise, quantise, stepped_recording

@@ -14,7 +14,8 @@ import pytest
 
 from hand_service.diagnose.fitting import output_error as fit_module
 from hand_service.diagnose.fitting.output_error import column_map, fit
-from hand_service.diagnose.model.problem import PLAIN, Param, Problem
+from hand_service.diagnose.model.params import Param
+from hand_service.diagnose.model.problem import PLAIN, Problem
 from hand_service.diagnose.model.simulation_cache import SimulationCache, finger_key
 from tests.diagnose.linear_truth import stepped_recording
 

@@ -22,7 +22,8 @@ from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
 from hand_service.diagnose.concealed.excitations import EXCITATIONS
 from hand_service.diagnose.fitting.output_error import fit
-from hand_service.diagnose.model.problem import PLAIN, Param, build_problem, substeps_for
+from hand_service.diagnose.model.params import Param
+from hand_service.diagnose.model.problem import PLAIN, build_problem, substeps_for
 from hand_service.errors import UserError
 from hand_service.simulator import sim_finger
 from rtcore.sim import Simulator

@@ -23,7 +23,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from hand_service.config import effects as fx
-from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Param, Prior, Problem
+from hand_service.diagnose.model.params import Param
+from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Prior, Problem
 from rtcore.sim import SimFinger
 
 DIVERGED_DEG = 1e4  # residual that stands for a simulation that ran away

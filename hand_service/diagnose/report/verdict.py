@@ -10,7 +10,8 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit
-from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Param, Problem
+from hand_service.diagnose.model.params import Param
+from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Problem
 from hand_service.diagnose.residual import noise, stats
 from hand_service.diagnose.search.forward_selection import Selection, prior_chi2
 

@@ -30,7 +30,8 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit, far_from_nominal, fit, nominal_prior, unpinned
-from hand_service.diagnose.model.problem import NO_PRIOR, Param, Problem
+from hand_service.diagnose.model.params import Param
+from hand_service.diagnose.model.problem import NO_PRIOR, Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
 

@@ -15,7 +15,8 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit, sensitivity
-from hand_service.diagnose.model.problem import EffectScales, Param, Problem
+from hand_service.diagnose.model.params import EffectScales, Param
+from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.residual import noise, stats
 
 
