@@ -294,7 +294,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append(rest.sentence())
             verdict, notes = "unexplained", []
     if selection.ambiguous is not None:
-        warnings.extend(posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
+        warnings.extend(posture_stability.posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":
         unstable = posture_stability.check(problem, final, [e.name for e in found])
         mended = ([] if unstable or len(found) < 2
@@ -362,25 +362,6 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                      time.perf_counter() - started, notes, partial, explained,
                      structure_left(final_white, final_cross) if found or partial else
                      structure_left(refit_white, refit_cross), outside, errors)
-
-
-EVEN_ODD = {"gravity", "cubic_stiffness"}  # a torque even in θ (1 − cos θ), one odd (θ³)
-
-
-def posture_advice(pair: tuple[Candidate, Candidate], angle_deg: np.ndarray) -> list[str]:
-    """Why gravity and a cubic spring could not be told apart, when that is the pair: the
-    recording bent the finger one way only, where an even torque and an odd one share
-    most of their shape (past the linear part k takes, about a fifth of θ³ over 0 to
-    75° is not 1 − cos θ); and what would tell them apart."""
-    if {c.name for c in pair} != EVEN_ODD:
-        return []
-    low, high = float(np.percentile(angle_deg, 1)), float(np.percentile(angle_deg, 99))
-    if low < -0.2 * high and high > -0.2 * low:
-        return []  # it bent both ways: the pair is ambiguous for another reason
-    return [f"the finger bent one way only here ({low:.0f}° to {high:.0f}°): over one side, gravity's "
-            "torque (even in the angle, 1 − cos θ) and a cubic spring's (odd, θ³) share most of their "
-            "shape; a recording that bends it both ways (a negative pressure, or a push), or one "
-            "with the hand turned over, tells them apart"]
 
 
 def found_effect(problem: Problem, c: Candidate, selection: Selection,

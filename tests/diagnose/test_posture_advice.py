@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from hand_service.diagnose.engine import posture_advice
+from hand_service.diagnose.search.posture_stability import posture_advice
 
 GRAVITY, CUBIC, FRICTION = (SimpleNamespace(name=name)
                             for name in ("gravity", "cubic_stiffness", "coulomb_friction"))

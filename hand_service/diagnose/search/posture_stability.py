@@ -18,7 +18,7 @@ import numpy as np
 from hand_service.diagnose.fitting.output_error import Fit, fit
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.residual import noise
-from hand_service.diagnose.search.forward_selection import Selection
+from hand_service.diagnose.search.forward_selection import Candidate, Selection
 
 POSTURE_EFFECTS = ("cubic_stiffness", "gravity")  # one parameter for every angle
 STABILITY_Z = 4.0  # the halves disagree beyond this many joint standard errors
@@ -124,3 +124,22 @@ def first_alone_unstable(problem: Problem, selection: Selection) -> list[Stabili
     a second effect named beside it."""
     first = selection.accepted[0]
     return check(problem, first.fit, [first.name])
+
+
+EVEN_ODD = {"gravity", "cubic_stiffness"}  # a torque even in θ (1 − cos θ), one odd (θ³)
+
+
+def posture_advice(pair: tuple[Candidate, Candidate], angle_deg: np.ndarray) -> list[str]:
+    """Why gravity and a cubic spring could not be told apart, when that is the pair: the
+    recording bent the finger one way only, where an even torque and an odd one share
+    most of their shape (past the linear part k takes, about a fifth of θ³ over 0 to
+    75° is not 1 − cos θ); and what would tell them apart."""
+    if {c.name for c in pair} != EVEN_ODD:
+        return []
+    low, high = float(np.percentile(angle_deg, 1)), float(np.percentile(angle_deg, 99))
+    if low < -0.2 * high and high > -0.2 * low:
+        return []  # it bent both ways: the pair is ambiguous for another reason
+    return [f"the finger bent one way only here ({low:.0f}° to {high:.0f}°): over one side, gravity's "
+            "torque (even in the angle, 1 − cos θ) and a cubic spring's (odd, θ³) share most of their "
+            "shape; a recording that bends it both ways (a negative pressure, or a push), or one "
+            "with the hand turned over, tells them apart"]
