@@ -19,6 +19,15 @@ part of that physics and leaves the rest; it stands out only where it takes most
 The set is named (graded `dominant`, the structure reported) only when every member
 stands out; the checks that follow (posture, outside the library, the raw-signal gate)
 judge it as any other.
+
+Where the set follows the raw angle to the sensor's noise, nothing is left to compare a
+member with: there a member stands out only when the set without it does not tie with the
+set on the raw angle (raw_error's tie: both at the noise, within TIE_SHARE), so an effect
+that moves the raw error by a percent beside one that takes it to the noise is not named
+with it. The white noise, from the sample-to-sample differences, is taken no larger than
+the set's own raw error: a motion with most of its power near the Nyquist frequency makes
+those differences large (a Duffing oscillator at 610 Hz), and the raw error of a model
+that follows the recording bounds the noise in it.
 """
 
 from __future__ import annotations
@@ -29,6 +38,7 @@ import numpy as np
 
 from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.fitting.output_error import Fit, fit
+from hand_service.diagnose.fitting.raw_error import TIE_NOISE, TIE_SHARE
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.recording.response_onset import white_noise_deg
 
@@ -56,8 +66,13 @@ class Standing:
         """What the member explains beside the others (mean squared, deg²)."""
         return member.without_deg**2 - self.set_deg**2
 
+    def ties_without(self, member: Member) -> bool:
+        """The set and the set without `member` tie on the raw angle: both at the noise."""
+        return (self.set_deg <= TIE_NOISE * self.noise_deg
+                and member.without_deg <= (1.0 + TIE_SHARE) * self.set_deg)
+
     def stands_out(self, member: Member) -> bool:
-        return self.unique_deg2(member) > self.left_deg2
+        return not self.ties_without(member) and self.unique_deg2(member) > self.left_deg2
 
     @property
     def all_stand_out(self) -> bool:
@@ -89,4 +104,5 @@ def standing(problem: Problem, final: Fit, names: list[str], fitting: np.ndarray
         return raw_error.rms(problem, angle_deg, raw_error.offset_of(problem, angle_deg, fitting), scored)
 
     members = tuple(Member(name, raw_deg(without(problem, final, name).angle_deg)) for name in names)
-    return Standing(raw_deg(final.angle_deg), white_noise_deg(problem.measured_deg), members)
+    set_deg = raw_deg(final.angle_deg)
+    return Standing(set_deg, min(white_noise_deg(problem.measured_deg), set_deg), members)
