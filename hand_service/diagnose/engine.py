@@ -189,12 +189,6 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if noise_model == "ar":  # every test from here on runs on the innovations
         problem.noise = noise.estimate(refit.residual(problem), problem.with_skipped(fit_mask | held),
                                        rate_hz, start=moving)
-        # the AR order the sensor's own noise has where the finger is at rest, where the
-        # plain model's misfit stands clear of it: a higher order whitens the structure
-        problem.noise = noise_bound.bounded_order(problem.noise, refit.residual(problem),
-                                                  problem.misfit(refit.angle_deg),
-                                                  problem.with_skipped(fit_mask | held), problem.pressure_kpa,
-                                                  rate_hz, refit.finger)
     refit_e = problem.innovations(refit.angle_deg)  # each model's innovations, once
     refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     missing = [name for name in search if name not in model.effects or shape_only(model.effects, name)]
