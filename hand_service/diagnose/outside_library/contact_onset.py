@@ -22,6 +22,15 @@ and gravity was fitted at that size), the linear finger is not the finger, and t
 is fitted in full instead: the simulated finger with an object past θc (a spring, linear
 in the depth: the simulator's own contact) in place of the smooth torques, k, B, N, θc and
 the object's stiffness refitted, against the named model as fitted.
+
+Both comparisons run on the innovations, where the noise model and the slow drift take what
+neither model follows. Where the named model already follows the raw angle to the sensor's
+noise (simulated from the recorded command, a constant offset alone: raw_error.py, within
+raw_error.TIE_NOISE times the noise the fit estimates, the engine's tie at the noise), the
+raw angle leaves nothing beyond the innovations' own size for an onset to
+explain, and a gain on the innovations alone is no evidence that a torque switches on: the
+onset is then fitted in full and must also follow the raw angle better than the named model,
+by more than the raw angle's tie (raw_error.TIE_SHARE: within it, the two follow it equally).
 """
 
 from __future__ import annotations
@@ -33,9 +42,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, signal
 
+from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.fitting.output_error import COLUMN_WORKERS, Fit, sensitivity
 from hand_service.diagnose.model.problem import Problem
-from hand_service.diagnose.outside_library.rival_fit import fit_rival
+from hand_service.diagnose.outside_library.rival_fit import Rival, rival_model
 from hand_service.diagnose.residual import noise, stats
 from rtcore.sim import SimFinger
 
@@ -187,14 +197,33 @@ def linearisation_error(problem: Problem, final: Fit, smooth: list[str],
     return projection.rss(smooth_w)
 
 
+def raw_deg(problem: Problem, angle_deg: np.ndarray) -> float:
+    """A model's RMS error on the raw angle, with its own constant offset (raw_error.py),
+    over the fitting and held-out samples."""
+    fitting = problem.fit_mask
+    offset_deg = raw_error.offset_of(problem, angle_deg, fitting)
+    return raw_error.rms(problem, angle_deg, offset_deg, fitting | problem.held_mask)
+
+
+def named_at_noise(problem: Problem, final: Fit) -> float | None:
+    """The named model's raw RMS error where it follows the raw angle to the sensor's noise
+    (within raw_error.TIE_NOISE times the fit's noise estimate, as the engine's tie at the
+    noise), else None."""
+    named_deg = raw_deg(problem, final.angle_deg)
+    at_noise = named_deg <= raw_error.TIE_NOISE * final.sigma_deg
+    return named_deg if at_noise else None
+
+
 def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:
     """The onset family against the smooth static torques in `found` (SMOOTH_STATIC); the
-    best onset when it wins by more than SIGNIFICANT_BIC, else None."""
+    best onset when it wins by more than SIGNIFICANT_BIC (and, where the named model is at
+    the noise on the raw angle, follows the raw angle better), else None."""
     smooth = [n for n in found if n in SMOOTH_STATIC]
     if not smooth:
         return None
-    if smooth_slope_share(problem, final, smooth) >= LINEAR_SLOPE_SHARE:
-        return fitted_onset(problem, final, smooth)
+    named_raw_deg = named_at_noise(problem, final)
+    if named_raw_deg is not None or smooth_slope_share(problem, final, smooth) >= LINEAR_SLOPE_SHARE:
+        return fitted_onset(problem, final, smooth, named_raw_deg)
     mask = problem.fit_mask
     theta_deg = final.angle_deg
     theta = np.radians(theta_deg)
@@ -250,7 +279,8 @@ def object_finger(finger: SimFinger, angle_deg: float, stiffness_nm_per_rad: flo
                                contact_damping_ns_per_m=0.0)
 
 
-def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | None:
+def fitted_onset(problem: Problem, final: Fit, smooth: list[str],
+                 named_raw_deg: float | None = None) -> Onset | None:
     """The onset fitted in full: `final` with an object met past θc in place of its smooth
     torques (its other effects held as fitted), k, B, N, θc and the object's stiffness
     refitted by output error from θc at FITTED_QUANTILES of the simulated angle (θc kept
@@ -258,28 +288,34 @@ def fitted_onset(problem: Problem, final: Fit, smooth: list[str]) -> Onset | Non
     against `final` on the innovations. k, B and N are held by the same prior as `final`
     was (the engine's, or the nominal's where the effect's fit needed it), and the gain is
     the data's alone: the prior decides nothing here. The best object when it wins by
-    more than SIGNIFICANT_BIC, else None."""
+    more than SIGNIFICANT_BIC, and, where `named_raw_deg` is given (the named model at the
+    noise on the raw angle), with a raw RMS error lower than that by more than
+    raw_error.TIE_SHARE (within it the raw angle cannot choose); else None."""
     mask = problem.fit_mask
     k = final.value("stiffness_nm_per_rad")
     valid = final.angle_deg[mask]  # the simulator's frame, θc's (the sensor's offset and drift out)
     low_deg, high_deg = (float(q) for q in np.quantile(valid, (0.005, 0.995)))
     span_deg = max(high_deg - low_deg, 1e-9)
 
-    def one(angle0_deg: float) -> tuple[float, float]:
-        """(innovations' RSS, θc) of the object fitted from θc = angle0_deg: θc's move over
-        the angle's range, K over k."""
+    def one(angle0_deg: float) -> tuple[Rival, float]:
+        """The object fitted from θc = angle0_deg (θc's move over the angle's range, K over
+        k), and its θc."""
         lower = np.array([(low_deg - angle0_deg) / span_deg, 1e-4])
         upper = np.array([(high_deg - angle0_deg) / span_deg, 1e3])
-        rss, (shift, _) = fit_rival(problem, final, smooth, np.array([0.0, 1.0]), lower, upper,
-                                    lambda f, x: object_finger(f, angle0_deg + x[0] * span_deg, x[1] * k))
-        return rss, angle0_deg + float(shift) * span_deg
+        rival = rival_model(problem, final, smooth, np.array([0.0, 1.0]), lower, upper,
+                            lambda f, x: object_finger(f, angle0_deg + x[0] * span_deg, x[1] * k))
+        return rival, angle0_deg + float(rival.extra[0]) * span_deg
 
     starts = [float(np.quantile(valid, q)) for q in FITTED_QUANTILES]
     with ThreadPoolExecutor(max_workers=min(COLUMN_WORKERS, len(starts))) as pool:  # each start its own fit
-        rss, angle_c = min(pool.map(one, starts))
+        rival, angle_c = min(pool.map(one, starts), key=lambda fitted: fitted[0].rss)
     # θc and K against the smooth torques' own parameters: one more against one, none against two
-    gain = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), rss, problem.n_fit,
+    gain = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), rival.rss, problem.n_fit,
                            2 - len(smooth))
     if not gain > SIGNIFICANT_BIC:
         return None
+    closer = named_raw_deg is None or \
+        raw_deg(problem, rival.angle_deg) < (1.0 - raw_error.TIE_SHARE) * named_raw_deg
+    if not closer:
+        return None  # the named model is at the noise on the raw angle, the object ties with it
     return Onset(angle_c, 1.0, True, float(np.mean(valid > angle_c)), gain, fitted=True)

@@ -7,6 +7,7 @@ named model on the innovations."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -28,13 +29,27 @@ PLAIN_BOUNDS = (0.05, 20.0)  # k, B and N, as factors of their fitted values
 Build = Callable[[SimFinger, np.ndarray], SimFinger]
 
 
+@dataclass(frozen=True)
+class Rival:
+    rss: float  # the innovations' RSS on the fitting samples
+    extra: np.ndarray  # the rival's own parameters, fitted
+    angle_deg: np.ndarray  # its simulated angle, from the recorded command
+
+
 def fit_rival(problem: Problem, final: Fit, replaced: list[str], extra0: np.ndarray, lower: np.ndarray,
               upper: np.ndarray, build: Build) -> tuple[float, np.ndarray]:
+    """rival_model's RSS and fitted `extra`."""
+    rival = rival_model(problem, final, replaced, extra0, lower, upper, build)
+    return rival.rss, rival.extra
+
+
+def rival_model(problem: Problem, final: Fit, replaced: list[str], extra0: np.ndarray, lower: np.ndarray,
+                upper: np.ndarray, build: Build) -> Rival:
     """`final` with the effects `replaced` at neutral, and `build(finger, extra)` adding the
     rival's physics for its parameters `extra` (from extra0, within lower and upper). k, B
     and N are held by the same prior as `final` was (the engine's, or the nominal's where
     the effect's fit needed it), so a comparison's gain is the data's alone. Returns the
-    innovations' RSS on the fitting samples and the fitted `extra`."""
+    innovations' RSS on the fitting samples, the fitted `extra` and the rival's angle."""
     plain = [p for p in final.params if not p.is_effect]
     without = final.without(problem, replaced)
     start = problem.values(plain, final.finger)
@@ -57,4 +72,4 @@ def fit_rival(problem: Problem, final: Fit, replaced: list[str], extra0: np.ndar
                            max_nfev=60, ftol=cost_tolerance(problem.n_fit), xtol=1e-7, gtol=1e-8,
                            **parallel_columns())
     angle = problem.simulate(finger(result.x))
-    return problem.fit_rss(problem.innovations(angle)), result.x[n_plain:]
+    return Rival(problem.fit_rss(problem.innovations(angle)), result.x[n_plain:], angle)
