@@ -65,6 +65,17 @@ def rms(problem: Problem, angle_deg: np.ndarray, offset_deg: float, mask: np.nda
     return float(np.sqrt(np.mean(r * r))) if r.size else float("nan")
 
 
+def raw_rms_deg(problem: Problem, angle_deg: np.ndarray, fitting: np.ndarray, scored: np.ndarray) -> float:
+    """A model's RMS error on the raw angle over `scored`, with its own constant offset
+    fitted on `fitting`."""
+    return rms(problem, angle_deg, offset_of(problem, angle_deg, fitting), scored)
+
+
+def at_noise(raw_deg: float, noise_deg: float) -> bool:
+    """A raw RMS error at the sensor's noise: within TIE_NOISE times it."""
+    return raw_deg <= TIE_NOISE * noise_deg
+
+
 def raw_errors(problem: Problem, fitting: np.ndarray, held: np.ndarray,
                angles: dict[str, np.ndarray]) -> RawErrors:
     offsets = {name: offset_of(problem, a, fitting) for name, a in angles.items()}
@@ -142,9 +153,9 @@ class RawJudgement:
         """Both models follow the raw angle to the sensor's noise, the augmented one no worse
         (within TIE_SHARE), and it predicts the held-out samples better than the nominal: the
         raw angle alone cannot choose between the effect and the plain model's moved k, B, N."""
-        at_noise = self.before_deg <= TIE_NOISE * noise_deg
         no_worse = self.after_deg <= (1.0 + TIE_SHARE) * self.before_deg
-        return at_noise and no_worse and self.after_held_deg < self.nominal_held_deg
+        better_held = self.after_held_deg < self.nominal_held_deg
+        return at_noise(self.before_deg, noise_deg) and no_worse and better_held
 
     def tie_sentence(self, names: list[str], how_far: str) -> str:
         said = ", ".join(names)

@@ -200,9 +200,7 @@ def linearisation_error(problem: Problem, final: Fit, smooth: list[str],
 def raw_deg(problem: Problem, angle_deg: np.ndarray) -> float:
     """A model's RMS error on the raw angle, with its own constant offset (raw_error.py),
     over the fitting and held-out samples."""
-    fitting = problem.fit_mask
-    offset_deg = raw_error.offset_of(problem, angle_deg, fitting)
-    return raw_error.rms(problem, angle_deg, offset_deg, fitting | problem.held_mask)
+    return raw_error.raw_rms_deg(problem, angle_deg, problem.fit_mask, problem.fit_mask | problem.held_mask)
 
 
 def named_at_noise(problem: Problem, final: Fit) -> float | None:
@@ -210,8 +208,7 @@ def named_at_noise(problem: Problem, final: Fit) -> float | None:
     (within raw_error.TIE_NOISE times the fit's noise estimate, as the engine's tie at the
     noise), else None."""
     named_deg = raw_deg(problem, final.angle_deg)
-    at_noise = named_deg <= raw_error.TIE_NOISE * final.sigma_deg
-    return named_deg if at_noise else None
+    return named_deg if raw_error.at_noise(named_deg, final.sigma_deg) else None
 
 
 def onset_check(problem: Problem, final: Fit, found: list[str]) -> Onset | None:

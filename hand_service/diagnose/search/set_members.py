@@ -38,7 +38,7 @@ import numpy as np
 
 from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.fitting.output_error import Fit, fit
-from hand_service.diagnose.fitting.raw_error import TIE_NOISE, TIE_SHARE
+from hand_service.diagnose.fitting.raw_error import TIE_SHARE
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.recording.response_onset import white_noise_deg
 
@@ -68,7 +68,7 @@ class Standing:
 
     def ties_without(self, member: Member) -> bool:
         """The set and the set without `member` tie on the raw angle: both at the noise."""
-        return (self.set_deg <= TIE_NOISE * self.noise_deg
+        return (raw_error.at_noise(self.set_deg, self.noise_deg)
                 and member.without_deg <= (1.0 + TIE_SHARE) * self.set_deg)
 
     def stands_out(self, member: Member) -> bool:
@@ -101,7 +101,7 @@ def standing(problem: Problem, final: Fit, names: list[str], fitting: np.ndarray
     scored = fitting | held
 
     def raw_deg(angle_deg: np.ndarray) -> float:
-        return raw_error.rms(problem, angle_deg, raw_error.offset_of(problem, angle_deg, fitting), scored)
+        return raw_error.raw_rms_deg(problem, angle_deg, fitting, scored)
 
     members = tuple(Member(name, raw_deg(without(problem, final, name).angle_deg)) for name in names)
     set_deg = raw_deg(final.angle_deg)
