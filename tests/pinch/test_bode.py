@@ -54,10 +54,11 @@ def test_slow_probe_renders_the_set_stiffness_and_the_model_errors_offset(truth:
 
 def test_calibrate_gain_restores_the_ratio_that_opposite_errors_break(truth: Profile) -> None:
     k_set = gain_limits(truth.finger("index").model)[0]
-    controller, gain_pct = corner_controller(truth, "index", 5.0, -5.0, NONE, calibrate=True, seed=1)
-    assert gain_pct == pytest.approx(5.0, abs=0.5)  # N measured again for the high k: the ratio is right
-    got = rendered(truth, controller, "index", k_set, 0.2).stiffness_n_per_deg / k_set
-    assert got == pytest.approx(quasi_static_ratio(1.0, 5.0, gain_pct), abs=0.03)
+    corner = corner_controller(truth, "index", 5.0, -5.0, NONE, calibrate=True, seed=1)
+    assert corner.stiffness_pct == pytest.approx(5.0, abs=1e-9) and corner.diagnosis is None
+    assert corner.gain_pct == pytest.approx(5.0, abs=0.5)  # N measured again for the high k: ratio right
+    got = rendered(truth, corner.controller, "index", k_set, 0.2).stiffness_n_per_deg / k_set
+    assert got == pytest.approx(quasi_static_ratio(1.0, 5.0, corner.gain_pct), abs=0.03)
     assert abs(got - 1.0) < 0.10  # uncalibrated, the same corner renders about -16 %
 
 
