@@ -22,7 +22,9 @@ the erroneous k: the free sweep's angle per pressure fixes the ratio N/k, so onl
 error remains (the table's "k, N in use"). With --diagnose the lab then fits its valve
 (`calibrate valve`) and runs `diagnose` on a steps recording of the finger, and the
 controller runs the model diagnose writes: its refit k, B, N and the effects it names
-(hand_service.pinch.lab_diagnose; the table gives its verdict and effects). The plant
+(hand_service.pinch.lab_diagnose; the table gives its verdict and effects); diagnose's
+refit then takes k's and N's errors away, which --errors-last puts back on the model it
+writes. The plant
 mismatched-even-valves is the mismatched plant with valves that vent as fast as they fill.
 Prints one markdown table per finger: per frequency
 and model error, the stiffness's error against the set K (%) and the damping
@@ -181,19 +183,23 @@ class Corner:
 
 
 def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pct: float,
-                      mismatch: Mismatch, calibrate: bool, seed: int, diagnosed: bool = False) -> Corner:
+                      mismatch: Mismatch, calibrate: bool, seed: int, diagnosed: bool = False,
+                      errors_last: bool = False) -> Corner:
     """The controller with k and N off by these percentages; with calibrate, the lab's
     `calibrate sensor` and `calibrate gain` then run on the plant (N measured again for
     that k); with diagnosed, after those the lab's `calibrate valve` and `diagnose` on a
     steps recording of the finger, the controller's model the one diagnose writes
-    (hand_service.pinch.lab_diagnose)."""
-    controller = with_errors(truth, stiffness_pct, gain_pct)
+    (hand_service.pinch.lab_diagnose); with errors_last the errors are put on the model
+    diagnose wrote instead (its effects kept), not on the lab's starting model."""
+    controller = truth if errors_last and diagnosed else with_errors(truth, stiffness_pct, gain_pct)
     if calibrate or diagnosed:
         with tempfile.TemporaryDirectory(prefix="pinch-bode-") as scratch:
             controller = identify_on_plant(truth, controller, mismatch, seed, Path(scratch))
     diagnosis = None
     if diagnosed:
         controller, (diagnosis,) = diagnosed_controller(truth, controller, mismatch, seed, [finger])
+        if errors_last:
+            controller = with_errors(controller, stiffness_pct, gain_pct)
     mine, true = controller.finger(finger).model, truth.finger(finger).model
     return Corner(controller, 100.0 * (mine.stiffness_nm_per_rad / true.stiffness_nm_per_rad - 1.0),
                   100.0 * (mine.pressure_gain_nm_per_kpa / true.pressure_gain_nm_per_kpa - 1.0), diagnosis)
@@ -215,6 +221,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--diagnose", action="store_true",
                         help="after calibrate sensor and gain (implied), the lab's calibrate valve and "
                              "diagnose on a steps recording; the controller runs the model diagnose writes")
+    parser.add_argument("--errors-last", action="store_true",
+                        help="with --diagnose, put the k and N errors on the model diagnose writes "
+                             "(its effects kept) instead of on the lab's starting model")
     parser.add_argument("--amplitude-deg", type=float, default=AMPLITUDE_DEG,
                         help=f"the push's amplitude as K times this angle (default {AMPLITUDE_DEG:g})")
     parser.add_argument("--reference-deg", type=float, default=REFERENCE_DEG,
@@ -224,6 +233,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--share must be above 0 and at most 1")
     if args.amplitude_deg <= 0.0:
         parser.error("--amplitude-deg must be above 0")
+    if args.errors_last and not args.diagnose:
+        parser.error("--errors-last needs --diagnose")
     truth = load_profile(None)
     mismatch = BODE_PLANTS[args.plant]
     frequencies = (0.1, 1.0, 5.0) if args.quick else FREQUENCIES_HZ
@@ -233,6 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         curves = {}
         head = f"{finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), D = {DAMPING_N_S_PER_DEG:g} N·s/deg"
         lab = ", calibrated and diagnosed" if args.diagnose else ", calibrated" if args.calibrate else ""
+        lab += ", the errors on diagnose's model" if args.diagnose and args.errors_last else ""
         tail = (f"{args.plant} plant{lab}, "
                 f"push K·{args.amplitude_deg:g}° about {args.reference_deg:g}°")
         print(f"\n{head}, {tail}: stiffness error against K (%); damping (N·s/deg)\n")
@@ -243,7 +255,7 @@ def main(argv: list[str] | None = None) -> int:
         for k_pct, n_pct in errors:
             label = f"k {k_pct:+g} %, N {n_pct:+g} %"
             corner = corner_controller(truth, finger, k_pct, n_pct, mismatch, args.calibrate, seed=1,
-                                       diagnosed=args.diagnose)
+                                       diagnosed=args.diagnose, errors_last=args.errors_last)
             points = sweep(truth, corner.controller, finger, k_set, frequencies, mismatch=mismatch,
                            amplitude_deg=args.amplitude_deg, reference_deg=args.reference_deg)
             curves[label] = points

@@ -71,3 +71,10 @@ def test_the_mismatched_plants_hysteresis_stiffens_a_small_push(truth: Profile) 
     assert got["with"] - got["without"] > 0.2  # a joint friction the force estimate cannot see
     wide = rendered(truth, truth, "index", k_set, 0.2, mismatch=plants["with"], amplitude_deg=10.0)
     assert wide.stiffness_n_per_deg / k_set < got["with"]  # it weighs less under a wider push
+
+
+def test_errors_last_needs_the_lab_to_diagnose() -> None:
+    from hand_service.pinch.bode import main
+
+    with pytest.raises(SystemExit):
+        main(["--errors-last"])
