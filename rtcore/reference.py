@@ -126,7 +126,8 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
 def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float, hysteresis_z: float) -> float:
     """N p = tau(th, 0) + H z + r F_n."""
     m = c.prbm
-    torque = model_torque(m, angle_rad, 0.0) + hysteresis_torque(m.effects, hysteresis_z) + m.lever_arm_m * force_ref_n
+    torque = (model_torque(m, angle_rad, 0.0) + hysteresis_torque(m.effects, hysteresis_z)
+              + m.lever_arm_m * force_ref_n)
     gain = m.pressure_gain_nm_per_kpa * stiffened_gain_share(m, angle_rad)
     return deadzone_invert(m.effects, torque / gain)
 

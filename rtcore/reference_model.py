@@ -156,7 +156,8 @@ def hysteresis_angle_update(e: Effects, s: FingerState) -> None:
     travel_deg = s.angle_filt_deg - s.hysteresis_angle_deg
     if travel_deg != 0.0 and math.isfinite(travel_deg):
         toward = 1.0 if travel_deg > 0.0 else -1.0
-        s.hysteresis_z = toward + (s.hysteresis_z - toward) * math.exp(-abs(travel_deg) / e.hysteresis_travel_deg)
+        decay = math.exp(-abs(travel_deg) / e.hysteresis_travel_deg)
+        s.hysteresis_z = toward + (s.hysteresis_z - toward) * decay
         s.hysteresis_angle_deg = s.angle_filt_deg
 
 

@@ -70,5 +70,6 @@ def test_without_the_loop_nothing_changes(index_finger: FingerConfig) -> None:
     plain = run(index_finger, path)
     m = index_finger.prbm
     angle_rad = np.radians(plain["angle"])
-    expected = (m.pressure_gain_nm_per_kpa * PRESSURE_KPA - m.stiffness_nm_per_rad * angle_rad) / m.lever_arm_m
+    torque_nm = m.pressure_gain_nm_per_kpa * PRESSURE_KPA - m.stiffness_nm_per_rad * angle_rad
+    expected = torque_nm / m.lever_arm_m
     np.testing.assert_allclose(plain["force"], expected, rtol=1e-9, atol=1e-12)
