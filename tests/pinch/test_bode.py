@@ -78,3 +78,13 @@ def test_errors_last_needs_the_lab_to_diagnose() -> None:
 
     with pytest.raises(SystemExit):
         main(["--errors-last"])
+
+
+def test_the_diagnosed_table_says_what_diagnose_found(capsys: pytest.CaptureFixture[str]) -> None:
+    from hand_service.pinch.bode import main
+
+    assert main(["--quick", "--diagnose"]) == 0
+    out = capsys.readouterr().out
+    assert "calibrated and diagnosed" in out and "diagnose's verdict: effects" in out
+    row = next(line for line in out.splitlines() if line.startswith("| k +0 %, N +0 %"))
+    assert row.rstrip(" |").split("|")[-1].strip() == "consistent: none"  # the PRBM plant: nothing missing
