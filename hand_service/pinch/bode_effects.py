@@ -14,7 +14,9 @@ the stiffness's error against the set K (%) at each of FREQUENCIES_HZ ("saturate
 bode); then, per controller on the first plant, the finger left alone in impedance mode
 about the 80° reference (no probe, REST_S): the mean angle and the peak-to-peak of the
 angle and the chamber over the last LAST_S, where a loop the hysteresis inverse made
-unstable would swing.
+unstable would swing; and the same on the PRBM plant, which has no loop, with the truth's
+model and with diagnose's loop added to it (a false positive). --rest-only prints these
+alone.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from hand_service.pinch.ablation import VARIANTS
 from hand_service.pinch.bode import AMPLITUDE_DEG, BODE_PLANTS, DAMPING_N_S_PER_DEG, REFERENCE_DEG, rendered
 from hand_service.pinch.compliance import closed_loop
 from hand_service.pinch.lab_diagnose import EVEN_VALVES, diagnosed_controller
-from hand_service.pinch.mismatch import Mismatch, identify_on_plant
+from hand_service.pinch.mismatch import NONE, Mismatch, identify_on_plant
 
 FREQUENCIES_HZ = (0.1, 0.5, 1.0, 2.0)
 REST_S = 8.0
@@ -54,6 +56,13 @@ def without_effect(controller: Profile, finger: str, name: str) -> Profile:
     fingers = [dataclasses.replace(f, model=f.model.with_changes(
         effects={k: v for k, v in f.model.effects.items() if k != name})) if f.name == finger else f
         for f in controller.fingers]
+    return dataclasses.replace(controller, fingers=fingers)
+
+
+def with_effect(controller: Profile, finger: str, name: str, values: dict[str, float]) -> Profile:
+    """The controller with one effect put into one finger's model."""
+    fingers = [dataclasses.replace(f, model=f.model.with_changes(effects={**f.model.effects, name: values}))
+               if f.name == finger else f for f in controller.fingers]
     return dataclasses.replace(controller, fingers=fingers)
 
 
@@ -78,6 +87,7 @@ def main(argv: list[str] | None = None) -> int:
                         default="mismatched-even-valves")
     parser.add_argument("--amplitude-deg", type=float, default=AMPLITUDE_DEG)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--rest-only", action="store_true", help="only the finger left alone")
     args = parser.parse_args(argv)
     if not 0.0 < args.share <= 1.0:
         parser.error("--share must be above 0 and at most 1")
@@ -89,29 +99,37 @@ def main(argv: list[str] | None = None) -> int:
         if base is EVEN_VALVES and variant.valves is not None:
             variant = dataclasses.replace(variant, valves=base.valves)
         plants[f"{args.plant} {name}"] = variant
-    print(f"{args.finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), push K·{args.amplitude_deg:g}° "
-          f"about {REFERENCE_DEG:g}°: stiffness error against K (%)\n")
-    rest: dict[str, str] = {}
-    print("| plant | controller | diagnose said | " + " | ".join(f"{f:g} Hz" for f in FREQUENCIES_HZ) + " |")
-    print("| --- | --- | --- |" + " --- |" * len(FREQUENCIES_HZ))
-    for plant_name, plant in plants.items():
-        runs, said = controllers(truth, args.finger, plant, args.seed)
-        if not rest:
-            rest = {label: at_rest(truth, c, args.finger, k_set, plant) for label, c in runs.items()}
-        for label, controller in runs.items():
-            cells = []
-            for f in FREQUENCIES_HZ:
-                p = rendered(truth, controller, args.finger, k_set, f, mismatch=plant,
-                             amplitude_deg=args.amplitude_deg)
-                cells.append(f"{100 * (p.stiffness_n_per_deg / k_set - 1):+.1f}"
-                             + (" (saturated)" if p.saturated else ""))
-            print(f"| {plant_name} | {label} | {said if label != 'calibrated' else ''} | "
-                  + " | ".join(cells) + " |", flush=True)
-    print(f"\nLeft alone on {args.plant} ({REST_S:g} s, the last {LAST_S:g} s):\n")
-    print("| controller | mean angle (deg) | angle peak-to-peak (deg) | chamber peak-to-peak (kPa) |")
-    print("| --- | --- | --- | --- |")
-    for label, cells in rest.items():
-        print(f"| {label} | {cells} |")
+    base_runs, base_said = controllers(truth, args.finger, base, args.seed)
+    if not args.rest_only:
+        print(f"{args.finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), push K·{args.amplitude_deg:g}° "
+              f"about {REFERENCE_DEG:g}°: stiffness error against K (%)\n")
+        head = " | ".join(f"{f:g} Hz" for f in FREQUENCIES_HZ)
+        print(f"| plant | controller | diagnose said | {head} |")
+        print("| --- | --- | --- |" + " --- |" * len(FREQUENCIES_HZ))
+        for plant_name, plant in plants.items():
+            runs, said = (base_runs, base_said) if plant is base else controllers(truth, args.finger, plant,
+                                                                                   args.seed)
+            for label, controller in runs.items():
+                cells = []
+                for f in FREQUENCIES_HZ:
+                    p = rendered(truth, controller, args.finger, k_set, f, mismatch=plant,
+                                 amplitude_deg=args.amplitude_deg)
+                    cells.append(f"{100 * (p.stiffness_n_per_deg / k_set - 1):+.1f}"
+                                 + (" (saturated)" if p.saturated else ""))
+                print(f"| {plant_name} | {label} | {said if label != 'calibrated' else ''} | "
+                      + " | ".join(cells) + " |", flush=True)
+    rest = {(args.plant, label): at_rest(truth, c, args.finger, k_set, base)
+            for label, c in base_runs.items()}
+    loop = base_runs["diagnosed"].finger(args.finger).model.effects.get("hysteresis")
+    if loop is not None:  # a false positive: the loop in the model, not in the plant
+        rest[("PRBM", "the truth's model")] = at_rest(truth, truth, args.finger, k_set, NONE)
+        rest[("PRBM", "the truth's model with diagnose's loop")] = at_rest(
+            truth, with_effect(truth, args.finger, "hysteresis", loop), args.finger, k_set, NONE)
+    print(f"\n{args.finger} at {args.share:g} K_max left alone ({REST_S:g} s, the last {LAST_S:g} s):\n")
+    print("| plant | controller | mean angle (deg) | angle peak-to-peak (deg) | chamber peak-to-peak (kPa) |")
+    print("| --- | --- | --- | --- | --- |")
+    for (plant_name, label), cells in rest.items():
+        print(f"| {plant_name} | {label} | {cells} |")
     return 0
 
 

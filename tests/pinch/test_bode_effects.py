@@ -7,7 +7,7 @@ import dataclasses
 
 from hand_service.api.impedance import gain_limits
 from hand_service.config.profile import Profile
-from hand_service.pinch.bode_effects import at_rest, without_effect
+from hand_service.pinch.bode_effects import at_rest, with_effect, without_effect
 from hand_service.pinch.mismatch import NONE
 
 LOOP = {"hysteresis": {"torque_nm": 0.005, "travel_deg": 0.5}, "pressure_stiffening": {"gain": 0.02}}
@@ -21,6 +21,8 @@ def test_one_effect_leaves_one_fingers_model(truth: Profile) -> None:
     assert "hysteresis" not in out.finger("index").model.effects
     assert out.finger("index").model.effects["pressure_stiffening"] == LOOP["pressure_stiffening"]
     assert out.finger("thumb").model.effects["hysteresis"] == LOOP["hysteresis"]
+    back = with_effect(out, "index", "hysteresis", LOOP["hysteresis"])
+    assert back.finger("index").model.effects == both.finger("index").model.effects
 
 
 def test_the_exact_model_rests_on_its_reference(truth: Profile) -> None:
