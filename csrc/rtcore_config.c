@@ -97,6 +97,8 @@ void rtcore_finger_reset(rtcore_hand *hand, int32_t finger)
     s->creep_ref_deg = 0.0;
     s->hysteresis_ref_z = 0.0;
     s->hysteresis_ref_angle_deg = 0.0;
+    s->hysteresis_z = 0.0;
+    s->hysteresis_angle_deg = NAN;
 }
 
 void rtcore_hand_reset(rtcore_hand *hand)

@@ -211,6 +211,37 @@ void rtcore_hysteresis_reference_update(const rtcore_finger_config *c, rtcore_fi
     }
 }
 
+/* The hysteresis loop's state driven by the filtered angle, every tick in every mode: the
+ * loop the finger itself runs as far as the controller can tell, for the force estimate and
+ * the force feedforward (the inverse of the loop's torque, H*z: it adds no dynamics of its
+ * own, z moving with the angle only). Dahl's law is solved exactly over the filtered
+ * angle's travel since the last tick, as the reference's loop; the first angle seen (or a
+ * state gone non-finite) starts the loop at its middle, z = 0. */
+void rtcore_hysteresis_angle_update(const rtcore_finger_config *c, rtcore_finger_state *s)
+{
+    const rtcore_effects *e = &c->prbm.effects;
+    double travel_deg;
+    if (!(e->hysteresis_torque_nm > 0.0)) {
+        return;
+    }
+    if (!isfinite(s->hysteresis_z) || !isfinite(s->hysteresis_angle_deg)) {
+        s->hysteresis_z = 0.0;
+        s->hysteresis_angle_deg = s->angle_filt_deg;
+    }
+    travel_deg = s->angle_filt_deg - s->hysteresis_angle_deg;
+    if (travel_deg != 0.0 && isfinite(travel_deg)) {
+        const double toward = travel_deg > 0.0 ? 1.0 : -1.0;
+        s->hysteresis_z = toward + (s->hysteresis_z - toward) * exp(-fabs(travel_deg) / e->hysteresis_travel_deg);
+        s->hysteresis_angle_deg = s->angle_filt_deg;
+    }
+}
+
+/* The loop's torque H*z (0 without the effect). */
+static double hysteresis_torque_nm(const rtcore_effects *e, double hysteresis_z)
+{
+    return e->hysteresis_torque_nm > 0.0 ? e->hysteresis_torque_nm * hysteresis_z : 0.0;
+}
+
 /* Position feedforward from the held references in s (deg based). Quasi-static:
  * N p = tau(th, 0). Dynamic: N p = A th'' + B th' + tau(th, th'). Both add the lead
  * (valve lag + dead time) * dp/dt, with dp/dt from the reference's own derivatives. */
@@ -257,25 +288,29 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     return rtcore_deadzone_invert_kpa(&m->effects, torque / gain) + lead_s * torque_rate / gain;
 }
 
-/* Force feedforward (paper Eq. 4): N p = tau(th, 0) + r F_n, since J^T F = r F_n. */
+/* Force feedforward (paper Eq. 4): N p = tau(th, 0) + H z + r F_n, since J^T F = r F_n;
+ * z the loop's state from the filtered angle (rtcore_hysteresis_angle_update). */
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
-                                    double force_ref_n)
+                                    double force_ref_n, double hysteresis_z)
 {
     const rtcore_prbm *m = &c->prbm;
-    const double torque = rtcore_model_torque_nm(m, angle_rad, 0.0) + m->lever_arm_m * force_ref_n;
+    const double torque = rtcore_model_torque_nm(m, angle_rad, 0.0) + hysteresis_torque_nm(&m->effects, hysteresis_z)
+                          + m->lever_arm_m * force_ref_n;
     const double gain = m->pressure_gain_nm_per_kpa * rtcore_stiffened_gain_share(m, angle_rad);
     return rtcore_deadzone_invert_kpa(&m->effects, torque / gain);
 }
 
 /* Signed normal force at the force point (paper Eq. 5 with (J^T)+ = J / r^2):
- * F_n = (N p_eff - tau) / r, static or dynamic. */
+ * F_n = (N p_eff - tau - H z) / r, static or dynamic; z the loop's state from the filtered
+ * angle (rtcore_hysteresis_angle_update). */
 double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_pressure_kpa,
                              double angle_rad, double velocity_rad_per_s,
-                             double accel_rad_per_s2)
+                             double accel_rad_per_s2, double hysteresis_z)
 {
     const rtcore_prbm *m = &c->prbm;
     const double effective_kpa = rtcore_effective_pressure_kpa(&m->effects, chamber_pressure_kpa);
-    double torque = m->pressure_gain_nm_per_kpa * effective_kpa - rtcore_stiffening_torque_nm(m, angle_rad, effective_kpa);
+    double torque = m->pressure_gain_nm_per_kpa * effective_kpa - rtcore_stiffening_torque_nm(m, angle_rad, effective_kpa)
+                    - hysteresis_torque_nm(&m->effects, hysteresis_z);
     if (c->force_estimate_dynamic) {
         torque -= m->inertia_kgm2 * accel_rad_per_s2 + m->damping_nms_per_rad * velocity_rad_per_s
                   + rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);

@@ -133,9 +133,10 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
     if (!isfinite(chamber_kpa) || fabs(chamber_kpa) > RTCORE_SANE_LIMIT) {
         chamber_kpa = s->chamber_model_kpa;
     }
+    rtcore_hysteresis_angle_update(c, s);
     force_n = rtcore_force_normal_n(c, chamber_kpa, angle_rad,
                                     s->velocity_deg_per_s * RTCORE_RAD_PER_DEG,
-                                    s->accel_deg_per_s2 * RTCORE_RAD_PER_DEG);
+                                    s->accel_deg_per_s2 * RTCORE_RAD_PER_DEG, s->hysteresis_z);
     if (!isfinite(force_n)) {
         force_n = 0.0;
         flags |= (uint32_t)RTCORE_FLAG_OUTPUT_REJECTED;
@@ -180,7 +181,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
                     : s->impedance_stiffness_n_per_deg * (s->angle_ref_deg - s->angle_filt_deg)
                           + s->impedance_damping_n_s_per_deg
                                 * (s->velocity_ref_deg_per_s - s->velocity_deg_per_s);
-            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n);
+            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n, s->hysteresis_z);
             error = force_ref_n - force_n;
             proportional_kpa = c->force_kp_kpa_per_n * error;
             s->derivative_deg_per_s = 0.0;

@@ -212,6 +212,11 @@ typedef struct {
      * in [-1, 1], and the led reference angle it last saw */
     double hysteresis_ref_z;
     double hysteresis_ref_angle_deg;
+    /* the hysteresis loop's state as the filtered angle moves it (every mode), in [-1, 1],
+     * and the filtered angle it last saw (NaN: none yet): the force estimate's and the
+     * force feedforward's loop torque H*z */
+    double hysteresis_z;
+    double hysteresis_angle_deg;
 } rtcore_finger_state;
 
 /* Allocate one of these (static, stack or ffi.new) and call rtcore_hand_configure. */

@@ -19,7 +19,9 @@ from rtcore.reference_model import (
     creep_reference_update,
     deadzone_invert,
     effective_pressure,
+    hysteresis_angle_update,
     hysteresis_reference_update,
+    hysteresis_torque,
     model_stiffness,
     model_torque,
     model_torque_rate,
@@ -121,19 +123,22 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate / gain
 
 
-def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float) -> float:
+def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float, hysteresis_z: float) -> float:
+    """N p = tau(th, 0) + H z + r F_n."""
     m = c.prbm
-    torque = model_torque(m, angle_rad, 0.0) + m.lever_arm_m * force_ref_n
+    torque = (model_torque(m, angle_rad, 0.0) + hysteresis_torque(m.effects, hysteresis_z)
+              + m.lever_arm_m * force_ref_n)
     gain = m.pressure_gain_nm_per_kpa * stiffened_gain_share(m, angle_rad)
     return deadzone_invert(m.effects, torque / gain)
 
 
 def force_normal(c: FingerConfig, chamber_kpa: float, angle_rad: float, velocity: float,
-                 accel: float) -> float:
-    """Signed normal force (J^T)+ (N p - tau): F_n = (N p_eff - tau) / r."""
+                 accel: float, hysteresis_z: float) -> float:
+    """Signed normal force (J^T)+ (N p - tau - H z): F_n = (N p_eff - tau - H z) / r."""
     m = c.prbm
     effective_kpa = effective_pressure(m.effects, chamber_kpa)
-    torque = m.pressure_gain_nm_per_kpa * effective_kpa - stiffening_torque(m, angle_rad, effective_kpa)
+    torque = (m.pressure_gain_nm_per_kpa * effective_kpa - stiffening_torque(m, angle_rad, effective_kpa)
+              - hysteresis_torque(m.effects, hysteresis_z))
     if c.force_estimate_dynamic:
         torque -= (m.inertia_kgm2 * accel + m.damping_nms_per_rad * velocity
                    + model_torque(m, angle_rad, velocity))
@@ -197,6 +202,8 @@ class FingerState:
     creep_ref_deg: float = 0.0
     hysteresis_ref_z: float = 0.0
     hysteresis_ref_angle_deg: float = 0.0
+    hysteresis_z: float = 0.0
+    hysteresis_angle_deg: float = math.nan  # none seen yet
 
 
 class ReferenceHand:
@@ -302,8 +309,9 @@ class ReferenceHand:
         chamber_kpa = float(self.inputs.pressure_meas_kpa[i])
         if not usable(chamber_kpa):
             chamber_kpa = s.chamber_model_kpa
+        hysteresis_angle_update(c.prbm.effects, s)
         force_n = force_normal(c, chamber_kpa, angle_rad, s.velocity_deg_per_s * RAD_PER_DEG,
-                               s.accel_deg_per_s2 * RAD_PER_DEG)
+                               s.accel_deg_per_s2 * RAD_PER_DEG, s.hysteresis_z)
         if not math.isfinite(force_n):
             force_n, flags = 0.0, flags | cfg.FLAG_OUTPUT_REJECTED
 
@@ -335,7 +343,7 @@ class ReferenceHand:
                 force_ref_n = s.force_ref_n if mode == cfg.MODE_FORCE else (
                     s.impedance_stiffness_n_per_deg * (s.angle_ref_deg - s.angle_filt_deg)
                     + s.impedance_damping_n_s_per_deg * (s.velocity_ref_deg_per_s - s.velocity_deg_per_s))
-                feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n)
+                feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n, s.hysteresis_z)
                 error = force_ref_n - force_n
                 proportional_kpa = c.force_kp_kpa_per_n * error
                 s.derivative_deg_per_s = 0.0

@@ -114,6 +114,8 @@ class FingerState(Protocol):
     creep_ref_deg: float
     hysteresis_ref_z: float
     hysteresis_ref_angle_deg: float
+    hysteresis_z: float
+    hysteresis_angle_deg: float
 
 
 def creep_reference_update(e: Effects, s: FingerState, entered: bool, dt_s: float) -> None:
@@ -141,3 +143,24 @@ def hysteresis_reference_update(e: Effects, s: FingerState, entered: bool) -> No
         decay = math.exp(-abs(travel_deg) / e.hysteresis_travel_deg)
         s.hysteresis_ref_z = toward + (s.hysteresis_ref_z - toward) * decay
         s.hysteresis_ref_angle_deg = led_deg
+
+
+def hysteresis_angle_update(e: Effects, s: FingerState) -> None:
+    """The hysteresis loop's z driven by the filtered angle, every tick (the force estimate's
+    and the force feedforward's); at its middle from the first angle or a non-finite state."""
+    if not e.hysteresis_torque_nm > 0.0:
+        return
+    if not (math.isfinite(s.hysteresis_z) and math.isfinite(s.hysteresis_angle_deg)):
+        s.hysteresis_z = 0.0
+        s.hysteresis_angle_deg = s.angle_filt_deg
+    travel_deg = s.angle_filt_deg - s.hysteresis_angle_deg
+    if travel_deg != 0.0 and math.isfinite(travel_deg):
+        toward = 1.0 if travel_deg > 0.0 else -1.0
+        decay = math.exp(-abs(travel_deg) / e.hysteresis_travel_deg)
+        s.hysteresis_z = toward + (s.hysteresis_z - toward) * decay
+        s.hysteresis_angle_deg = s.angle_filt_deg
+
+
+def hysteresis_torque(e: Effects, hysteresis_z: float) -> float:
+    """The loop's torque H z (0 without the effect)."""
+    return e.hysteresis_torque_nm * hysteresis_z if e.hysteresis_torque_nm > 0.0 else 0.0

@@ -189,6 +189,54 @@ static void test_force_estimate(void)
     CHECK(fabs(out.force_magnitude_n[0] - fabs(expected_n)) < 1e-9, "|F|");
 }
 
+/* With a hysteresis loop in the model, the estimate takes H z off, z Dahl's state driven by
+ * the filtered angle from the middle at the first angle: replayed here over the filtered
+ * angles of a step from rest to 60 deg (through the filter's overshoot and back, so z ends
+ * short of +1). */
+static void test_force_estimate_hysteresis(void)
+{
+    rtcore_hand hand;
+    rtcore_hand_config h = one_finger();
+    rtcore_inputs in;
+    rtcore_outputs out;
+    const double pressure_kpa = 120.0;
+    const double torque_nm = 0.02;
+    const double travel_deg = 20.0;
+    double plain_n;
+    double z = 0.0;
+    double last_deg;
+    int t;
+
+    CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_OK, "configure");
+    clear_inputs(&in);
+    in.pressure_meas_kpa[0] = pressure_kpa;
+    in.sensor_mv[0] = mv_for_deg(&hand.config.finger[0], 60.0);
+    for (t = 0; t < 200; ++t) {
+        rtcore_hand_step(&hand, &in, &out);
+    }
+    plain_n = out.force_normal_n[0];
+    h.finger[0].prbm.effects.hysteresis_torque_nm = torque_nm;
+    h.finger[0].prbm.effects.hysteresis_travel_deg = travel_deg;
+    CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_OK, "configure with a loop");
+    in.sensor_mv[0] = mv_for_deg(&hand.config.finger[0], 0.0);
+    rtcore_hand_step(&hand, &in, &out);
+    last_deg = out.angle_filt_deg[0];
+    in.sensor_mv[0] = mv_for_deg(&hand.config.finger[0], 60.0);
+    for (t = 0; t < 200; ++t) {
+        double travel_deg_now;
+        rtcore_hand_step(&hand, &in, &out);
+        travel_deg_now = out.angle_filt_deg[0] - last_deg;
+        if (travel_deg_now != 0.0) {
+            const double toward = travel_deg_now > 0.0 ? 1.0 : -1.0;
+            z = toward + (z - toward) * exp(-fabs(travel_deg_now) / travel_deg);
+        }
+        last_deg = out.angle_filt_deg[0];
+    }
+    CHECK(z > 0.1 && fabs(hand.finger[0].hysteresis_z - z) < 1e-9, "z %g vs %g", hand.finger[0].hysteresis_z, z);
+    CHECK(fabs(out.force_normal_n[0] - (plain_n - torque_nm * z / hand.config.finger[0].prbm.lever_arm_m)) < 1e-9,
+          "F_n with the loop %g vs %g", out.force_normal_n[0], plain_n);
+}
+
 static void test_bumpless(void)
 {
     rtcore_hand hand;
@@ -223,5 +271,6 @@ void run_step_tests(void)
     test_anti_windup();
     test_nan_inputs();
     test_force_estimate();
+    test_force_estimate_hysteresis();
     test_bumpless();
 }

@@ -2,7 +2,8 @@
 a small sinusoidal push, with the controller's model exact or ±5 % off.
 
     python -m hand_service.pinch.bode [--finger index] [--share 1.0] [--plot PATH] [--quick]
-                                      [--plant model|mismatched] [--calibrate]
+                                      [--plant model|mismatched|mismatched-even-valves]
+                                      [--calibrate | --diagnose]
                                       [--amplitude-deg 2] [--reference-deg 80]
 
 A probe fixed to the force point (hand_service.pinch.compliance.closed_loop's push: it
@@ -18,7 +19,14 @@ Model errors (`ERRORS`): the controller's joint stiffness k and pressure gain N 
 5 % up or down, the four corners; with --calibrate the lab's `calibrate sensor` and
 `calibrate gain` then run on the plant (identify_on_plant), which measures N again for
 the erroneous k: the free sweep's angle per pressure fixes the ratio N/k, so only k's
-error remains (the table's "N in use"). Prints one markdown table per finger: per frequency
+error remains (the table's "k, N in use"). With --diagnose the lab then fits its valve
+(`calibrate valve`) and runs `diagnose` on a steps recording of the finger, and the
+controller runs the model diagnose writes: its refit k, B, N and the effects it names
+(hand_service.pinch.lab_diagnose; the table gives its verdict and effects); diagnose's
+refit then takes k's and N's errors away, which --errors-last puts back on the model it
+writes. The plant
+mismatched-even-valves is the mismatched plant with valves that vent as fast as they fill.
+Prints one markdown table per finger: per frequency
 and model error, the stiffness's error against the set K (%) and the damping
 (N·s/deg), "saturated" where the chamber reached 0 or the finger's limit (the valve, not
 the impedance law, then sets the stiffness); with --plot, the Bode plot (|Z|, its phase
@@ -40,6 +48,7 @@ import numpy as np
 from hand_service.api.impedance import gain_limits
 from hand_service.config.profile import Profile, load_profile
 from hand_service.pinch.compliance import closed_loop
+from hand_service.pinch.lab_diagnose import EVEN_VALVES, LabDiagnosis, diagnosed_controller
 from hand_service.pinch.mismatch import NONE, PLANTS, Mismatch, identify_on_plant
 
 AMPLITUDE_DEG = 2.0
@@ -50,6 +59,7 @@ ERRORS = ((0.0, 0.0), (5.0, 5.0), (-5.0, -5.0), (5.0, -5.0), (-5.0, 5.0))  # (k 
 DAMPING_N_S_PER_DEG = 0.0003  # as the push tests (docs/replicate.md), well inside D_max
 TOLERANCE = 0.10
 SATURATION_MARGIN_KPA = 1.0
+BODE_PLANTS = {**PLANTS, "mismatched-even-valves": EVEN_VALVES}  # the last: diagnose's ablation
 
 
 def with_errors(controller: Profile, stiffness_pct: float, gain_pct: float) -> Profile:
@@ -157,18 +167,42 @@ def bode_figure(curves: dict[str, list[Point]], set_n_per_deg: float, title: str
     return save(fig, path)
 
 
+@dataclass
+class Corner:
+    """The controller of one model-error corner, its k's and N's error against the truth's
+    (%), and what the lab's diagnose said of the finger (None without --diagnose)."""
+
+    controller: Profile
+    stiffness_pct: float
+    gain_pct: float
+    diagnosis: LabDiagnosis | None = None
+
+    def said(self) -> str:
+        d = self.diagnosis
+        return "" if d is None else f"{d.diagnosis.verdict}: {d.effects_said()}"
+
+
 def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pct: float,
-                      mismatch: Mismatch, calibrate: bool, seed: int) -> tuple[Profile, float]:
+                      mismatch: Mismatch, calibrate: bool, seed: int, diagnosed: bool = False,
+                      errors_last: bool = False) -> Corner:
     """The controller with k and N off by these percentages; with calibrate, the lab's
     `calibrate sensor` and `calibrate gain` then run on the plant (N measured again for
-    that k). Returns it and its N's error against the truth's (%)."""
-    controller = with_errors(truth, stiffness_pct, gain_pct)
-    if calibrate:
+    that k); with diagnosed, after those the lab's `calibrate valve` and `diagnose` on a
+    steps recording of the finger, the controller's model the one diagnose writes
+    (hand_service.pinch.lab_diagnose); with errors_last the errors are put on the model
+    diagnose wrote instead (its effects kept), not on the lab's starting model."""
+    controller = truth if errors_last and diagnosed else with_errors(truth, stiffness_pct, gain_pct)
+    if calibrate or diagnosed:
         with tempfile.TemporaryDirectory(prefix="pinch-bode-") as scratch:
             controller = identify_on_plant(truth, controller, mismatch, seed, Path(scratch))
-    ratio = (controller.finger(finger).model.pressure_gain_nm_per_kpa
-             / truth.finger(finger).model.pressure_gain_nm_per_kpa)
-    return controller, 100.0 * (ratio - 1.0)
+    diagnosis = None
+    if diagnosed:
+        controller, (diagnosis,) = diagnosed_controller(truth, controller, mismatch, seed, [finger])
+        if errors_last:
+            controller = with_errors(controller, stiffness_pct, gain_pct)
+    mine, true = controller.finger(finger).model, truth.finger(finger).model
+    return Corner(controller, 100.0 * (mine.stiffness_nm_per_rad / true.stiffness_nm_per_rad - 1.0),
+                  100.0 * (mine.pressure_gain_nm_per_kpa / true.pressure_gain_nm_per_kpa - 1.0), diagnosis)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -179,10 +213,17 @@ def main(argv: list[str] | None = None) -> int:
                         help="K as a share of the finger's K_max (default 1)")
     parser.add_argument("--plot", type=Path, help="write the Bode plot of the first finger here (.png)")
     parser.add_argument("--quick", action="store_true", help="three frequencies, no model error")
-    parser.add_argument("--plant", choices=sorted(PLANTS), default="model",
-                        help="the PRBM (model, default) or the pinch's mismatched plant")
+    parser.add_argument("--plant", choices=sorted(BODE_PLANTS), default="model",
+                        help="the PRBM (model, default), the pinch's mismatched plant, or that plant "
+                             "with valves that vent as fast as they fill")
     parser.add_argument("--calibrate", action="store_true",
                         help="after the model error, the lab's calibrate sensor and gain on the plant")
+    parser.add_argument("--diagnose", action="store_true",
+                        help="after calibrate sensor and gain (implied), the lab's calibrate valve and "
+                             "diagnose on a steps recording; the controller runs the model diagnose writes")
+    parser.add_argument("--errors-last", action="store_true",
+                        help="with --diagnose, put the k and N errors on the model diagnose writes "
+                             "(its effects kept) instead of on the lab's starting model")
     parser.add_argument("--amplitude-deg", type=float, default=AMPLITUDE_DEG,
                         help=f"the push's amplitude as K times this angle (default {AMPLITUDE_DEG:g})")
     parser.add_argument("--reference-deg", type=float, default=REFERENCE_DEG,
@@ -192,33 +233,40 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--share must be above 0 and at most 1")
     if args.amplitude_deg <= 0.0:
         parser.error("--amplitude-deg must be above 0")
+    if args.errors_last and not args.diagnose:
+        parser.error("--errors-last needs --diagnose")
     truth = load_profile(None)
-    mismatch = PLANTS[args.plant]
+    mismatch = BODE_PLANTS[args.plant]
     frequencies = (0.1, 1.0, 5.0) if args.quick else FREQUENCIES_HZ
     errors = ERRORS[:1] if args.quick else ERRORS
     for n, finger in enumerate(args.finger or ["index"]):
         k_set = args.share * gain_limits(truth.finger(finger).model)[0]
         curves = {}
         head = f"{finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), D = {DAMPING_N_S_PER_DEG:g} N·s/deg"
-        tail = (f"{args.plant} plant{', calibrated' if args.calibrate else ''}, "
+        lab = ", calibrated and diagnosed" if args.diagnose else ", calibrated" if args.calibrate else ""
+        lab += ", the errors on diagnose's model" if args.diagnose and args.errors_last else ""
+        tail = (f"{args.plant} plant{lab}, "
                 f"push K·{args.amplitude_deg:g}° about {args.reference_deg:g}°")
         print(f"\n{head}, {tail}: stiffness error against K (%); damping (N·s/deg)\n")
-        print("| model error (k, N) | N in use | PRBM quasi-static | "
-              + " | ".join(f"{f:g} Hz" for f in frequencies) + " | within 10 % up to |")
-        print("| --- | --- | --- |" + " --- |" * len(frequencies) + " --- |")
+        said = " diagnose's verdict: effects |" if args.diagnose else ""
+        print("| model error (k, N) | k, N in use | PRBM quasi-static | "
+              + " | ".join(f"{f:g} Hz" for f in frequencies) + f" | within 10 % up to |{said}")
+        print("| --- | --- | --- |" + " --- |" * len(frequencies) + " --- |" + (" --- |" if said else ""))
         for k_pct, n_pct in errors:
             label = f"k {k_pct:+g} %, N {n_pct:+g} %"
-            controller, n_used_pct = corner_controller(truth, finger, k_pct, n_pct, mismatch,
-                                                       args.calibrate, seed=1)
-            points = sweep(truth, controller, finger, k_set, frequencies, mismatch=mismatch,
+            corner = corner_controller(truth, finger, k_pct, n_pct, mismatch, args.calibrate, seed=1,
+                                       diagnosed=args.diagnose, errors_last=args.errors_last)
+            points = sweep(truth, corner.controller, finger, k_set, frequencies, mismatch=mismatch,
                            amplitude_deg=args.amplitude_deg, reference_deg=args.reference_deg)
             curves[label] = points
             cells = [f"{100 * (p.stiffness_n_per_deg / k_set - 1):+.1f}; {p.damping_n_s_per_deg:.5f}"
                      + (" (saturated)" if p.saturated else "") for p in points]
             top = bandwidth_hz(points, k_set)
-            print(f"| {label} | {n_used_pct:+.1f} % | "
-                  f"{100 * (quasi_static_ratio(args.share, k_pct, n_used_pct) - 1):+.1f} | "
-                  + " | ".join(cells) + f" | {'none' if top == 0 else f'{top:g} Hz'} |", flush=True)
+            ratio = quasi_static_ratio(args.share, corner.stiffness_pct, corner.gain_pct)
+            print(f"| {label} | {corner.stiffness_pct:+.1f} %, {corner.gain_pct:+.1f} % | "
+                  f"{100 * (ratio - 1):+.1f} | " + " | ".join(cells)
+                  + f" | {'none' if top == 0 else f'{top:g} Hz'} |"
+                  + (f" {corner.said()} |" if args.diagnose else ""), flush=True)
         if args.plot is not None and n == 0:
             bode_figure(curves, k_set, f"{head}\n{tail}", args.plot)
     return 0

@@ -54,10 +54,11 @@ def test_slow_probe_renders_the_set_stiffness_and_the_model_errors_offset(truth:
 
 def test_calibrate_gain_restores_the_ratio_that_opposite_errors_break(truth: Profile) -> None:
     k_set = gain_limits(truth.finger("index").model)[0]
-    controller, gain_pct = corner_controller(truth, "index", 5.0, -5.0, NONE, calibrate=True, seed=1)
-    assert gain_pct == pytest.approx(5.0, abs=0.5)  # N measured again for the high k: the ratio is right
-    got = rendered(truth, controller, "index", k_set, 0.2).stiffness_n_per_deg / k_set
-    assert got == pytest.approx(quasi_static_ratio(1.0, 5.0, gain_pct), abs=0.03)
+    corner = corner_controller(truth, "index", 5.0, -5.0, NONE, calibrate=True, seed=1)
+    assert corner.stiffness_pct == pytest.approx(5.0, abs=1e-9) and corner.diagnosis is None
+    assert corner.gain_pct == pytest.approx(5.0, abs=0.5)  # N measured again for the high k: ratio right
+    got = rendered(truth, corner.controller, "index", k_set, 0.2).stiffness_n_per_deg / k_set
+    assert got == pytest.approx(quasi_static_ratio(1.0, 5.0, corner.gain_pct), abs=0.03)
     assert abs(got - 1.0) < 0.10  # uncalibrated, the same corner renders about -16 %
 
 
@@ -70,3 +71,20 @@ def test_the_mismatched_plants_hysteresis_stiffens_a_small_push(truth: Profile) 
     assert got["with"] - got["without"] > 0.2  # a joint friction the force estimate cannot see
     wide = rendered(truth, truth, "index", k_set, 0.2, mismatch=plants["with"], amplitude_deg=10.0)
     assert wide.stiffness_n_per_deg / k_set < got["with"]  # it weighs less under a wider push
+
+
+def test_errors_last_needs_the_lab_to_diagnose() -> None:
+    from hand_service.pinch.bode import main
+
+    with pytest.raises(SystemExit):
+        main(["--errors-last"])
+
+
+def test_the_diagnosed_table_says_what_diagnose_found(capsys: pytest.CaptureFixture[str]) -> None:
+    from hand_service.pinch.bode import main
+
+    assert main(["--quick", "--diagnose"]) == 0
+    out = capsys.readouterr().out
+    assert "calibrated and diagnosed" in out and "diagnose's verdict: effects" in out
+    row = next(line for line in out.splitlines() if line.startswith("| k +0 %, N +0 %"))
+    assert row.rstrip(" |").split("|")[-1].strip() == "consistent: none"  # the PRBM plant: nothing missing
