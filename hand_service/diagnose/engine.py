@@ -48,7 +48,7 @@ from hand_service.diagnose.report.verdict import (
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_bound, stats
-from hand_service.diagnose.search import posture_stability, set_members, set_search, tie_revisit
+from hand_service.diagnose.search import posture_stability, rest_order, set_members, set_search, tie_revisit
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Candidate,
@@ -213,6 +213,13 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if (tie := tie_revisit.revisit(problem, selection, progress)) is not None:
         warnings.append(tie.sentence())  # a first-round tie told apart beside the effects found since
         selection = tie.selection
+    if noise_model == "ar" and not lost and (rest := rest_order.search(
+            problem, refit, selection, missing, problem.with_skipped(fit_mask | held), (fitted, scored_held),
+            progress)) is not None:
+        warnings.append(rest.sentence())  # the search again with the noise filter's order at rest
+        selection, problem.noise = rest.selection, rest.noise
+        refit_e = problem.innovations(refit.angle_deg)
+        refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     if unidentified and selection.accepted:
         first = selection.accepted[0]
         free_bic = data_alone_bic(problem, refit, first)
