@@ -259,8 +259,23 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     left_beside = len(found) > 1 and not unstable_later and bool(structure_left(final_white, final_cross))
     members = (set_members.standing(problem, final, [c.name for c in selection.accepted], fitted, scored_held)
                if left_beside else None)
+    standout = (set_members.stand_out(problem, refit, members, fitted, scored_held)
+                if members is not None and not members.all_stand_out else None)
     if members is not None and members.all_stand_out:
         warnings.append(members.sentence())  # named as a set, graded over the structure left
+    elif standout is not None:  # the members that stand out, fitted again without the others
+        warnings.append(standout.sentence())
+        extra = [e for e in found if e.name in standout.dropped]
+        selection = replace(selection, rounds=[*selection.rounds, *standout.selection.rounds],
+                            accepted=standout.selection.accepted, final=standout.selection.final)
+        kept, final = list(selection.accepted), standout.selection.final
+        # each against the round it was fitted in (its own selection's: one candidate a round)
+        found = [found_effect(problem, c, standout.selection, (fitted, scored_held)) for c in kept]
+        final_e = problem.innovations(final.angle_deg)
+        final_white = stats.ljung_box(final_e[fit_mask], lags)
+        final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
+        errors = raw_error.raw_errors(problem, fitted, scored_held, models(nominal_angle, refit, final))
+        rmse = errors.heldout_deg
     elif len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
         # Structure outside the library remains even with every effect, or a later effect
         # does not hold across the postures while the first alone does: the later ones may
