@@ -47,7 +47,7 @@ from hand_service.diagnose.report.verdict import (
     trade_offs,
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
-from hand_service.diagnose.residual import noise, noise_bound, stats
+from hand_service.diagnose.residual import noise, noise_bound, periodic_structure, stats
 from hand_service.diagnose.search import posture_stability, rest_order, set_members, set_search, tie_revisit
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
@@ -379,11 +379,17 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         if candidate.separability == 0.0:
             warnings.append(f"this recording cannot reveal {candidate.name}: it has no effect on "
                             "the simulated angle here (see the excitation advice in docs/diagnose.md)")
+    left = (structure_left(final_white, final_cross) if found or partial else
+            structure_left(refit_white, refit_cross))
+    if verdict == "missing_physics" and not left:  # what repeats with a repeating command
+        repeats = periodic_structure.periodic(problem.misfit(final.angle_deg), valid, problem.pressure_kpa,
+                                              rate_hz)
+        if repeats is not None and repeats.exceeded:
+            left = repeats.sentence()
+            warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
-                     time.perf_counter() - started, notes, partial, explained,
-                     structure_left(final_white, final_cross) if found or partial else
-                     structure_left(refit_white, refit_cross), outside, errors)
+                     time.perf_counter() - started, notes, partial, explained, left, outside, errors)
 
 
 def found_effect(problem: Problem, c: Candidate, selection: Selection,
