@@ -47,8 +47,8 @@ from hand_service.diagnose.report.verdict import (
     trade_offs,
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
-from hand_service.diagnose.residual import noise, noise_bound, stats
-from hand_service.diagnose.search import posture_stability, set_members, set_search, tie_revisit
+from hand_service.diagnose.residual import noise, noise_bound, periodic_structure, stats
+from hand_service.diagnose.search import posture_stability, rest_order, set_members, set_search, tie_revisit
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Candidate,
@@ -213,6 +213,13 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if (tie := tie_revisit.revisit(problem, selection, progress)) is not None:
         warnings.append(tie.sentence())  # a first-round tie told apart beside the effects found since
         selection = tie.selection
+    if noise_model == "ar" and not lost and (rest := rest_order.search(
+            problem, refit, selection, missing, problem.with_skipped(fit_mask | held), (fitted, scored_held),
+            progress)) is not None:
+        warnings.append(rest.sentence())  # the search again with the noise filter's order at rest
+        selection, problem.noise = rest.selection, rest.noise
+        refit_e = problem.innovations(refit.angle_deg)
+        refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     if unidentified and selection.accepted:
         first = selection.accepted[0]
         free_bic = data_alone_bic(problem, refit, first)
@@ -252,8 +259,23 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     left_beside = len(found) > 1 and not unstable_later and bool(structure_left(final_white, final_cross))
     members = (set_members.standing(problem, final, [c.name for c in selection.accepted], fitted, scored_held)
                if left_beside else None)
+    standout = (set_members.stand_out(problem, refit, members, fitted, scored_held)
+                if members is not None and not members.all_stand_out else None)
     if members is not None and members.all_stand_out:
         warnings.append(members.sentence())  # named as a set, graded over the structure left
+    elif standout is not None:  # the members that stand out, fitted again without the others
+        warnings.append(standout.sentence())
+        extra = [e for e in found if e.name in standout.dropped]
+        selection = replace(selection, rounds=[*selection.rounds, *standout.selection.rounds],
+                            accepted=standout.selection.accepted, final=standout.selection.final)
+        kept, final = list(selection.accepted), standout.selection.final
+        # each against the round it was fitted in (its own selection's: one candidate a round)
+        found = [found_effect(problem, c, standout.selection, (fitted, scored_held)) for c in kept]
+        final_e = problem.innovations(final.angle_deg)
+        final_white = stats.ljung_box(final_e[fit_mask], lags)
+        final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
+        errors = raw_error.raw_errors(problem, fitted, scored_held, models(nominal_angle, refit, final))
+        rmse = errors.heldout_deg
     elif len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
         # Structure outside the library remains even with every effect, or a later effect
         # does not hold across the postures while the first alone does: the later ones may
@@ -357,11 +379,17 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         if candidate.separability == 0.0:
             warnings.append(f"this recording cannot reveal {candidate.name}: it has no effect on "
                             "the simulated angle here (see the excitation advice in docs/diagnose.md)")
+    left = (structure_left(final_white, final_cross) if found or partial else
+            structure_left(refit_white, refit_cross))
+    if verdict == "missing_physics" and not left:  # what repeats with a repeating command
+        repeats = periodic_structure.periodic(problem.misfit(final.angle_deg), valid, problem.pressure_kpa,
+                                              rate_hz)
+        if repeats is not None and repeats.exceeded:
+            left = repeats.sentence()
+            warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
-                     time.perf_counter() - started, notes, partial, explained,
-                     structure_left(final_white, final_cross) if found or partial else
-                     structure_left(refit_white, refit_cross), outside, errors)
+                     time.perf_counter() - started, notes, partial, explained, left, outside, errors)
 
 
 def found_effect(problem: Problem, c: Candidate, selection: Selection,

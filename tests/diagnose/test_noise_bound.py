@@ -87,3 +87,44 @@ def test_a_hysteresis_loop_under_a_pi_loop_is_not_parameters_only(tmp_path: Path
     cs.write(case, tmp_path)
     result = diagnose_in_process(tmp_path / f"{spec.id}.csv", tmp_path / f"{spec.id}.yaml", tmp_path)
     assert result["verdict"] not in ("consistent", "parameters_only"), result["warnings"]
+
+
+def _steps_with_structure(structure_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """A command of steps held 3 s at 100 Hz, and a residual of AR(1) sensor noise (0.1 deg)
+    plus a smooth transient of `structure_deg` after each step, dying out within 0.4 s: input-
+    driven structure that is zero where the finger is at rest."""
+    rng = np.random.default_rng(3)
+    n = int(DURATION_S * RATE_HZ)
+    pressure = np.repeat(rng.uniform(0.0, 80.0, n // 300 + 1), 300)[:n]
+    noise = np.zeros(n)
+    shocks = rng.normal(0.0, 0.1 * np.sqrt(1.0 - 0.5**2), n)
+    for i in range(1, n):
+        noise[i] = 0.5 * noise[i - 1] + shocks[i]
+    t_in_hold = (np.arange(n) % 300) / RATE_HZ
+    transient = structure_deg * (t_in_hold / 0.05) * np.exp(1.0 - t_in_hold / 0.05)
+    transient[:300] = 0.0  # the recording starts at rest
+    return pressure, noise + transient
+
+
+def test_the_noise_filter_takes_its_order_from_the_finger_at_rest_where_structure_stands_clear() -> None:
+    """The AR order chosen on a residual that is mostly structure is high (it predicts the
+    transients from their own past); bounded_order chooses it where the finger is at rest
+    instead (AR(1) noise: order 1 or 2), and leaves a residual of noise alone as it was."""
+    from types import SimpleNamespace
+
+    from hand_service.diagnose.residual import noise, noise_bound
+
+    finger = SimpleNamespace(prbm=SimpleNamespace(inertia_kgm2=1e-5, damping_nms_per_rad=0.05,
+                                                  stiffness_nm_per_rad=0.5))  # decays in 0.1 s
+    scored = np.ones(int(DURATION_S * RATE_HZ), dtype=bool)
+    for structure_deg, bounded in ((3.0, True), (0.0, False)):
+        pressure, residual = _steps_with_structure(structure_deg)
+        model = noise.estimate(residual, scored, RATE_HZ)
+        got = noise_bound.bounded_order(model, residual, model.detrend(residual), scored, pressure, RATE_HZ,
+                                        finger)  # type: ignore[arg-type]
+        if bounded:
+            assert model.order > 2, model.order
+            assert 1 <= got.order <= 2, got.order
+            assert got.innovation_std_deg < 0.12
+        else:
+            assert got is model

@@ -12,17 +12,28 @@ stretch). So the noise's size is measured on those stretches, and a residual who
 over the whole recording with the sensor's offset and slow drift taken out, stands clear of
 it is input-driven structure, not noise, whatever the AR filter makes of it.
 
+The same stretches bound the AR filter itself. Its order is chosen on the plain model's
+residual, and each model's residual gets its own coefficients of that order: on a residual
+that is mostly input-driven structure (three effects missing on steps, the misfit seven
+times the noise at rest), BIC picks an order of 6 to 8 that predicts the structure from its
+own past, the innovations come out near the sensor's noise, and the effects after the first
+gain little. Where the plain model's misfit stands clear of the noise at rest
+(STRUCTURE_FACTOR), the order is chosen on the stretches at rest instead, where the residual
+is the sensor's noise alone: the filter then has the noise's correlation, not the structure's.
+
 A recording with no such stretches (a chirp, a noise input throughout) gives no bound: the
 verdict then rests on the innovations alone, as before.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass
 
 import numpy as np
 
+from hand_service.diagnose.residual import noise
 from rtcore.sim import SimFinger
 
 SETTLE_DECAYS = 4.0  # the finger is at rest this many of its slowest decay times after a change
@@ -80,11 +91,29 @@ def rest_stretches(pressure_kpa: np.ndarray, rate_hz: float, settle_s: float) ->
     return out
 
 
-def bound(residual_deg: np.ndarray, misfit_deg: np.ndarray, scored: np.ndarray, pressure_kpa: np.ndarray,
-          rate_hz: float, finger: SimFinger) -> NoiseBound | None:
-    """The noise at rest against the misfit: `residual_deg` the plain model's raw residual,
-    `misfit_deg` the same with the sensor's offset and slow drift taken out, `scored` the
-    samples that are data. None where the recording has too little at rest."""
+def bounded_order(model: noise.NoiseModel, residual_deg: np.ndarray, misfit_deg: np.ndarray,
+                  scored: np.ndarray, pressure_kpa: np.ndarray, rate_hz: float,
+                  finger: SimFinger) -> noise.NoiseModel:
+    """`model` (estimated on the plain model's residual) with its AR order and coefficients
+    from the stretches at rest, where the misfit (`misfit_deg`: offset and slow drift out)
+    stands more than STRUCTURE_FACTOR times above the noise there; else `model`."""
+    rest = rest_noise(residual_deg, scored, pressure_kpa, rate_hz, finger)
+    if rest is None:
+        return model
+    rest_std = float(np.sqrt(np.mean(rest * rest)))
+    m = misfit_deg[scored]
+    m = m - m.mean()
+    if not float(np.sqrt(np.mean(m * m))) > STRUCTURE_FACTOR * rest_std:
+        return model
+    order = noise.choose_order(rest)
+    a, variance = noise.yule_walker(rest, order) if order else (np.zeros(0), float(np.var(rest)))
+    return dataclasses.replace(model, order=order, ar=a, innovation_std_deg=float(np.sqrt(variance)))
+
+
+def rest_noise(residual_deg: np.ndarray, scored: np.ndarray, pressure_kpa: np.ndarray, rate_hz: float,
+               finger: SimFinger) -> np.ndarray | None:
+    """The residual on the stretches at rest, each less its mean, joined; None where the
+    recording has too little at rest."""
     settle_s = max(MIN_SETTLE_S, SETTLE_DECAYS * slowest_decay_s(finger))
     if not np.isfinite(settle_s):
         return None
@@ -94,7 +123,16 @@ def bound(residual_deg: np.ndarray, misfit_deg: np.ndarray, scored: np.ndarray, 
         if r.size >= 2:
             parts.append(r - r.mean())
     rest = np.concatenate(parts) if parts else np.zeros(0)
-    if rest.size < MIN_REST_S * rate_hz:
+    return rest if rest.size >= MIN_REST_S * rate_hz else None
+
+
+def bound(residual_deg: np.ndarray, misfit_deg: np.ndarray, scored: np.ndarray, pressure_kpa: np.ndarray,
+          rate_hz: float, finger: SimFinger) -> NoiseBound | None:
+    """The noise at rest against the misfit: `residual_deg` the plain model's raw residual,
+    `misfit_deg` the same with the sensor's offset and slow drift taken out, `scored` the
+    samples that are data. None where the recording has too little at rest."""
+    rest = rest_noise(residual_deg, scored, pressure_kpa, rate_hz, finger)
+    if rest is None:
         return None
     m = misfit_deg[scored]
     m = m - m.mean()
@@ -104,4 +142,4 @@ def bound(residual_deg: np.ndarray, misfit_deg: np.ndarray, scored: np.ndarray, 
     return NoiseBound(rest_std, float(np.sqrt(np.mean(m * m))), rest.size / rate_hz)
 
 
-__all__ = ["NoiseBound", "bound", "rest_stretches", "slowest_decay_s"]
+__all__ = ["NoiseBound", "bound", "bounded_order", "rest_noise", "rest_stretches", "slowest_decay_s"]
