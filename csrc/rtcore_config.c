@@ -42,7 +42,8 @@ static int32_t validate_finger(const rtcore_finger_config *c, double sample_rate
         return RTCORE_ERR_EFFECTS;
     }
     if (c->feedforward < RTCORE_FF_NONE || c->feedforward > RTCORE_FF_DYNAMIC
-        || (c->force_estimate_dynamic != 0 && c->force_estimate_dynamic != 1)) {
+        || (c->force_estimate_dynamic != 0 && c->force_estimate_dynamic != 1)
+        || (c->force_estimate_hysteresis != 0 && c->force_estimate_hysteresis != 1)) {
         return RTCORE_ERR_FEEDFORWARD;
     }
     if (!finite_at_least(c->kp_kpa_per_deg, 0.0) || !finite_at_least(c->ki_kpa_per_deg_s, 0.0)

@@ -93,6 +93,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
     double angle_rad;
     double chamber_kpa;
     double force_n;
+    double loop_z;
     double feedforward_kpa = 0.0;
     double pid_kpa = 0.0;
     double command_kpa = 0.0;
@@ -134,9 +135,10 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
         chamber_kpa = s->chamber_model_kpa;
     }
     rtcore_hysteresis_angle_update(c, s);
+    loop_z = c->force_estimate_hysteresis ? s->hysteresis_z : 0.0;
     force_n = rtcore_force_normal_n(c, chamber_kpa, angle_rad,
                                     s->velocity_deg_per_s * RTCORE_RAD_PER_DEG,
-                                    s->accel_deg_per_s2 * RTCORE_RAD_PER_DEG, s->hysteresis_z);
+                                    s->accel_deg_per_s2 * RTCORE_RAD_PER_DEG, loop_z);
     if (!isfinite(force_n)) {
         force_n = 0.0;
         flags |= (uint32_t)RTCORE_FLAG_OUTPUT_REJECTED;
@@ -181,7 +183,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
                     : s->impedance_stiffness_n_per_deg * (s->angle_ref_deg - s->angle_filt_deg)
                           + s->impedance_damping_n_s_per_deg
                                 * (s->velocity_ref_deg_per_s - s->velocity_deg_per_s);
-            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n, s->hysteresis_z);
+            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n, loop_z);
             error = force_ref_n - force_n;
             proportional_kpa = c->force_kp_kpa_per_n * error;
             s->derivative_deg_per_s = 0.0;

@@ -147,6 +147,10 @@ typedef struct {
     rtcore_prbm prbm;
     int32_t feedforward;
     int32_t force_estimate_dynamic;
+    /* 1: the force estimate and force feedforward carry the model's hysteresis loop, driven
+     * by the filtered angle (only where the finger has the loop: one it lacks is positive
+     * feedback); 0: they leave it out */
+    int32_t force_estimate_hysteresis;
     /* position PID on the filtered angle (error in deg, output in kPa) */
     double kp_kpa_per_deg;
     double ki_kpa_per_deg_s;

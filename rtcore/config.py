@@ -132,6 +132,7 @@ class FingerConfig(HasPrbm):
     velocity_cutoff_hz: float = 25.0
     feedforward: int = FF_DYNAMIC
     force_estimate_dynamic: int = 0
+    force_estimate_hysteresis: int = 0
     kp_kpa_per_deg: float = 0.2
     ki_kpa_per_deg_s: float = 2.0
     kd_kpa_s_per_deg: float = 0.0

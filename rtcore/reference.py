@@ -310,8 +310,9 @@ class ReferenceHand:
         if not usable(chamber_kpa):
             chamber_kpa = s.chamber_model_kpa
         hysteresis_angle_update(c.prbm.effects, s)
+        loop_z = s.hysteresis_z if c.force_estimate_hysteresis else 0.0
         force_n = force_normal(c, chamber_kpa, angle_rad, s.velocity_deg_per_s * RAD_PER_DEG,
-                               s.accel_deg_per_s2 * RAD_PER_DEG, s.hysteresis_z)
+                               s.accel_deg_per_s2 * RAD_PER_DEG, loop_z)
         if not math.isfinite(force_n):
             force_n, flags = 0.0, flags | cfg.FLAG_OUTPUT_REJECTED
 
@@ -343,7 +344,7 @@ class ReferenceHand:
                 force_ref_n = s.force_ref_n if mode == cfg.MODE_FORCE else (
                     s.impedance_stiffness_n_per_deg * (s.angle_ref_deg - s.angle_filt_deg)
                     + s.impedance_damping_n_s_per_deg * (s.velocity_ref_deg_per_s - s.velocity_deg_per_s))
-                feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n, s.hysteresis_z)
+                feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n, loop_z)
                 error = force_ref_n - force_n
                 proportional_kpa = c.force_kp_kpa_per_n * error
                 s.derivative_deg_per_s = 0.0

@@ -192,7 +192,7 @@ static void test_force_estimate(void)
 /* With a hysteresis loop in the model, the estimate takes H z off, z Dahl's state driven by
  * the filtered angle from the middle at the first angle: replayed here over the filtered
  * angles of a step from rest to 60 deg (through the filter's overshoot and back, so z ends
- * short of +1). */
+ * short of +1), once the config asks for it (force_estimate_hysteresis). */
 static void test_force_estimate_hysteresis(void)
 {
     rtcore_hand hand;
@@ -217,6 +217,7 @@ static void test_force_estimate_hysteresis(void)
     plain_n = out.force_normal_n[0];
     h.finger[0].prbm.effects.hysteresis_torque_nm = torque_nm;
     h.finger[0].prbm.effects.hysteresis_travel_deg = travel_deg;
+    h.finger[0].force_estimate_hysteresis = 1;
     CHECK(rtcore_hand_configure(&hand, &h) == RTCORE_OK, "configure with a loop");
     in.sensor_mv[0] = mv_for_deg(&hand.config.finger[0], 0.0);
     rtcore_hand_step(&hand, &in, &out);

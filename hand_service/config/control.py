@@ -28,6 +28,9 @@ CONTROL_SECTION = Section("Control", "`control:` — the control loop.", (
         default="dynamic", choices=("none", "quasi_static", "dynamic")),
     Key("force_estimate", "static: (J^T)+(Np − kθ); dynamic adds −Bθ' − Aθ''", "choice",
         default="static", choices=("static", "dynamic")),
+    Key("force_estimate_hysteresis", "the force estimate and force feedforward carry the model's "
+        "hysteresis loop, driven by the filtered angle (force and impedance modes); only where "
+        "the finger has the loop: one it lacks is positive feedback", "bool", default=False),
     Key("integrator_limit_kpa", "bound on the PID and force-PI integrators", "float", "kPa", 50.0,
         0.0),
 ))
@@ -44,6 +47,7 @@ class ControlSettings:
     derivative_cutoff_hz: float
     feedforward: str  # none | quasi_static | dynamic
     force_estimate: str  # static | dynamic
+    force_estimate_hysteresis: bool
     integrator_limit_kpa: float
 
     @classmethod

@@ -129,6 +129,7 @@ class FingerProfile:
             velocity_cutoff_hz=control.velocity_cutoff_hz,
             feedforward=rtcore.config.FEEDFORWARD_BY_NAME[control.feedforward],
             force_estimate_dynamic=int(control.force_estimate == "dynamic"),
+            force_estimate_hysteresis=int(control.force_estimate_hysteresis),
             kp_kpa_per_deg=self.kp_kpa_per_deg,
             ki_kpa_per_deg_s=self.ki_kpa_per_deg_s,
             kd_kpa_s_per_deg=self.kd_kpa_s_per_deg,

@@ -121,10 +121,11 @@ def main(argv: list[str] | None = None) -> int:
     rest = {(args.plant, label): at_rest(truth, c, args.finger, k_set, base)
             for label, c in base_runs.items()}
     loop = base_runs["diagnosed"].finger(args.finger).model.effects.get("hysteresis")
-    if loop is not None:  # a false positive: the loop in the model, not in the plant
+    if loop is not None:  # a false positive: the loop in the model (and in force), not in the plant
         rest[("PRBM", "the truth's model")] = at_rest(truth, truth, args.finger, k_set, NONE)
+        lab_control = dataclasses.replace(truth, control=base_runs["diagnosed"].control)
         rest[("PRBM", "the truth's model with diagnose's loop")] = at_rest(
-            truth, with_effect(truth, args.finger, "hysteresis", loop), args.finger, k_set, NONE)
+            truth, with_effect(lab_control, args.finger, "hysteresis", loop), args.finger, k_set, NONE)
     print(f"\n{args.finger} at {args.share:g} K_max left alone ({REST_S:g} s, the last {LAST_S:g} s):\n")
     print("| plant | controller | mean angle (deg) | angle peak-to-peak (deg) | chamber peak-to-peak (kPa) |")
     print("| --- | --- | --- | --- | --- |")

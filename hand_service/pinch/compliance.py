@@ -90,7 +90,8 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
     at the drifting contact lever, the bowed sensor and the board's valves in place of the
     profile's lag and dead time (the wall, the simulator's contact, stays at the model's r)."""
     f = truth.finger(finger)
-    config = (controller or truth).finger(finger).rtcore_config(truth.control)
+    lab = controller or truth
+    config = lab.finger(finger).rtcore_config(lab.control)
     hand = rtcore.Hand(rtcore.HandConfig([config], sample_rate_hz=truth.control.rate_hz))
     m = f.model
     rate_hz = truth.control.rate_hz

@@ -129,7 +129,8 @@ def diagnosed_controller(truth: Profile, controller: Profile, mismatch: Mismatch
                          ) -> tuple[Profile, list[LabDiagnosis]]:
     """The controller after the lab's valve calibration and diagnose on each named finger:
     that finger's model replaced by what `diagnose --write-model` writes (the refit k, B, N
-    and the effects found, beside the calibrated valve). Returns it and each finger's
+    and the effects found, beside the calibrated valve), with the force estimate carrying a
+    loop diagnose names (control.force_estimate_hysteresis). Returns it and each finger's
     diagnosis."""
     rng = np.random.default_rng(seed)
     noise_deg = float(truth.simulation["sensor_noise_deg"])
@@ -141,4 +142,6 @@ def diagnosed_controller(truth: Profile, controller: Profile, mismatch: Mismatch
         found = lab_diagnosis(truth.finger(name), lab, mismatch, rng, noise_deg, noise_kpa, search)
         done.append(found)
         by_name[name] = dataclasses.replace(lab, model=found.diagnosis.refit_model())
-    return dataclasses.replace(controller, fingers=[by_name[f.name] for f in controller.fingers]), done
+    control = dataclasses.replace(controller.control, force_estimate_hysteresis=True)
+    return dataclasses.replace(controller, control=control,
+                               fingers=[by_name[f.name] for f in controller.fingers]), done

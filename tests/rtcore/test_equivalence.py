@@ -71,6 +71,7 @@ def finger_strategy(draw: st.DrawFn) -> FingerConfig:
         **sensor_and_filters,
         feedforward=draw(st.sampled_from([0, 1, 2])),
         force_estimate_dynamic=draw(st.sampled_from([0, 1])),
+        force_estimate_hysteresis=draw(st.sampled_from([0, 1])),
         kp_kpa_per_deg=draw(positive(0.0, 2.0)),
         ki_kpa_per_deg_s=draw(positive(0.0, 10.0)),
         kd_kpa_s_per_deg=draw(positive(0.0, 0.05)),

@@ -19,10 +19,13 @@ TRAVEL_DEG = 2.0
 PRESSURE_KPA = 40.0
 
 
-def run(finger: FingerConfig, path_deg: list[float], **effects: float) -> dict[str, np.ndarray]:
-    """Per tick of path_deg (the sensor's angle): the filtered angle, the estimate, the feedforward."""
+def run(finger: FingerConfig, path_deg: list[float], loop_in_force: int = 1,
+        **effects: float) -> dict[str, np.ndarray]:
+    """Per tick of path_deg (the sensor's angle): the filtered angle, the estimate, the
+    feedforward; loop_in_force the config's force_estimate_hysteresis."""
     h = Hand(HandConfig([finger.replace(feedforward=FF_QUASI_STATIC, force_estimate_dynamic=0,
-                                             effects=Effects(**effects))]))
+                                        force_estimate_hysteresis=loop_in_force,
+                                        effects=Effects(**effects))]))
     out: dict[str, list[float]] = {"angle": [], "force": [], "feedforward": []}
     for angle_deg in path_deg:
         h.inputs.mode[0] = MODE_FORCE
@@ -73,3 +76,13 @@ def test_without_the_loop_nothing_changes(index_finger: FingerConfig) -> None:
     torque_nm = m.pressure_gain_nm_per_kpa * PRESSURE_KPA - m.stiffness_nm_per_rad * angle_rad
     expected = torque_nm / m.lever_arm_m
     np.testing.assert_allclose(plain["force"], expected, rtol=1e-9, atol=1e-12)
+
+
+def test_the_loop_stays_out_of_force_unless_asked(index_finger: FingerConfig) -> None:
+    """force_estimate_hysteresis = 0 (a profile's default): a model with a loop estimates and
+    feeds forward as one without, since a loop the finger lacks is positive feedback."""
+    path = [20.0] * 20 + list(np.linspace(20.0, 50.0, 60)) + list(np.linspace(50.0, 35.0, 40))
+    loop = {"hysteresis_torque_nm": TORQUE_NM, "hysteresis_travel_deg": TRAVEL_DEG}
+    left_out, plain = run(index_finger, path, loop_in_force=0, **loop), run(index_finger, path)
+    np.testing.assert_array_equal(left_out["force"], plain["force"])
+    np.testing.assert_array_equal(left_out["feedforward"], plain["feedforward"])
