@@ -61,7 +61,8 @@ typedef struct {
 /* rtcore_sim_step_size.c */
 double rtcore_sim_friction_slope_nms_per_rad(const rtcore_effects *e, double velocity_rad_per_s);
 double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0,
-                                           double step_s);
+                                           double step_s, int32_t drag_exact);
+double rtcore_sim_drag_step_s(const sim_plant *p, double velocity_rad_per_s, double balance_nm, double drift_nm);
 double rtcore_sim_damping_step_s(const sim_plant *local, double velocity_rad_per_s, double reach, double net_nm,
                                  double drift_nm, double drift_rate_nm_per_s, double h_cap_s);
 double rtcore_sim_parameter_step_s(const sim_plant *p);

@@ -189,6 +189,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
     double t_s = 0.0;
     int32_t last = 0;
     int32_t next_touching = -1; /* after a step cut at the surface: the side it goes on to */
+    const int32_t drag_explicit = span != 0 && f->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0;
 
     segment.external_torque_nm = external_torque_nm;
     p = &segment;
@@ -215,9 +216,9 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                                      ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
                                      : 0.0;
         /* the friction's and the drag's slopes here, integrated exactly over the step: the
-         * plant with B + slope0 */
+         * plant with B + slope0; over a span the drag's stays explicit (drag_explicit) */
         const double slope0
-            = friction0 + 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s);
+            = friction0 + (drag_explicit ? 0.0 : 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s));
         sim_plant local;
         with_damping(p, slope0, &local);
         double h = settle_range_rad > 0.0 && cap_s < request_cap_s
@@ -260,7 +261,17 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                 h = fmin(h, lag_step_s * cbrt(lag_span_kpa / gap_kpa));
             }
         }
-        if (f->prbm.effects.coulomb_torque_nm > 0.0 || f->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0) {
+        if (drag_explicit) {
+            /* the chamber's torque moves within the step by no more than over h from now */
+            const double drift_nm = moving ? rtcore_sim_pressure_torque_nm(f, rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s,
+                                                                              fmin(t_s + h, duration_s)))
+                                                 + external_torque_nm - torque_start
+                                           : 0.0;
+            h = fmin(h, rtcore_sim_drag_step_s(p, s->velocity_rad_per_s,
+                                               torque_start + g_start - p->linear.stiffness_nm_per_rad * s->angle_rad,
+                                               drift_nm));
+        }
+        if (f->prbm.effects.coulomb_torque_nm > 0.0 || (f->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0 && !drag_explicit)) {
             const double net_nm = torque_start + g_start - p->linear.stiffness_nm_per_rad * s->angle_rad
                                   - p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
             /* the chamber's torque moves within the step by no more than over h from now (it
@@ -276,7 +287,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                                                             * fabs(input_kpa - chamber_now_kpa) / tau_s
                                                       : 0.0;
             h = fmin(h, rtcore_sim_damping_step_s(&local, s->velocity_rad_per_s,
-                                                  rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0, h), net_nm,
+                                                  rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0, h, !drag_explicit), net_nm,
                                                   drift_nm, drift_rate_nm_per_s, h));
             g_start += slope0 * s->velocity_rad_per_s;
         }

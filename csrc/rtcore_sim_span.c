@@ -15,16 +15,20 @@
 /* a time within this fraction of a sample period of a sample is on it */
 static const double SPAN_ALIGN = 1e-9;
 
-/* Not with the drag, nor with the pneumatic valve, whose pieces follow the regulator's
- * period. The drag's slope, 2·c2·|θ'|, which each step takes into its exact part, lets a
- * slow finger take long steps; cut to whole periods, how many periods moved with the
- * parameters in jumps that a finite difference of 1e-6 saw (2 % on its derivative at
- * 1 kHz, against 2e-4 a step per sample). Dry friction's steps stay short while it
- * slides (rtcore_sim_damping_step_s) and its result as smooth as a step per sample's. */
+/* Not with the pneumatic valve, whose pieces follow the regulator's period. Air drag's
+ * slope, 2·c2·|θ'|, stays explicit over a span (rtcore_sim_drag_step_s bounds its steps), so
+ * the propagators at whole periods hold: taken into each step's exact part, as a step per
+ * sample takes it, it let a slow finger take long steps whose number, cut to whole periods,
+ * moved with the parameters in jumps that a finite difference of 1e-6 saw (2 % on its
+ * derivative at 1 kHz). Only on an under-damped finger: on an over-damped one the explicit
+ * slope's bound follows the fast mode, −B/A, to steps far shorter than a sample (a 30 s,
+ * 100 Hz ramp 0.6 → 8 ms a run), where a step per sample with the slope in its exact part
+ * is both fast and exact. Dry friction's steps stay short while it slides
+ * (rtcore_sim_damping_step_s) and its result as smooth as a step per sample's. */
 int32_t rtcore_sim_span_eligible(const sim_plant *p)
 {
     return p->finger->pneumatic.valve_model != RTCORE_VALVE_PNEUMATIC
-           && !(p->finger->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0);
+           && !(p->finger->prbm.effects.quadratic_damping_nms2_per_rad2 > 0.0 && p->linear.disc_per_s2 >= 0.0);
 }
 
 /* The longest step over a span: the motion's time scale (1/|λ_slow| over-damped, 1/ω_n

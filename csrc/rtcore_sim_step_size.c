@@ -94,18 +94,19 @@ static double friction_reach_rad_per_s(const rtcore_effects *e, double velocity_
 }
 
 /* How far the velocity may move before the damping-like slopes taken into the exact part
- * at the step's start, the friction's c_f and the drag's 2·c2·|θ'|, change by more than
+ * at the step's start, the friction's c_f and the drag's 2·c2·|θ'| (when drag_exact: a step
+ * per sample; over a span it is explicit, rtcore_sim_drag_step_s), change by more than
  * FRICTION_SLOPE_SHARE and DRAG_SLOPE_SHARE of the exact damping B + c0 (half of each when
  * both act; the friction's of B + c0 or of A/step_s, the larger, step_s the step proposed
  * before this bound), and, with friction, no further than KNEE_REACH·ω_s within its knee. A floor
  * of 1e-3 of critical damping (and 1e-6 of the friction's peak slope) keeps a plant
  * without damping, at rest, from steps of nothing. */
 double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double velocity_rad_per_s, double friction0,
-                                           double step_s)
+                                           double step_s, int32_t drag_exact)
 {
     const rtcore_effects *e = &local->finger->prbm.effects;
     const int32_t friction = e->coulomb_torque_nm > 0.0;
-    const int32_t drag = e->quadratic_damping_nms2_per_rad2 > 0.0;
+    const int32_t drag = drag_exact && e->quadratic_damping_nms2_per_rad2 > 0.0;
     const double floor_nms_per_rad
         = fmax(1e-3 * sqrt(local->linear.stiffness_nm_per_rad * local->linear.inertia_kgm2),
                friction ? 1e-6 * e->coulomb_torque_nm / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG) : 0.0);
@@ -132,6 +133,27 @@ double rtcore_sim_velocity_reach_rad_per_s(const sim_plant *local, double veloci
         reach = fmin(reach, allowed_drag / (2.0 * e->quadratic_damping_nms2_per_rad2));
     }
     return reach;
+}
+
+/* Air drag left explicit (over a span, where the propagators at whole periods are the
+ * finger's own): the step that its slope 2·c2·|θ'| allows by how far it moves the plant's
+ * eigenvalues, at the fastest the finger can move within the step. Under a held drive the
+ * energy ½·A·θ'² + ½·k·(θ − θ_eq)² does not grow (the damping, the drag's too, only takes
+ * it), so |θ'| <= sqrt(θ'² + (u − k·θ)²/(k·A)), u − k·θ the torque out of balance without
+ * the damper (balance_nm, taken whole: with the drag's own torque, c2·θ'², added), and a
+ * change of the drive by drift_nm within the step adds at most |drift|/sqrt(k·A). */
+double rtcore_sim_drag_step_s(const sim_plant *p, double velocity_rad_per_s, double balance_nm, double drift_nm)
+{
+    const double c2 = p->finger->prbm.effects.quadratic_damping_nms2_per_rad2;
+    const double k_a = p->linear.stiffness_nm_per_rad * p->linear.inertia_kgm2;
+    double balance;
+    double fastest;
+    if (!(c2 > 0.0)) {
+        return INFINITY;
+    }
+    balance = fabs(balance_nm) + c2 * velocity_rad_per_s * velocity_rad_per_s;
+    fastest = sqrt(velocity_rad_per_s * velocity_rad_per_s + balance * balance / k_a) + fabs(drift_nm) / sqrt(k_a);
+    return slope_step_s(p, 2.0 * c2 * fastest, 0.0);
 }
 
 /* The longest step, up to h_cap, over which the velocity stays within `reach`. The torque

@@ -1,12 +1,16 @@
 """What makes diagnose faster without changing its answer (hand_service/diagnose/model/problem.py,
 fitting/output_error.py): a finger simulated again on the same recording comes from the problem's cache,
 the same bit for bit; and a Jacobian's columns simulated side by side give the same fit,
-bit for bit, as one at a time. (How much faster: tests/bench/test_diagnose_benchmark.py.)"""
+bit for bit, as one at a time (HAND_DIAGNOSE_THREADS=1: diagnose/workers.py). (How much
+faster: tests/bench/test_diagnose_benchmark.py.)"""
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import os
+import subprocess
+import sys
 import threading
 
 import numpy as np
@@ -17,6 +21,7 @@ from hand_service.diagnose.fitting.output_error import column_map, fit
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN, Problem
 from hand_service.diagnose.model.simulation_cache import SimulationCache, finger_key
+from hand_service.diagnose.workers import MOST_THREADS, THREADS_ENV, thread_count
 from tests.diagnose.linear_truth import stepped_recording
 
 RATE_HZ = 100.0
@@ -134,3 +139,23 @@ def test_column_map_keeps_the_order_and_uses_other_threads() -> None:
     out = list(column_map(column, (np.array([float(i)]) for i in range(5))))
     assert [float(v[0]) for v in out] == [0.0, 10.0, 20.0, 30.0, 40.0]
     assert len(threads) >= 2
+
+
+def test_the_environment_sets_diagnose_s_threads() -> None:
+    cores = max(1, min(MOST_THREADS, os.cpu_count() or 1))
+    assert thread_count({}) == cores
+    assert thread_count({THREADS_ENV: "1"}) == 1
+    assert thread_count({THREADS_ENV: " 2 "}) == 2
+    assert thread_count({THREADS_ENV: "64"}) == MOST_THREADS
+    for wrong in ("0", "-1", "two", "1.5"):
+        with pytest.raises(ValueError, match=THREADS_ENV):
+            thread_count({THREADS_ENV: wrong})
+
+
+def test_one_thread_asked_runs_every_pool_serially() -> None:
+    code = ("from hand_service.diagnose.fitting import output_error as f\n"
+            "from hand_service.diagnose.search import forward_selection as s\n"
+            "print(f.COLUMN_WORKERS, s.WORKERS)")
+    env = {**os.environ, THREADS_ENV: "1"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["1", "1"]

@@ -13,7 +13,6 @@ Jacobian and every fit are the same, bit for bit, as one column at a time.
 from __future__ import annotations
 
 import inspect
-import os
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -25,6 +24,7 @@ from scipy.optimize import least_squares
 from hand_service.config import effects as fx
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Prior, Problem
+from hand_service.diagnose.workers import thread_count
 from rtcore.sim import SimFinger
 
 DIVERGED_DEG = 1e4  # residual that stands for a simulation that ran away
@@ -112,7 +112,7 @@ def _into_bounds(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndar
     return np.clip(x, lower + 1e-9 * span, upper - 1e-9 * span)
 
 
-COLUMN_WORKERS = min(4, os.cpu_count() or 1)  # a Jacobian's columns simulated at once
+COLUMN_WORKERS = thread_count()  # a Jacobian's columns simulated at once (diagnose/workers.py)
 # least_squares takes `workers` from SciPy 1.16 on; before, the columns run one at a time
 _PARALLEL_COLUMNS = "workers" in inspect.signature(least_squares).parameters
 _columns: ThreadPoolExecutor | None = None

@@ -21,7 +21,6 @@ as the effect's signature correlation.
 from __future__ import annotations
 
 import dataclasses
-import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -34,6 +33,7 @@ from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import NO_PRIOR, Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
+from hand_service.diagnose.workers import thread_count
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
 SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
@@ -45,7 +45,7 @@ LATER_TOP = 3  # after the first round, only the screen's best three are fitted
 LATER_WHITE_BIC = 0.0  # and of those only what the screen predicts above this on the innovations
 DETERMINED_Z = 3.0  # an effect's estimate must stand this many standard errors from neutral
 PRIOR_EVIDENCE_FACTOR = 10.0  # a refit this many times off the nominal makes its prior evidence
-WORKERS = min(4, os.cpu_count() or 1)  # effects screened and fitted at once
+WORKERS = thread_count()  # effects screened and fitted at once (diagnose/workers.py)
 
 Progress = Callable[[str], None]
 
