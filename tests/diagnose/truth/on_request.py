@@ -1,7 +1,7 @@
 """The library effects diagnose searches only on request, on the independent truth, in the
-truth's own forms (plant.py: pressure stiffening a power of the pressure; creep two Maxwell
-branches at T and 4·T; hysteresis Bouc-Wen's loop with β = γ; contact Hunt-Crossley's, with
-its damping), through `hand-service diagnose --search`:
+truth's own forms (plant.py: pressure stiffening a power of the pressure, or on odd seeds
+an exponential; creep two Maxwell branches at T and 4·T; hysteresis Bouc-Wen's loop with
+β = γ; contact Hunt-Crossley's, with its damping), through `hand-service diagnose --search`:
 
     python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
         [--effects pressure_stiffening creep hysteresis contact] [--shape-known]
@@ -10,7 +10,9 @@ its damping), through `hand-service diagnose --search`:
 Hysteresis and contact are the battery's cases outside the library (cases.OUT_OF_LIBRARY:
 the same recordings), here searched for by name. Each case is scored as a library effect
 (scoring.py): named first where observable (`observable`); the estimate's error against the
-truth's library equivalent (cases.library_equivalent)."""
+truth's library equivalent (cases.library_equivalent) and, for contact and pressure
+stiffening, against the library form's best fit to the truth (library_form.py), which also
+says where the library's form explains the truth's contact only in part (`beyond_form`)."""
 
 from __future__ import annotations
 
