@@ -166,7 +166,11 @@ def evidence(problem: Problem, base: Fit, before: np.ndarray, joint: Fit) -> tup
     the share of it that is the nominal's prior (counted only where the data asked for a
     refit an order of magnitude from it: 9 widths of its log-normal prior, a χ² of 85;
     nearer, the prior holds k, B and N but decides nothing: hysteresis on a ramp pulled B 4×
-    off, and a valve lag pulled it back), and the joint fit's innovations."""
+    off, and a valve lag pulled it back), and the joint fit's innovations. A joint fit whose
+    finger diverges (its angle not finite: an output-error fit takes that as a very bad
+    fit, error_rows) gains −∞, and `base`'s innovations stand for its own."""
+    if not np.all(np.isfinite(joint.angle_deg)):
+        return -np.inf, 0.0, before  # the fit drove the finger unstable: it explains nothing
     far = bool(far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR))
     prior_gain = prior_chi2(problem, base) - prior_chi2(problem, joint) if far else 0.0
     after = problem.innovations(joint.angle_deg)

@@ -8,8 +8,9 @@ Cases: every library effect × 6 excitation classes × 3 seeds × {concealed, ev
 classes a window that moves with the seed, so each effect meets all ten over its three
 seeds; `--classes-per-effect 10` runs every class for every seed); clean fingers (k, B, N of
 the nominal off by up to 10 %, correlated noise and drift) on every class × 2 seeds;
-hysteresis and contact (outside the library) on the same windows (the free release left
-out) × 2 seeds × {concealed, evident}. The family (ringing, over-damped, stiff) and the
+hysteresis, contact and a pressure-dependent damping (outside the eight; the last in no
+library form) on the same windows (the free release left out) × 2 seeds × {concealed,
+evident}. The family (ringing, over-damped, stiff) and the
 sample rate (100, 200, 500, 1000 Hz) rotate with the case. Recordings are cached by case
 and by the generator's source (a change of the generator makes new ones); diagnose is run
 afresh every time, as a subprocess of this Python, one BLAS thread each.

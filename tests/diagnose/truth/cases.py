@@ -57,11 +57,16 @@ LIBRARY = (
     "quadratic_damping",
     "pressure_deadzone",
 )
-OUT_OF_LIBRARY = ("hysteresis", "contact")
+# hysteresis and contact are in the library but searched only on request: outside the eight
+# searched by default; pressure damping is in no library form
+OUT_OF_LIBRARY = ("hysteresis", "contact", "pressure_damping")
 CLEAN = "clean"
 ALL_EFFECTS = (*LIBRARY, CLEAN, *OUT_OF_LIBRARY)
 # library effects diagnose searches only on request (`--search`): run by on_request.py
 ON_REQUEST = ("pressure_stiffening", "creep")
+# the order that rotates each effect's family and rate (CaseSpec.resolved): a later effect
+# appended at its end moves no earlier case
+ROTATION = (*LIBRARY, CLEAN, "hysteresis", "contact", *ON_REQUEST, "pressure_damping")
 FAMILY_NAMES = ("ringing", "overdamped", "stiff")
 RATES = (100.0, 200.0, 500.0, 1000.0)
 TARGETS = {"concealed": (0.5, 1.3), "evident": (3.0, 5.0)}
@@ -80,7 +85,7 @@ class CaseSpec:
     duration_s: float = 30.0  # the free release is 6 s whatever this says
 
     def resolved(self) -> CaseSpec:
-        ie, ic = (*ALL_EFFECTS, *ON_REQUEST).index(self.effect), ex.CLASSES.index(self.excitation)
+        ie, ic = ROTATION.index(self.effect), ex.CLASSES.index(self.excitation)
         fam = self.family or FAMILY_NAMES[(self.seed + ic + ie) % 3]
         rate = self.rate_hz or RATES[(self.seed + 3 * ic + 2 * ie) % 4]
         mag = "none" if self.effect == CLEAN else self.magnitude
@@ -169,6 +174,7 @@ class Shape:
     zmax_deg: float = 10.0
     contact_deg: float = 60.0
     creep_time_s: float = 0.5
+    stiffening_form: str = "power"
 
 
 def shape_of(spec: CaseSpec) -> Shape:
@@ -185,6 +191,7 @@ def shape_of(spec: CaseSpec) -> Shape:
         zmax_deg=float(rng.uniform(8.0, 15.0)),
         contact_deg=float(rng.uniform(0.75, 0.9)),
         creep_time_s=float(rng.uniform(0.3, 1.0)),
+        stiffening_form="exp" if odd else "power",
     )  # contact: a quantile of the free angle
 
 
@@ -205,6 +212,7 @@ def bounds(effect: str, family: Family, shape: Shape, top_kpa: float) -> tuple[f
         "contact": (1.0 * k, 1e-3 * k, 100.0 * k),
         "pressure_stiffening": (0.3, 1e-3, 3.0),
         "creep": (0.1, 1e-3, 2.0),
+        "pressure_damping": (1.0, 1e-3, 30.0),
     }
     return table[effect]
 
@@ -238,9 +246,11 @@ def truth_at(
     if effect == "contact":
         return base.with_(contact_deg=contact_deg, contact_nm_per_rad15=s)
     if effect == "pressure_stiffening":
-        return base.with_(stiffening_s=s)
+        return base.with_(stiffening_s=s, stiffening_form=shape.stiffening_form)
     if effect == "creep":
         return base.with_(creep_beta=s, creep_time_s=shape.creep_time_s)
+    if effect == "pressure_damping":
+        return base.with_(pressure_damping_ratio=s)
     if effect == CLEAN:
         return base
     raise ValueError(f"unknown effect {effect!r}")
@@ -263,9 +273,11 @@ def library_equivalent(effect: str, truth: Truth) -> dict[str, float]:
         "asymmetric_stiffness": lambda: {"stiffness_ratio": truth.asym_ratio},
         "quadratic_damping": lambda: {"c2_nms2_per_rad2": truth.drag_c2},
         "pressure_deadzone": lambda: {"threshold_kpa": truth.deadzone_kpa},
-        # s·(p/p_fs)^0.7 against c·p/100 kPa: the least-squares slope over 0..p_fs
-        "pressure_stiffening": lambda: {"gain": 100.0 * truth.stiffening_s * (3.0 / 2.7)
-                                        / truth.family.full_scale_kpa},
+        # s·g(p/p_fs) against c·p/100 kPa: g's least-squares slope over 0..p_fs (x^0.7: 3/2.7;
+        # (e^x − 1)/(e − 1): 1.5/(e − 1))
+        "pressure_stiffening": lambda: {"gain": 100.0 * truth.stiffening_s / truth.family.full_scale_kpa
+                                        * (1.5 / (math.e - 1.0) if truth.stiffening_form == "exp"
+                                           else 3.0 / 2.7)},
         "creep": lambda: {"stiffness_ratio": truth.creep_beta},  # both branches together
         # Bouc-Wen's saturated torque K_h·z_max against Dahl's H (its travel, z_max, against θh)
         "hysteresis": lambda: {"torque_nm": truth.hysteresis_nm_per_rad * truth.hysteresis_zmax_deg * DEG},

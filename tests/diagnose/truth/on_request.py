@@ -1,7 +1,7 @@
 """The library effects diagnose searches only on request, on the independent truth, in the
-truth's own forms (plant.py: pressure stiffening a power of the pressure; creep two Maxwell
-branches at T and 4·T; hysteresis Bouc-Wen's loop with β = γ; contact Hunt-Crossley's, with
-its damping), through `hand-service diagnose --search`:
+truth's own forms (plant.py: pressure stiffening a power of the pressure, or on odd seeds
+an exponential; creep two Maxwell branches at T and 4·T; hysteresis Bouc-Wen's loop with
+β = γ; contact Hunt-Crossley's, with its damping), through `hand-service diagnose --search`:
 
     python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
         [--effects pressure_stiffening creep hysteresis contact] [--shape-known]
@@ -10,7 +10,9 @@ its damping), through `hand-service diagnose --search`:
 Hysteresis and contact are the battery's cases outside the library (cases.OUT_OF_LIBRARY:
 the same recordings), here searched for by name. Each case is scored as a library effect
 (scoring.py): named first where observable (`observable`); the estimate's error against the
-truth's library equivalent (cases.library_equivalent)."""
+truth's library equivalent (cases.library_equivalent) and, for contact and pressure
+stiffening, against the library form's best fit to the truth (library_form.py), which also
+says where the library's form explains the truth's contact only in part (`beyond_form`)."""
 
 from __future__ import annotations
 
@@ -20,6 +22,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -32,6 +35,7 @@ from tests.diagnose.truth import cases as cs  # noqa: E402
 from tests.diagnose.truth.battery import diagnose_argv  # noqa: E402
 from tests.diagnose.truth.distinct import left_over, library_torques  # noqa: E402
 from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
+from tests.diagnose.truth.library_form import best_form, contact_form, contact_torque_nm  # noqa: E402
 
 EFFECTS = (*cs.ON_REQUEST, *cs.OUT_OF_LIBRARY)
 # the least time past a contact's onset that shows it, and the least angle range that turns
@@ -91,6 +95,36 @@ def truth_shape(case: cs.Case) -> dict[str, float]:
     return {}
 
 
+def contact_scores(case: cs.Case, estimate: dict[str, float] | None, partial: list[str]) -> dict:
+    """A contact case against the library's form at its best (library_form.py): what that form
+    leaves (`library_form_left`; at OBSERVABLE_LEFT or more the library explains only part of
+    the truth's contact, and `partial`, the contact reported first in partial_effects, is the
+    truthful answer), and the named estimate's error against it: of its torque at the deepest
+    angle recorded (`torque_error`) and of its K (`form_error`, comparable only near its n)."""
+    form = contact_form(case)
+    deepest_deg = float(np.max(case.trajectory.theta_deg))
+    out = {"library_form": dataclasses.asdict(form), "library_form_left": form.left,
+           "beyond_form": form.left >= OBSERVABLE_LEFT,
+           "partial_first": bool(partial) and partial[0] == "contact",
+           "torque_error": None, "form_error": None}
+    if estimate is not None:
+        torque = contact_torque_nm(estimate["stiffness_nm_per_radn"], estimate["onset_deg"],
+                                   estimate["exponent"], deepest_deg)
+        out["torque_error"] = abs(torque - form.torque_nm(deepest_deg)) / form.torque_nm(deepest_deg)
+        out["form_error"] = abs(estimate["stiffness_nm_per_radn"] - form.stiffness_nm_per_radn) \
+            / form.stiffness_nm_per_radn
+    return out
+
+
+def stiffening_scores(case: cs.Case, estimate: dict[str, float] | None) -> dict:
+    """A pressure stiffening case against the library's k·(1 + c·p/p_ref) at its best
+    (library_form.best_form): what it leaves and the estimate's error against its c."""
+    values, left, _ = best_form(case, "pressure_stiffening", case.library_equivalent["gain"], [{}])
+    error = None if estimate is None else abs(estimate["gain"] - values["gain"]) / values["gain"]
+    return {"library_form": values, "library_form_left": left, "beyond_form": left >= OBSERVABLE_LEFT,
+            "form_error": error}
+
+
 def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False, search: str | None = None) -> dict:
     """`shape_known`: the lab's model file gives the effect's other parameters (truth_shape),
     its first at "none", as a lab that knows where its object sits would write it."""
@@ -114,10 +148,15 @@ def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False, search:
     if names and names[0] == spec.effect and true:
         error = abs(next(iter(first["params"].values())) - true) / abs(true)
     seen, reason = observable(case)
+    form = contact_scores(case, first.get("params") if names and names[0] == "contact" else None,
+                          [e.get("name") for e in result.get("partial_effects") or []]) \
+        if spec.effect == "contact" and (search or spec.effect) == "contact" else {}
+    if spec.effect == "pressure_stiffening" and (search or spec.effect) == spec.effect and seen:
+        form = stiffening_scores(case, first.get("params") if names and names[0] == spec.effect else None)
     return {**case.summary(), "shape_known": shape_known, "searched": search or spec.effect,
-            "observable": seen, "reason": reason, "truth_shape": truth_shape(case),
+            "observable": seen, "reason": reason, "truth_shape": truth_shape(case), **form,
             "estimate": first.get("params") if names and names[0] == spec.effect else None,
-            "verdict": result.get("verdict"), "named": names,
+            "verdict": result.get("verdict"), "grade": result.get("grade"), "named": names,
             "top1": bool(names) and names[0] == spec.effect, "parameter_error": error,
             "seconds": time.perf_counter() - started}
 
@@ -131,6 +170,19 @@ def summarise(rows: list[dict]) -> dict:
         out[effect] = {"cases": len(mine), "observable": len(seen), "top1": sum(r["top1"] for r in seen),
                        "wrong_names": sum(bool(r["named"]) and not r["top1"] for r in mine),
                        "median_parameter_error": float(np.median(errors)) if errors else None}
+        form_errors = [r["form_error"] for r in seen if r.get("form_error") is not None]
+        out[effect]["median_error_against_form"] = float(np.median(form_errors)) if form_errors else None
+        if effect == "contact":
+            within = [r for r in seen if not r["beyond_form"]]
+            beyond = [r for r in seen if r["beyond_form"]]
+            torque = [r["torque_error"] for r in seen if r["torque_error"] is not None]
+            out[effect] |= {
+                "observable_within_form": len(within), "top1_within_form": sum(r["top1"] for r in within),
+                "observable_beyond_form": len(beyond),
+                "partial_first_beyond_form": sum(r["partial_first"] for r in beyond),
+                "named_complete_beyond_form": sum(r["top1"] and r["grade"] == "complete" for r in beyond),
+                "partial_first_within_form": sum(r["partial_first"] for r in within),
+                "median_torque_error": float(np.median(torque)) if torque else None}
     for row in rows:  # another truth searched for an effect: how often it is named
         if row["searched"] != row["effect"]:
             key = f"{row['searched']} on {row['effect']}"

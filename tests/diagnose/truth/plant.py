@@ -19,8 +19,9 @@ library's (docs/formats.md §2.1), on purpose:
 | asymmetric spring | k·θ·[1 + (ρ − 1)·σ(−θ/w)], a logistic over about 1.5° | k or ρ·k by the sign of θ |
 | hysteresis (not in the library) | Bouc-Wen: K_h·z, ż = θ' − β·|θ'|·z − γ·θ'·|z|, β = γ = 1/(2·z_max) | — |
 | contact (not in the library) | Hunt-Crossley K_c·δ^1.5·(1 + λ·δ'), δ = θ − θ_c > 0 | — |
-| pressure stiffening | k·s·(p_eff/p_fs)^0.7·θ, a power of the pressure | k·c·(p_eff/p_ref)·θ |
+| pressure stiffening | k·s·g(p_eff/p_fs)·θ, g = x^0.7 or (e^x − 1)/(e − 1) (odd seeds) | k·c·(p/p_ref)·θ |
 | creep | two Maxwell branches, β/2·k each, time constants T and 4·T (a Prony series) | one branch β·k, T |
+| pressure damping (no library form) | B·r·(p_eff/p_fs)·θ', growing with the pressure | — |
 
 The integrator: the linear part (A, B, k) is propagated exactly over a fixed sub-step
 (matrix exponential, so the stiff over-damped family is no trouble), the extra torques are
@@ -122,11 +123,15 @@ class Truth:
     contact_deg: float = math.inf
     contact_nm_per_rad15: float = 0.0
     contact_damping_s_per_rad: float = 0.3
-    # pressure stiffening: k·s·(p_eff/p_fs)^0.7 added to k
+    # pressure stiffening: k·s·(p_eff/p_fs)^0.7 ("power") or k·s·(e^(p_eff/p_fs) − 1)/(e − 1)
+    # ("exp") added to k
     stiffening_s: float = 0.0
+    stiffening_form: str = "power"
     # creep: two Maxwell branches beside k, (β/2)·k each, time constants T and 4·T
     creep_beta: float = 0.0
     creep_time_s: float = 1.0
+    # pressure-dependent damping: B·r·(p_eff/p_fs) added to B (outside all the library's forms)
+    pressure_damping_ratio: float = 0.0
 
     def with_(self, **changes: float | str) -> Truth:
         return replace(self, **changes)
@@ -261,7 +266,9 @@ def simulate(
     spring_extra, eff_p = truth.spring_extra, truth.effective_pressure
     stiffening = truth.stiffening_s > 0.0
     ks, p_fs = k * truth.stiffening_s, f.full_scale_kpa
+    exp_form = truth.stiffening_form == "exp"
     creep = truth.creep_beta > 0.0
+    b_per_kpa = f.damping_nms_per_rad * truth.pressure_damping_ratio / p_fs
     kb = 0.5 * truth.creep_beta * k
     creep_keep = (math.exp(-h / truth.creep_time_s), math.exp(-h / (4.0 * truth.creep_time_s)))
 
@@ -322,7 +329,8 @@ def simulate(
                 pc = pm = ud
             drive = gain * (eff_p(pm) if dz else pm)
             if stiffening:
-                drive -= ks * (max(eff_p(pm) if dz else pm, 0.0) / p_fs) ** 0.7 * theta
+                x = max(eff_p(pm) if dz else pm, 0.0) / p_fs
+                drive -= ks * (math.expm1(x) / (math.e - 1.0) if exp_form else x**0.7) * theta
             if creep:
                 drive -= kb * ((theta - creep_x[0]) + (theta - creep_x[1]))
             if spring_on:
@@ -342,6 +350,8 @@ def simulate(
                     visc = elastic * lam
             if drag:
                 visc += c2 * abs(omega) + c1
+            if b_per_kpa > 0.0:
+                visc += b_per_kpa * max(eff_p(pm) if dz else pm, 0.0)
             if fric:
                 if stuck:
                     net = drive - k * theta

@@ -1,0 +1,93 @@
+"""The library's forms fitted to the truth's, apart from diagnose's search (best_form): for
+pressure stiffening, the library's k·(1 + c·p/p_ref) against the truth's power or
+exponential; for contact (contact_form) the library's contact against Hunt-Crossley's:
+what a contact K·(θ − θc)^n (docs/formats.md §2.1) at its best leaves of the truth's
+Hunt-Crossley contact, K·δ^1.5·(1 + λ·δ'), whose damping the library's form lacks, and
+where that best form puts the contact.
+
+The fit is the library's own model (the project's simulator) fitted by output error to the
+truth's noise-free angle on the recorded command: k, B, N, K, θc and n together, from the
+truth's onset and Hertz's n = 1.5 and from starts beside them, the best kept. `left` (its
+RMS error over the sensor's noise RMS) says whether the library's form can explain the
+contact (below on_request.OBSERVABLE_LEFT) or only part of it (then diagnose's "partial"
+is the truthful answer); its torque at the deepest angle recorded is the size an estimate
+is scored against (its K alone, at another n, is not comparable)."""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from tests.diagnose.truth import cases as cs
+
+DEG = math.pi / 180.0
+# the fit's starts: (θc − the truth's onset in degrees, n)
+STARTS = ((0.0, 1.5), (-5.0, 2.0), (3.0, 1.2))
+
+
+@dataclass(frozen=True)
+class ContactForm:
+    stiffness_nm_per_radn: float
+    onset_deg: float
+    exponent: float
+    left: float  # what the best library form leaves over the noise RMS
+    plain_left: float  # what k, B and N alone leave, for comparison
+
+    def torque_nm(self, theta_deg: float) -> float:
+        return contact_torque_nm(self.stiffness_nm_per_radn, self.onset_deg, self.exponent, theta_deg)
+
+
+def contact_torque_nm(stiffness_nm_per_radn: float, onset_deg: float, exponent: float,
+                      theta_deg: float) -> float:
+    """The library's contact torque at θ."""
+    return stiffness_nm_per_radn * (max(theta_deg - onset_deg, 0.0) * DEG) ** exponent
+
+
+def best_form(case: cs.Case, effect: str, size: float,
+              shapes: list[dict[str, float]]) -> tuple[dict[str, float], float, float]:
+    """The library's `effect` fitted by output error to the truth's noise-free angle with k,
+    B and N, its size from `size` and its shape parameters (those diagnose fits) from each
+    of `shapes`, the best kept: (its parameters, what it leaves over the noise RMS, what k,
+    B and N alone leave)."""
+    from hand_service.config import effects as fx
+    from hand_service.config.profile import load_model
+    from hand_service.diagnose.fitting.output_error import fit
+    from hand_service.diagnose.model.params import EffectScales, Param
+    from hand_service.diagnose.model.problem import PLAIN, build_problem
+
+    with tempfile.TemporaryDirectory(prefix="library-form-") as scratch:
+        _, path = cs.write(case, Path(scratch))
+        model = load_model(path)
+    traj, rate = case.trajectory, case.rate_hz
+    t_s = np.arange(traj.theta_deg.size) / rate
+    problem = build_problem(model, t_s, traj.command_kpa, traj.theta_deg, rate)
+    family = case.truth.family
+    plain = [Param.plain(name, getattr(model, name)) for name in PLAIN]
+    plain_start = [family.stiffness_nm_per_rad, family.damping_nms_per_rad + cs.linear_damping(case.truth),
+                   family.gain_nm_per_kpa]
+    alone = fit(problem, plain, plain_start, max_nfev=100)
+    spec = fx.BY_NAME[effect]
+    members = [q.name for q in spec.shape_parameters]
+    scales = EffectScales.of(family.stiffness_nm_per_rad, family.gain_nm_per_kpa, traj.command_kpa,
+                             traj.theta_deg, rate)
+    params = [*plain, Param.effect(effect, scales), *(Param.shape(effect, m) for m in members)]
+    fits = [fit(problem, params, [*alone.values, size, *(shape[m] for m in members)], max_nfev=100)
+            for shape in shapes]
+    best = min(fits, key=lambda f: f.rss_deg2)
+    noise = case.sensor.noise_rms_deg
+    values = {spec.param: best.value(effect), **{m: best.value(effect, m) for m in members}}
+    return (values, math.sqrt(best.rss_deg2 / best.n_fit) / noise,
+            math.sqrt(alone.rss_deg2 / alone.n_fit) / noise)
+
+
+def contact_form(case: cs.Case) -> ContactForm:
+    """The library's contact at its best against the truth's contact case (see the module)."""
+    onset = case.truth.contact_deg
+    values, left, plain_left = best_form(case, "contact", case.truth.contact_nm_per_rad15,
+                                         [{"onset_deg": onset + d, "exponent": n} for d, n in STARTS])
+    return ContactForm(values["stiffness_nm_per_radn"], values["onset_deg"], values["exponent"], left,
+                       plain_left)
