@@ -35,7 +35,7 @@ from hand_service.diagnose.model.unit_check import check_nominal
 from hand_service.diagnose.outside_library.checks import Outside, outside_checks
 from hand_service.diagnose.recording import excitation
 from hand_service.diagnose.report.diagnosis import Diagnosis
-from hand_service.diagnose.report.evidence import Context, sentence
+from hand_service.diagnose.report.found import found_effect
 from hand_service.diagnose.report.verdict import (
     SEPARABLE_MIN,
     FoundEffect,
@@ -51,7 +51,6 @@ from hand_service.diagnose.residual import noise, noise_bound, periodic_structur
 from hand_service.diagnose.search import posture_stability, rest_order, set_members, set_search, tie_revisit
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
-    Candidate,
     Progress,
     Selection,
     data_alone_bic,
@@ -100,10 +99,6 @@ def refit_distance(model: FingerModel, refit: Fit) -> str:
 def models(nominal_angle_deg: np.ndarray, refit: Fit, final: Fit) -> dict[str, np.ndarray]:
     """The three models' simulated angles, by the names the figures use."""
     return {"nominal": nominal_angle_deg, "refit": refit.angle_deg, "augmented": final.angle_deg}
-
-
-def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
-    return np.gradient(angle_deg) * rate_hz
 
 
 def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
@@ -390,29 +385,3 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained, left, outside, errors)
-
-
-def found_effect(problem: Problem, c: Candidate, selection: Selection,
-                 scored: tuple[np.ndarray, np.ndarray],
-                 without_with: tuple[np.ndarray, np.ndarray] | None = None) -> FoundEffect:
-    """`scored`: the fitting and held-out samples of the raw figures; `without_with`: the
-    angles the raw figures compare (default: the round's base and the candidate's fit)."""
-    final = selection.final
-    assert final is not None
-    value = final.value(c.name)
-    stds = final.std()
-    std = float(stds[[p.label for p in final.params].index(c.name)])
-    shape = final.shape(c.name)
-    shape_std = {p.member: float(s) for p, s in zip(final.params, stds, strict=True)
-                 if p.label == c.name and p.member}
-    angle = final.angle_deg
-    context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
-                      final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
-    if without_with is None:
-        base = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
-        without_with = (base, c.fit.angle_deg)
-    # without and with the effect, against the raw angle, a constant offset each
-    errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
-    text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain,
-                    {member: (value, shape_std[member]) for member, value in shape.items()})
-    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr, shape, shape_std)
