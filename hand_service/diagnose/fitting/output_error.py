@@ -12,6 +12,7 @@ Jacobian and every fit are the same, bit for bit, as one column at a time.
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -24,6 +25,7 @@ from scipy.optimize import least_squares
 from hand_service.config import effects as fx
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Prior, Problem
+from hand_service.diagnose.model.simulation_cache import finger_key
 from hand_service.diagnose.workers import thread_count
 from rtcore.sim import SimFinger
 
@@ -191,8 +193,34 @@ class PriorRows:
 
 def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base: SimFinger | None = None,
         max_nfev: int = 60) -> Fit:
-    """Least squares over `params` from `start`, everything else held at `base`."""
+    """Least squares over `params` from `start`, everything else held at `base`; a fit asked
+    before on the same recording, misfit and prior is found again (model/fit_cache.py)."""
     params = tuple(params)
+    start = [float(v) for v in start]
+    key, anchors = fit_key(problem, params, start, base, max_nfev)
+    found = problem.fits.get_or_fit(key, anchors, lambda: _fit(problem, params, start, base, max_nfev),
+                                    lambda f: f.angle_deg.nbytes + f.jacobian.nbytes + f.values.nbytes)
+    # each caller its own arrays
+    return dataclasses.replace(found, values=found.values.copy(), angle_deg=found.angle_deg.copy(),
+                               jacobian=found.jacobian.copy())
+
+
+def fit_key(problem: Problem, params: tuple[Param, ...], start: list[float], base: SimFinger | None,
+            max_nfev: int) -> tuple[tuple[object, ...], tuple[object, ...]]:
+    """What a fit depends on: the key (by value) and the arrays it reads (by identity, the
+    cache's anchors). Not the noise model's AR order or coefficients: they score a fit,
+    they do not enter it (Problem.misfit takes out the offset and drift only)."""
+    key = (np.packbits(problem.fit_mask).tobytes(), problem.fit_mask.size, repr(problem.prior),
+           repr(problem.given_effects), problem.input_hold, repr(problem.rate_hz), problem.substeps,
+           repr(problem.angle0_deg), repr(problem.chamber0_kpa), problem.released, repr(params),
+           tuple(map(repr, start)), finger_key(base or problem.base), max_nfev)
+    anchors = (problem.measured_deg, problem.pressure_kpa, problem.missing, problem.noise.basis,
+               problem.noise.start)
+    return key, anchors
+
+
+def _fit(problem: Problem, params: tuple[Param, ...], start: Sequence[float], base: SimFinger | None,
+         max_nfev: int) -> Fit:
     scales = np.array([p.scale for p in params])
     lower, upper = _scaled_bounds(params)
 
