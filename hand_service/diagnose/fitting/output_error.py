@@ -12,7 +12,6 @@ Jacobian and every fit are the same, bit for bit, as one column at a time.
 
 from __future__ import annotations
 
-import dataclasses
 import inspect
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -198,11 +197,21 @@ def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base:
     params = tuple(params)
     start = [float(v) for v in start]
     key, anchors = fit_key(problem, params, start, base, max_nfev)
-    found = problem.fits.get_or_fit(key, anchors, lambda: _fit(problem, params, start, base, max_nfev),
-                                    lambda f: f.angle_deg.nbytes + f.jacobian.nbytes + f.values.nbytes)
-    # each caller its own arrays
-    return dataclasses.replace(found, values=found.values.copy(), angle_deg=found.angle_deg.copy(),
-                               jacobian=found.jacobian.copy())
+    def run() -> Fit:
+        return _read_only(_fit(problem, params, start, base, max_nfev))
+
+    return problem.fits.get_or_fit(key, anchors, run,
+                                   lambda f: f.angle_deg.nbytes + f.jacobian.nbytes + f.values.nbytes)
+
+
+def _read_only(f: Fit) -> Fit:
+    """A kept fit is shared by every caller that asks it: its arrays are read-only (a copy
+    would do too, but moves the arrays' alignment, and with it the last bits of NumPy's
+    sums: the results would no longer be those of the fit run again)."""
+    for array in (f.values, f.angle_deg, f.jacobian, f.prior_information):
+        if array is not None:
+            array.flags.writeable = False
+    return f
 
 
 def fit_key(problem: Problem, params: tuple[Param, ...], start: list[float], base: SimFinger | None,
