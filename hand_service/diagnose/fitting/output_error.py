@@ -24,6 +24,7 @@ from scipy.optimize import least_squares
 from hand_service.config import effects as fx
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Prior, Problem
+from hand_service.diagnose.model.simulation_cache import finger_key
 from hand_service.diagnose.workers import thread_count
 from rtcore.sim import SimFinger
 
@@ -191,8 +192,44 @@ class PriorRows:
 
 def fit(problem: Problem, params: Sequence[Param], start: Sequence[float], base: SimFinger | None = None,
         max_nfev: int = 60) -> Fit:
-    """Least squares over `params` from `start`, everything else held at `base`."""
+    """Least squares over `params` from `start`, everything else held at `base`; a fit asked
+    before on the same recording, misfit and prior is found again (model/fit_cache.py)."""
     params = tuple(params)
+    start = [float(v) for v in start]
+    key, anchors = fit_key(problem, params, start, base, max_nfev)
+    def run() -> Fit:
+        return _read_only(_fit(problem, params, start, base, max_nfev))
+
+    return problem.fits.get_or_fit(key, anchors, run,
+                                   lambda f: f.angle_deg.nbytes + f.jacobian.nbytes + f.values.nbytes)
+
+
+def _read_only(f: Fit) -> Fit:
+    """A kept fit is shared by every caller that asks it: its arrays are read-only (a copy
+    would do too, but moves the arrays' alignment, and with it the last bits of NumPy's
+    sums: the results would no longer be those of the fit run again)."""
+    for array in (f.values, f.angle_deg, f.jacobian, f.prior_information):
+        if array is not None:
+            array.flags.writeable = False
+    return f
+
+
+def fit_key(problem: Problem, params: tuple[Param, ...], start: list[float], base: SimFinger | None,
+            max_nfev: int) -> tuple[tuple[object, ...], tuple[object, ...]]:
+    """What a fit depends on: the key (by value) and the arrays it reads (by identity, the
+    cache's anchors). Not the noise model's AR order or coefficients: they score a fit,
+    they do not enter it (Problem.misfit takes out the offset and drift only)."""
+    key = (np.packbits(problem.fit_mask).tobytes(), problem.fit_mask.size, repr(problem.prior),
+           repr(problem.given_effects), problem.input_hold, repr(problem.rate_hz), problem.substeps,
+           repr(problem.angle0_deg), repr(problem.chamber0_kpa), problem.released, repr(params),
+           tuple(map(repr, start)), finger_key(base or problem.base), max_nfev)
+    anchors = (problem.measured_deg, problem.pressure_kpa, problem.missing, problem.noise.basis,
+               problem.noise.start)
+    return key, anchors
+
+
+def _fit(problem: Problem, params: tuple[Param, ...], start: Sequence[float], base: SimFinger | None,
+         max_nfev: int) -> Fit:
     scales = np.array([p.scale for p in params])
     lower, upper = _scaled_bounds(params)
 

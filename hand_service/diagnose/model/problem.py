@@ -18,6 +18,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
+from hand_service.diagnose.model.fit_cache import FitCache
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.simulation_cache import SimulationCache, finger_key
 from hand_service.diagnose.residual.noise import WHITE, NoiseModel
@@ -98,6 +99,7 @@ class Problem:
     given_effects: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
     simulations: SimulationCache = dataclasses.field(default_factory=SimulationCache, repr=False,
                                                      compare=False)
+    fits: FitCache = dataclasses.field(default_factory=FitCache, repr=False, compare=False)
     _shape_starts: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict, repr=False,
                                                                     compare=False)
 

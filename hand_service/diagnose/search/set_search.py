@@ -15,6 +15,12 @@ bound) fitted beside the other, a third beside the pair; the set must hold acros
 postures, its first effect alone too. The set found goes on through the same checks as any
 other (the posture check again, the outside-library checks, the raw-signal gate in the
 engine).
+
+Every fit here carries the picks (dry friction's simulations cost ten times a plain
+finger's), so each is fitted as the forward selection's later rounds fit (`score`'s
+`lazy`): from the screen's most promising start first, and from the others only where that
+fit gains anything (ΔBIC above 0). An effect alone beside the picks is then, where the
+forward selection fitted it beside them, that very fit (found again, fitting/output_error.fit).
 """
 
 from __future__ import annotations
@@ -72,9 +78,10 @@ def withdrawn(problem: Problem, selection: Selection) -> list[str]:
 
 
 def add(problem: Problem, base: Fit, name: str) -> Candidate:
-    """`name` fitted jointly with every parameter of `base` (the effects before it included)."""
+    """`name` fitted jointly with every parameter of `base` (the effects before it included),
+    from its other starts only where the most promising one gains."""
     sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
-    return score(problem, base, screen(problem, base, name), sigma)
+    return score(problem, base, screen(problem, base, name), sigma, lazy=True)
 
 
 def holds(problem: Problem, members: list[Candidate]) -> bool:
