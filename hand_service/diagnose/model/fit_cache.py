@@ -11,10 +11,10 @@ Thread-safe: the effects are fitted side by side."""
 
 from __future__ import annotations
 
-import threading
-from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from typing import Any
+
+from hand_service.diagnose.model.lru import ByteBudgetLru
 
 FIT_CACHE_BYTES = 64 * 2**20  # the fits a recording keeps (FitCache)
 
@@ -25,33 +25,18 @@ class FitCache:
     matches, and the cache keeps those objects alive while it holds the entry."""
 
     def __init__(self, budget_bytes: int = FIT_CACHE_BYTES) -> None:
-        self._fits: OrderedDict[Hashable, tuple[tuple[object, ...], Any, int]] = OrderedDict()
-        self._lock = threading.Lock()
-        self._bytes = 0
-        self.budget_bytes = budget_bytes
-        self.hits = 0
-        self.misses = 0
+        self._fits: ByteBudgetLru[tuple[tuple[object, ...], Any]] = ByteBudgetLru(budget_bytes)
 
     def get(self, key: Hashable, anchors: tuple[object, ...]) -> Any | None:
-        with self._lock:
-            entry = self._fits.get(key)
-            if entry is None or len(entry[0]) != len(anchors) or any(
-                    a is not b for a, b in zip(entry[0], anchors, strict=True)):
-                self.misses += 1
-                return None
-            self._fits.move_to_end(key)
-            self.hits += 1
-            return entry[1]
+        def same_anchors(entry: tuple[tuple[object, ...], Any]) -> bool:
+            kept = entry[0]
+            return len(kept) == len(anchors) and all(a is b for a, b in zip(kept, anchors, strict=True))
+
+        entry = self._fits.get(key, same_anchors)
+        return None if entry is None else entry[1]
 
     def put(self, key: Hashable, anchors: tuple[object, ...], value: Any, nbytes: int) -> None:
-        with self._lock:
-            if key in self._fits or nbytes > self.budget_bytes:
-                return
-            self._fits[key] = (anchors, value, nbytes)
-            self._bytes += nbytes
-            while self._bytes > self.budget_bytes:
-                _, (_, _, dropped) = self._fits.popitem(last=False)
-                self._bytes -= dropped
+        self._fits.put(key, (anchors, value), nbytes)
 
     def get_or_fit(self, key: Hashable, anchors: tuple[object, ...], run: Callable[[], Any],
                    nbytes: Callable[[Any], int]) -> Any:
@@ -63,6 +48,14 @@ class FitCache:
         value = run()
         self.put(key, anchors, value, nbytes(value))
         return value
+
+    @property
+    def hits(self) -> int:
+        return self._fits.hits
+
+    @property
+    def misses(self) -> int:
+        return self._fits.misses
 
     def __len__(self) -> int:
         return len(self._fits)

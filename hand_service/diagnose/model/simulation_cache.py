@@ -7,10 +7,11 @@ from __future__ import annotations
 import dataclasses
 import operator
 import threading
-from collections import OrderedDict
 from collections.abc import Hashable
 
 import numpy as np
+
+from hand_service.diagnose.model.lru import ByteBudgetLru
 
 SIMULATION_CACHE_BYTES = 64 * 2**20  # the simulated angles a recording keeps (SimulationCache)
 
@@ -42,13 +43,9 @@ class SimulationCache:
     effects are fitted side by side (search/forward_selection.py)."""
 
     def __init__(self, budget_bytes: int = SIMULATION_CACHE_BYTES) -> None:
-        self._angles: OrderedDict[Hashable, np.ndarray] = OrderedDict()
+        self._angles: ByteBudgetLru[np.ndarray] = ByteBudgetLru(budget_bytes)
         self._lock = threading.Lock()
         self._command: np.ndarray | None = None
-        self._bytes = 0
-        self.budget_bytes = budget_bytes
-        self.hits = 0
-        self.misses = 0
 
     def serves(self, command_kpa: np.ndarray) -> bool:
         """Is this the cache of runs on `command_kpa` (the first command asked binds it)? A
@@ -59,25 +56,20 @@ class SimulationCache:
             return self._command is command_kpa
 
     def get(self, key: Hashable) -> np.ndarray | None:
-        with self._lock:
-            angle = self._angles.get(key)
-            if angle is None:
-                self.misses += 1
-                return None
-            self._angles.move_to_end(key)
-            self.hits += 1
-        return angle.copy()
+        angle = self._angles.get(key)
+        return None if angle is None else angle.copy()
 
     def put(self, key: Hashable, angle_deg: np.ndarray) -> None:
         stored = angle_deg.copy()
-        with self._lock:
-            if key in self._angles or stored.nbytes > self.budget_bytes:
-                return
-            self._angles[key] = stored
-            self._bytes += stored.nbytes
-            while self._bytes > self.budget_bytes:
-                _, dropped = self._angles.popitem(last=False)
-                self._bytes -= dropped.nbytes
+        self._angles.put(key, stored, stored.nbytes)
+
+    @property
+    def hits(self) -> int:
+        return self._angles.hits
+
+    @property
+    def misses(self) -> int:
+        return self._angles.misses
 
     def __len__(self) -> int:
         return len(self._angles)
