@@ -51,9 +51,9 @@ class MotionStructure:
 
     def sentence(self) -> str:
         return (f"the misfit grows with the finger's motion: {self.fast_deg:.3g} deg RMS over the third of "
-                f"the recording where the model moves fastest ({self.fast_speed_deg_s:.3g} deg/s RMS), "
+                f"the recording where the model moves fastest ({self.fast_speed_deg_s:.4g} deg/s RMS), "
                 f"{self.ratio:.2g} times its {self.slow_deg:.3g} deg where it moves slowest "
-                f"({self.slow_speed_deg_s:.3g} deg/s): a sensor's noise does not know how fast the finger "
+                f"({self.slow_speed_deg_s:.4g} deg/s): a sensor's noise does not know how fast the finger "
                 "moves, so this is input-driven structure the noise model takes for correlated noise")
 
 
