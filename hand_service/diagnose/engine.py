@@ -47,7 +47,7 @@ from hand_service.diagnose.report.verdict import (
     trade_offs,
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
-from hand_service.diagnose.residual import noise, noise_bound, periodic_structure, stats
+from hand_service.diagnose.residual import noise, noise_only, stats
 from hand_service.diagnose.search import posture_stability, rest_order, set_members, set_search, tie_revisit
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
@@ -302,14 +302,12 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                               problem.base.prbm.inertia_kgm2,
                                               refit.value("damping_nms_per_rad")).sentence(), explained,
                            {label: refit.value(label) / getattr(model, label) for label in unidentified})
-    if verdict in ("consistent", "parameters_only"):
-        # the residual is noise only by the noise's size where the finger is at rest: the AR
-        # filter alone would take smooth input-driven structure for correlated noise
-        rest = noise_bound.bound(residual, problem.misfit(refit.angle_deg), valid, problem.pressure_kpa,
-                                 rate_hz, refit.finger)
-        if rest is not None and rest.exceeded:
-            warnings.append(rest.sentence())
-            verdict, notes = "unexplained", []
+    if verdict in ("consistent", "parameters_only") and (said := noise_only.plain_structure(
+            problem, refit, residual, valid)):
+        # the residual is noise only by measures of the noise the AR filter does not make: it
+        # alone would take smooth input-driven structure for correlated noise
+        warnings.append(said)
+        verdict, notes = "unexplained", []
     if selection.ambiguous is not None:
         warnings.extend(posture_stability.posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":
@@ -376,12 +374,10 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                             "the simulated angle here (see the excitation advice in docs/diagnose.md)")
     left = (structure_left(final_white, final_cross) if found or partial else
             structure_left(refit_white, refit_cross))
-    if verdict == "missing_physics" and not left:  # what repeats with a repeating command
-        repeats = periodic_structure.periodic(problem.misfit(final.angle_deg), valid, problem.pressure_kpa,
-                                              rate_hz)
-        if repeats is not None and repeats.exceeded:
-            left = repeats.sentence()
-            warnings.append(left)
+    if verdict == "missing_physics" and not left and (
+            said := noise_only.named_structure(problem, final, valid)):
+        left = said  # white innovations, yet structure the noise model took: graded `dominant`
+        warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained, left, outside, errors)
