@@ -26,8 +26,8 @@ from rtcore.reference_model import (
     model_torque,
     model_torque_rate,
     stiffened_gain_share,
-    valve_tau,
     stiffening_torque,
+    valve_tau,
 )
 
 SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT

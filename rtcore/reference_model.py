@@ -134,9 +134,11 @@ def creep_reference_update(e: Effects, s: FingerState, entered: bool, dt_s: floa
 
 def hysteresis_reference_update(e: Effects, s: FingerState, entered: bool) -> None:
     """The hysteresis loop's z driven by the angle reference led by the valve lag (the
-    fill's while it bends, the vent's while it opens) + dead time (Dahl's, exact over that angle's travel since the last tick); at its middle from
-    the filtered angle on entering position mode or when its state is not finite."""
-    led_deg = s.angle_ref_deg + (valve_tau(e, s.velocity_ref_deg_per_s) + e.dead_time_s) * s.velocity_ref_deg_per_s
+    fill's while it bends, the vent's while it opens) + dead time (Dahl's, exact over that
+    angle's travel since the last tick); at its middle from the filtered angle on entering
+    position mode or when its state is not finite."""
+    lead_s = valve_tau(e, s.velocity_ref_deg_per_s) + e.dead_time_s
+    led_deg = s.angle_ref_deg + lead_s * s.velocity_ref_deg_per_s
     if not e.hysteresis_torque_nm > 0.0:
         return
     if entered or not (math.isfinite(s.hysteresis_ref_z) and math.isfinite(s.hysteresis_ref_angle_deg)):
