@@ -98,6 +98,7 @@ class LabDiagnosis:
     diagnosis: Diagnosis
     valve_lag_tau_s: float  # the lab's `calibrate valve` on the same recording
     dead_time_s: float
+    valve_vent_tau_s: float = 0.0  # its lag while venting, where fitted apart (0: valve_lag's)
 
     def effects_said(self) -> str:
         """The effects diagnose named, as `name(param=value, ...)`, or "none"."""
@@ -122,7 +123,7 @@ def lab_diagnosis(truth: FingerProfile, lab: FingerProfile, mismatch: Mismatch,
                                 {"pressure_meas_kpa": measured_kpa}), vent=vent)
     model = lab.model.with_changes(effects={**lab.model.effects, **valve.effects()})
     result = diagnose(model, t_s, command, angle, RATE_HZ, also=tuple(search))
-    return LabDiagnosis(truth.name, result, valve.tau_s, valve.delay_s)
+    return LabDiagnosis(truth.name, result, valve.tau_s, valve.delay_s, valve.vent_tau_s)
 
 
 def diagnosed_controller(truth: Profile, controller: Profile, mismatch: Mismatch, seed: int,
