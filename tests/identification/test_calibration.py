@@ -121,6 +121,14 @@ def test_a_valve_that_vents_slower_than_it_fills(profile: Profile, tmp_path: Pat
     assert fit.delay_s == pytest.approx(0.012, abs=0.001)
     assert fit.rmse_kpa < 0.6 < one.rmse_kpa
     assert fit.effects()["valve_vent_lag"] == {"tau_s": fit.vent_tau_s}
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(DEFAULT_PROFILE.read_text())
+    assert main(["calibrate", "valve", str(path), "--model", str(mine), "--finger", "thumb", "--vent",
+                 "--json", str(tmp_path / "v.json"), "--update-profile", str(mine)]) == 0
+    assert json.loads((tmp_path / "v.json").read_text())["valve_vent_tau_s"] == pytest.approx(fit.vent_tau_s)
+    written = load_profile(mine).finger("thumb").model.effects
+    assert written["valve_vent_lag"]["tau_s"] == pytest.approx(fit.vent_tau_s)
+    assert written["valve_lag"]["tau_s"] == pytest.approx(fit.tau_s)
 
 
 def test_valve_response_vents_with_its_own_lag() -> None:
