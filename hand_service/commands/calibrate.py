@@ -195,7 +195,8 @@ def _valve(args: argparse.Namespace) -> dict[str, Any]:
     directions = {steps: fit_valve(recording, steps) for steps in ("rising", "falling")
                   if step_samples(recording.pressure_kpa, steps).any()}
     print(f"calibrate valve: {args.recording.name}, first-order lag behind a dead time\n")
-    print("| steps | valve_lag tau (s) | valve_vent_lag tau (s) | dead_time (s) | residual RMS (kPa) | samples |")
+    print("| steps | valve_lag tau (s) | valve_vent_lag tau (s) | dead_time (s) | residual RMS (kPa) "
+          "| samples |")
     print("|---|---|---|---|---|---|")
     for each in (fit, *directions.values()):
         vent = f"{each.vent_tau_s:.4f}" if each.vent_tau_s > 0.0 else "-"
