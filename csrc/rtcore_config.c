@@ -114,6 +114,12 @@ void rtcore_hand_reset(rtcore_hand *hand)
     hand->ticks = 0u;
 }
 
+/* a first-order lag's factor per tick of dt_s (0 for no lag) */
+static double lag_alpha(double tau_s, double dt_s)
+{
+    return tau_s > 0.0 ? exp(-dt_s / tau_s) : 0.0;
+}
+
 int32_t rtcore_hand_configure(rtcore_hand *hand, const rtcore_hand_config *config)
 {
     int32_t i;
@@ -148,8 +154,8 @@ int32_t rtcore_hand_configure(rtcore_hand *hand, const rtcore_hand_config *confi
                                                c->filter_cutoff_hz, config->sample_rate_hz);
         s->velocity_alpha = rtcore_first_order_alpha(c->velocity_cutoff_hz, dt_s);
         s->derivative_alpha = rtcore_first_order_alpha(c->derivative_cutoff_hz, dt_s);
-        s->chamber_alpha = c->prbm.effects.valve_lag_tau_s > 0.0
-                               ? exp(-dt_s / c->prbm.effects.valve_lag_tau_s) : 0.0;
+        s->chamber_alpha = lag_alpha(rtcore_valve_tau_s(&c->prbm.effects, 1.0), dt_s);
+        s->chamber_vent_alpha = lag_alpha(rtcore_valve_tau_s(&c->prbm.effects, -1.0), dt_s);
         s->rest_mv = -c->sensor_offset_deg / c->sensor_gain_deg_per_mv;
     }
     rtcore_hand_reset(hand);

@@ -22,6 +22,7 @@ int32_t rtcore_butter_sections(rtcore_biquad *sections, int32_t max_sections, in
 
 /* model.c: the torque model is shared by the controller and the simulator */
 int rtcore_effects_valid(const rtcore_effects *e);
+double rtcore_valve_tau_s(const rtcore_effects *e, double rising);
 double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s);
 double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad);
 double rtcore_contact_torque_nm(const rtcore_effects *e, double angle_rad);

@@ -4,9 +4,17 @@
 
 #include "rtcore_internal.h"
 
+/* The valve's lag toward a pressure that rises (rising > 0: fill; else vent): the vent's
+ * own where it has one (valve_vent_tau_s > 0), else valve_lag_tau_s both ways. */
+double rtcore_valve_tau_s(const rtcore_effects *e, double rising)
+{
+    return rising > 0.0 || !(e->valve_vent_tau_s > 0.0) ? e->valve_lag_tau_s : e->valve_vent_tau_s;
+}
+
 int rtcore_effects_valid(const rtcore_effects *e)
 {
     return isfinite(e->valve_lag_tau_s) && e->valve_lag_tau_s >= 0.0
+           && isfinite(e->valve_vent_tau_s) && e->valve_vent_tau_s >= 0.0
            && isfinite(e->dead_time_s) && e->dead_time_s >= 0.0
            && isfinite(e->coulomb_torque_nm) && e->coulomb_torque_nm >= 0.0
            && (e->coulomb_torque_nm == 0.0
@@ -183,8 +191,8 @@ void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_
     s->creep_ref_deg = s->angle_ref_deg + (s->creep_ref_deg - s->angle_ref_deg) * exp(-dt_s / e->creep_time_s);
 }
 
-/* The hysteresis loop's state driven by the angle reference led by the valve lag + dead
- * time, theta_ref + (tau + delay)*theta_ref': where the finger will be when a command sent
+/* The hysteresis loop's state driven by the angle reference led by the valve lag (the
+ * fill's while the reference bends, the vent's while it opens) + dead time, theta_ref + (tau + delay)*theta_ref': where the finger will be when a command sent
  * now reaches the chamber (the lead the other terms take as a rate; the loop's rate jumps
  * at a turn, so it is led by its angle instead). Dahl's dz/dtheta = (sign dtheta - z)/theta_h
  * is solved exactly over that angle's travel since the last tick (a travel that does not
@@ -194,7 +202,9 @@ void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_
 void rtcore_hysteresis_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered)
 {
     const rtcore_effects *e = &c->prbm.effects;
-    const double led_deg = s->angle_ref_deg + (e->valve_lag_tau_s + e->dead_time_s) * s->velocity_ref_deg_per_s;
+    const double led_deg = s->angle_ref_deg
+                           + (rtcore_valve_tau_s(e, s->velocity_ref_deg_per_s) + e->dead_time_s)
+                                 * s->velocity_ref_deg_per_s;
     double travel_deg;
     if (!(e->hysteresis_torque_nm > 0.0)) {
         return;
@@ -244,7 +254,8 @@ static double hysteresis_torque_nm(const rtcore_effects *e, double hysteresis_z)
 
 /* Position feedforward from the held references in s (deg based). Quasi-static:
  * N p = tau(th, 0). Dynamic: N p = A th'' + B th' + tau(th, th'). Both add the lead
- * (valve lag + dead time) * dp/dt, with dp/dt from the reference's own derivatives. */
+ * (valve lag + dead time) * dp/dt, with dp/dt from the reference's own derivatives and the
+ * lag the fill's or the vent's as dp/dt rises or falls. */
 double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtcore_finger_state *s)
 {
     const double angle = s->angle_ref_deg * RTCORE_RAD_PER_DEG;
@@ -252,7 +263,6 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
     const double accel = s->accel_ref_deg_per_s2 * RTCORE_RAD_PER_DEG;
     const double jerk = s->jerk_ref_deg_per_s3 * RTCORE_RAD_PER_DEG;
     const rtcore_prbm *m = &c->prbm;
-    const double lead_s = m->effects.valve_lag_tau_s + m->effects.dead_time_s;
     const double share = rtcore_stiffened_gain_share(m, angle);
     const double gain = m->pressure_gain_nm_per_kpa * share;
     double torque;
@@ -285,7 +295,8 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
         /* p_eff = torque / G(theta), G falling with theta: d/dt adds torque*k*c/p_ref*theta'/G */
         torque_rate += torque * rtcore_stiffening_torque_nm(m, 1.0, 1.0) * velocity / gain;
     }
-    return rtcore_deadzone_invert_kpa(&m->effects, torque / gain) + lead_s * torque_rate / gain;
+    return rtcore_deadzone_invert_kpa(&m->effects, torque / gain)
+           + (rtcore_valve_tau_s(&m->effects, torque_rate) + m->effects.dead_time_s) * torque_rate / gain;
 }
 
 /* Force feedforward (paper Eq. 4): N p = tau(th, 0) + H z + r F_n, since J^T F = r F_n;

@@ -6,7 +6,8 @@
  * linear part (A, B, k) integrated exactly whatever the step, the rest of the torque (the
  * effects, the object) by ETDRK4, in steps of at most sample_period/substeps and of what
  * those terms and the valve lag need (csrc/rtcore_sim_step_size.c); the plain linear finger takes
- * one step per sample at any stiffness. The valve is a first-order lag behind a dead time,
+ * one step per sample at any stiffness. The valve is a first-order lag (the fill's, or the
+ * vent's while the chamber falls: rtcore_valve_tau_s) behind a dead time,
  * integrated exactly (the dead time's breakpoints split the period), or, for a finger whose
  * pneumatic.valve_model asks for it, the valve board's pneumatics (rtcore_pneumatic.h); an
  * optional object is a spring-damper at the force point, an optional hysteresis a Dahl

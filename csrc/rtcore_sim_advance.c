@@ -41,6 +41,7 @@ static void advance_pneumatic(const rtcore_sim_finger *f, rtcore_sim_finger_stat
     const int32_t pieces = (int32_t)ceil(dt_s / piece_s - 1e-9);
     int32_t k;
     held.prbm.effects.valve_lag_tau_s = 0.0; /* the segment's input is the chamber itself */
+    held.prbm.effects.valve_vent_tau_s = 0.0;
     rtcore_sim_plant_for(&held, &plant);
     for (k = 0; k < pieces; ++k) {
         const double mean_kpa = rtcore_pneumatic_advance(&f->pneumatic, f->prbm.pressure_gain_nm_per_kpa,
@@ -122,8 +123,8 @@ void rtcore_sim_advance_span(const sim_plant *plant, rtcore_sim_finger_state *s,
                              double *chamber_out_kpa)
 {
     const rtcore_sim_finger *f = plant->finger;
-    const double tau_s = f->prbm.effects.valve_lag_tau_s;
     const double chamber0_kpa = s->motion.chamber_kpa;
+    const double tau_s = rtcore_valve_tau_s(&f->prbm.effects, held_kpa - chamber0_kpa);
     int32_t i;
     for (i = 0; i < count; ++i) {
         push_command(f, s, command_kpa[i]);

@@ -162,7 +162,9 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
 {
     const rtcore_sim_finger *f = p->finger;
     sim_plant segment = *p; /* with this segment's external torque (the pressure's stiffening) */
-    const double tau_s = f->prbm.effects.valve_lag_tau_s;
+    /* the chamber moves toward the input on one side of it throughout: one lag, the fill's
+     * or the vent's */
+    const double tau_s = rtcore_valve_tau_s(&f->prbm.effects, input_kpa - s->chamber_kpa);
     const double start_kpa = tau_s > 0.0 ? s->chamber_kpa : input_kpa;
     const double end_kpa = tau_s > 0.0 ? rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, duration_s) : input_kpa;
     const double deadzone_kpa = f->prbm.effects.pressure_deadzone_kpa;
@@ -363,9 +365,9 @@ void rtcore_sim_integrate_held(const sim_plant *p, rtcore_sim_motion *s, rtcore_
 {
     /* split where the chamber crosses the dead zone's threshold, so that the torque is
      * smooth within each part */
-    const double tau_s = p->finger->prbm.effects.valve_lag_tau_s;
     const double deadzone_kpa = p->finger->prbm.effects.pressure_deadzone_kpa;
     const double start_kpa = s->chamber_kpa;
+    const double tau_s = rtcore_valve_tau_s(&p->finger->prbm.effects, input_kpa - start_kpa);
     if (tau_s > 0.0 && deadzone_kpa > 0.0
         && ((start_kpa < deadzone_kpa && input_kpa > deadzone_kpa)
             || (start_kpa > deadzone_kpa && input_kpa < deadzone_kpa))) {

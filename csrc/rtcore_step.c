@@ -129,7 +129,9 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
 
     /* chamber pressure: measured when the board reports it, else a first-order model
      * of the valve driven by the command in force since the last tick */
-    s->chamber_model_kpa = previous_kpa + (s->chamber_model_kpa - previous_kpa) * s->chamber_alpha;
+    s->chamber_model_kpa = previous_kpa
+                           + (s->chamber_model_kpa - previous_kpa)
+                                 * (previous_kpa < s->chamber_model_kpa ? s->chamber_vent_alpha : s->chamber_alpha);
     chamber_kpa = in->pressure_meas_kpa[i];
     if (!isfinite(chamber_kpa) || fabs(chamber_kpa) > RTCORE_SANE_LIMIT) {
         chamber_kpa = s->chamber_model_kpa;

@@ -88,10 +88,13 @@ extern "C" {
  * acts only above the dead zone: M = N*max(p - p0, 0), and stiffens the finger by
  * k*c*(p_eff/p_ref)*theta (pressure_stiffening_gain c, 0: none), so the pressure's torque
  * is G(theta)*p_eff with G = N - k*c*theta/p_ref. Valve lag and dead time are
- * compensated in the position feedforward by a first-order lead of (tau + delay).
+ * compensated in the position feedforward by a first-order lead of (tau + delay), tau the
+ * fill's or the vent's as the pressure rises or falls (rtcore_valve_tau_s).
  */
 typedef struct {
     double valve_lag_tau_s;
+    /* the chamber's lag while it vents (the command below it); 0: valve_lag_tau_s both ways */
+    double valve_vent_tau_s;
     double dead_time_s;
     double coulomb_torque_nm;
     double coulomb_smoothing_deg_per_s;
@@ -189,7 +192,8 @@ typedef struct {
     int32_t n_sections;
     double velocity_alpha;
     double derivative_alpha;
-    double chamber_alpha;
+    double chamber_alpha;      /* the chamber model's per tick while it fills */
+    double chamber_vent_alpha; /* and while it vents */
     double rest_mv;
     /* running state */
     int32_t filter_primed;

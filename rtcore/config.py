@@ -60,6 +60,7 @@ class Effects:
     """Physics beyond the plain PRBM that the controller compensates (docs/formats.md effects)."""
 
     valve_lag_tau_s: float = 0.0
+    valve_vent_tau_s: float = 0.0  # the lag while the chamber vents; 0: valve_lag_tau_s both ways
     dead_time_s: float = 0.0
     coulomb_torque_nm: float = 0.0
     coulomb_smoothing_deg_per_s: float = 2.0

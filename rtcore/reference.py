@@ -27,6 +27,7 @@ from rtcore.reference_model import (
     model_torque_rate,
     stiffened_gain_share,
     stiffening_torque,
+    valve_tau,
 )
 
 SANE_LIMIT = 1000000.0  # RTCORE_SANE_LIMIT
@@ -98,7 +99,6 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     accel = s.accel_ref_deg_per_s2 * RAD_PER_DEG
     jerk = s.jerk_ref_deg_per_s3 * RAD_PER_DEG
     m = c.prbm
-    lead_s = m.effects.valve_lag_tau_s + m.effects.dead_time_s
     share = stiffened_gain_share(m, angle)
     gain = m.pressure_gain_nm_per_kpa * share
     if c.feedforward == cfg.FF_DYNAMIC:
@@ -120,6 +120,7 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
         torque += m.effects.hysteresis_torque_nm * s.hysteresis_ref_z
     if m.effects.pressure_stiffening_gain > 0.0 and share > STIFFENED_GAIN_FLOOR:
         torque_rate += torque * stiffening_torque(m, 1.0, 1.0) * velocity / gain
+    lead_s = valve_tau(m.effects, torque_rate) + m.effects.dead_time_s
     return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate / gain
 
 
@@ -180,6 +181,7 @@ class FingerState:
     velocity_alpha: float
     derivative_alpha: float
     chamber_alpha: float
+    chamber_vent_alpha: float
     rest_mv: float
     filter_primed: bool = False
     mode: int = cfg.MODE_VENT
@@ -220,13 +222,15 @@ class ReferenceHand:
         self.states = [self._new_state(c) for c in config.fingers]
 
     def _new_state(self, c: FingerConfig) -> FingerState:
-        lag = c.prbm.effects.valve_lag_tau_s
+        fill_s = valve_tau(c.prbm.effects, 1.0)
+        vent_s = valve_tau(c.prbm.effects, -1.0)
         rest_mv = -c.sensor_offset_deg / c.sensor_gain_deg_per_mv
         return FingerState(
             sections=butter_sections(c.filter_order, c.filter_cutoff_hz, self.config.sample_rate_hz),
             velocity_alpha=first_order_alpha(c.velocity_cutoff_hz, self.dt_s),
             derivative_alpha=first_order_alpha(c.derivative_cutoff_hz, self.dt_s),
-            chamber_alpha=math.exp(-self.dt_s / lag) if lag > 0.0 else 0.0,
+            chamber_alpha=math.exp(-self.dt_s / fill_s) if fill_s > 0.0 else 0.0,
+            chamber_vent_alpha=math.exp(-self.dt_s / vent_s) if vent_s > 0.0 else 0.0,
             rest_mv=rest_mv,
             last_good_mv=rest_mv,
         )
@@ -305,7 +309,8 @@ class ReferenceHand:
                 or (mode == cfg.MODE_PRESSURE and rejected["pressure_ref_kpa"])):
             flags |= cfg.FLAG_REFERENCE_REJECTED
 
-        s.chamber_model_kpa = previous_kpa + (s.chamber_model_kpa - previous_kpa) * s.chamber_alpha
+        alpha = s.chamber_vent_alpha if previous_kpa < s.chamber_model_kpa else s.chamber_alpha
+        s.chamber_model_kpa = previous_kpa + (s.chamber_model_kpa - previous_kpa) * alpha
         chamber_kpa = float(self.inputs.pressure_meas_kpa[i])
         if not usable(chamber_kpa):
             chamber_kpa = s.chamber_model_kpa

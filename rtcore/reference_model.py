@@ -12,6 +12,11 @@ from rtcore.config import Effects, Prbm
 RAD_PER_DEG = math.pi / 180.0
 
 
+def valve_tau(e: Effects, rising: float) -> float:
+    """The valve's lag toward a pressure that rises (rising > 0: fill) or falls (vent)."""
+    return e.valve_lag_tau_s if rising > 0.0 or not e.valve_vent_tau_s > 0.0 else e.valve_vent_tau_s
+
+
 def linear_stiffness(m: Prbm, angle_rad: float) -> float:
     if angle_rad < 0.0:
         return m.stiffness_nm_per_rad * m.effects.asymmetric_stiffness_ratio
@@ -128,10 +133,12 @@ def creep_reference_update(e: Effects, s: FingerState, entered: bool, dt_s: floa
 
 
 def hysteresis_reference_update(e: Effects, s: FingerState, entered: bool) -> None:
-    """The hysteresis loop's z driven by the angle reference led by the valve lag + dead
-    time (Dahl's, exact over that angle's travel since the last tick); at its middle from
-    the filtered angle on entering position mode or when its state is not finite."""
-    led_deg = s.angle_ref_deg + (e.valve_lag_tau_s + e.dead_time_s) * s.velocity_ref_deg_per_s
+    """The hysteresis loop's z driven by the angle reference led by the valve lag (the
+    fill's while it bends, the vent's while it opens) + dead time (Dahl's, exact over that
+    angle's travel since the last tick); at its middle from the filtered angle on entering
+    position mode or when its state is not finite."""
+    lead_s = valve_tau(e, s.velocity_ref_deg_per_s) + e.dead_time_s
+    led_deg = s.angle_ref_deg + lead_s * s.velocity_ref_deg_per_s
     if not e.hysteresis_torque_nm > 0.0:
         return
     if entered or not (math.isfinite(s.hysteresis_ref_z) and math.isfinite(s.hysteresis_ref_angle_deg)):

@@ -178,6 +178,42 @@ static void check_sliver_of_a_segment(void)
     }
 }
 
+/* A valve that vents slower than it fills (valve_vent_tau_s): the chamber rises with the
+ * fill's lag and falls with the vent's, each exactly, in steps per sample and in spans. */
+static void check_vent_lag(void)
+{
+    enum { N = 1000 };
+    static double command[N];
+    static double angle[N];
+    static double chamber[N];
+    rtcore_sim_finger f = plain_finger(1.6e-4, 0.003, 0.57);
+    const double fill_s = 0.02;
+    const double vent_s = 0.08;
+    const double dt_s = 1e-3;
+    int32_t substeps;
+    int i;
+    f.prbm.effects.valve_lag_tau_s = fill_s;
+    f.prbm.effects.valve_vent_tau_s = vent_s;
+    for (i = 0; i < N; ++i) {
+        command[i] = i < N / 2 ? 100.0 : 0.0;
+    }
+    for (substeps = 0; substeps <= 1; ++substeps) {
+        const double top_kpa = 100.0 * (1.0 - exp(-0.5 / fill_s));
+        CHECK(rtcore_sim_run(&f, 1.0 / dt_s, substeps, N, command, 0.0, 0.0, 0.0, angle, chamber) == RTCORE_OK,
+              "runs");
+        for (i = 0; i < N; ++i) {
+            const double t_s = (double)i * dt_s; /* the sample's output is the state it starts from */
+            const double expected = i <= N / 2 ? 100.0 * (1.0 - exp(-t_s / fill_s))
+                                              : top_kpa * exp(-(t_s - 0.5) / vent_s);
+            CHECK(fabs(chamber[i] - expected) < 1e-9, "substeps %d, sample %d: %.12g against %.12g", substeps, i,
+                  chamber[i], expected);
+        }
+    }
+    f.prbm.effects.valve_vent_tau_s = -0.01;
+    CHECK(rtcore_sim_run(&f, 1.0 / dt_s, 1, N, command, 0.0, 0.0, 0.0, angle, chamber) != RTCORE_OK,
+          "a negative vent lag refused");
+}
+
 /* The loop in the angle: after a long travel up, z has turned over to +1, so a finger held
  * at p rests at (N·p − T)/k, below the plain finger's N·p/k; after travelling back down far
  * enough, at (N·p + T)/k above it. Steps per sample and spans alike. A loop without a travel
@@ -227,5 +263,6 @@ void run_sim_tests(void)
     check_divergence_ends();
     check_sliver_of_a_segment();
     check_spans();
+    check_vent_lag();
     check_hysteresis_loop();
 }

@@ -21,12 +21,14 @@ sensor PAIRS.csv
     pairs (columns sensor_mv and angle_deg, optional finger), with R².
 """
 VALVE_DOC = """\
-valve STEPS.csv --model MODEL.yaml [--finger NAME]
+valve STEPS.csv --model MODEL.yaml [--finger NAME] [--vent]
     The valve's first-order lag τ and dead time from the measured chamber pressure
     (pressure_meas_kpa) after command steps (pressure_kpa): the model's valve_lag and
     dead_time effects, which the feedforward compensates. The fit over every step is the
     one written back; the rising and the falling steps are also fitted alone (rows
     "rising", "falling"), since a pneumatic valve may fill and vent at different rates.
+    With --vent the fit over every step takes the vent's lag apart from the fill's and
+    writes it too (the valve_vent_lag effect).
 """
 OUTPUT_DOC = """
 All print a table and write JSON with --json. --write-model OUT.yaml writes the model
@@ -69,6 +71,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _common(sensor, model=False)
     valve = add("valve", "valve lag and dead time from pressure steps", VALVE_DOC)
     valve.add_argument("recording", type=Path, metavar="STEPS.csv")
+    valve.add_argument("--vent", action="store_true", help="fit the vent's lag apart (valve_vent_lag)")
     _common(valve, model=True)
 
 
@@ -188,17 +191,20 @@ def _valve(args: argparse.Namespace) -> dict[str, Any]:
     say_implausible(model)
     recording = read_recording(args.recording, args.finger)
     check_finger(recording, args.finger or model.finger)
-    fit = fit_valve(recording)
+    fit = fit_valve(recording, vent=args.vent)
     directions = {steps: fit_valve(recording, steps) for steps in ("rising", "falling")
                   if step_samples(recording.pressure_kpa, steps).any()}
     print(f"calibrate valve: {args.recording.name}, first-order lag behind a dead time\n")
-    print("| steps | valve_lag tau (s) | dead_time (s) | residual RMS (kPa) | samples |")
-    print("|---|---|---|---|---|")
+    print("| steps | valve_lag tau (s) | valve_vent_lag tau (s) | dead_time (s) | residual RMS (kPa) "
+          "| samples |")
+    print("|---|---|---|---|---|---|")
     for each in (fit, *directions.values()):
-        print(f"| {each.steps} | {each.tau_s:.4f} | {each.delay_s:.4f} | {each.rmse_kpa:.3f} | "
+        vent = f"{each.vent_tau_s:.4f}" if each.vent_tau_s > 0.0 else "-"
+        print(f"| {each.steps} | {each.tau_s:.4f} | {vent} | {each.delay_s:.4f} | {each.rmse_kpa:.3f} | "
               f"{each.samples} |")
+    written = "valve_lag, valve_vent_lag and dead_time" if args.vent else "valve_lag and dead_time"
     _write_back(args, model, {"effects": {**model.effects, **fit.effects()}}, recording.finger,
-                f"valve_lag and dead_time from `hand-service calibrate valve {args.recording.name}`")
+                f"{written} from `hand-service calibrate valve {args.recording.name}`")
     return {"finger": model.finger or recording.finger, **fit.to_json(),
             **{steps: each.to_json() for steps, each in directions.items()}}
 

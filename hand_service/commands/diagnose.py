@@ -16,7 +16,8 @@ output-error least squares, tests the residual (whiteness, cross-correlation wit
 command, time windows), then fits each library effect the model does not already
 include (valve_lag, dead_time, coulomb_friction, cubic_stiffness, gravity,
 asymmetric_stiffness, quadratic_damping, pressure_deadzone, and those an installed package
-adds: docs/effects.md; contact, pressure_stiffening, creep and hysteresis with --search)
+adds: docs/effects.md; contact, pressure_stiffening, creep, hysteresis and valve_vent_lag
+with --search)
 jointly with k, B and N.
 An effect is named only when the information criterion and held-out data both favour it
 and no other effect explains the same residual as well. A quarter of the data, in
@@ -55,8 +56,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "independent samples (see docs/diagnose.md)")
     parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
                         help="search also for a library effect diagnose leaves out by default "
-                             "(contact, hysteresis, pressure_stiffening, creep: each fitted with its "
-                             "shape, a contact's onset and exponent, a loop's travel, creep's time; "
+                             "(contact, hysteresis, pressure_stiffening, creep, valve_vent_lag: each "
+                             "fitted with its shape, a contact's onset and exponent, a loop's travel, "
+                             "creep's time; "
                              "docs/diagnose.md); repeatable")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress on stderr (else a bar on a terminal, a line every few "

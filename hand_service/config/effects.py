@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S, Plausible
+from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S, VALVE_VENT_TAU_S, Plausible
 from hand_service.config.schema import fail, unknown_key_message
 from hand_service.config.textfile import show
 from hand_service.config.yamlio import LineDict
@@ -35,7 +35,8 @@ def __getattr__(name: str) -> object:
 
 
 # the effects whose range is a physical plausibility with unit slips (config/plausible.py)
-PLAUSIBLE: dict[str, Plausible] = {"valve_lag": VALVE_LAG_TAU_S, "dead_time": DEAD_TIME_DELAY_S}
+PLAUSIBLE: dict[str, Plausible] = {"valve_lag": VALVE_LAG_TAU_S, "valve_vent_lag": VALVE_VENT_TAU_S,
+                                   "dead_time": DEAD_TIME_DELAY_S}
 
 EffectParams = dict[str, dict[str, float]]
 

@@ -105,6 +105,7 @@ PROFILE_RANGES: dict[str, Plausible] = {
 }
 # the valve's effects (config/effects.py validates against these bounds)
 VALVE_LAG_TAU_S = Plausible("valve_lag.tau_s", "s", 0.0, 0.5, (MS,))
+VALVE_VENT_TAU_S = Plausible("valve_vent_lag.tau_s", "s", 0.0, 2.0, (MS,))
 DEAD_TIME_DELAY_S = Plausible("dead_time.delay_s", "s", 0.0, 0.25, (MS,))
 
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S
+from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S, VALVE_VENT_TAU_S
 from hand_service.effects.base import FieldEffect, FingerEffect, FitScales, Parameter
 
 # an effect's own torque over a recording may reach this many times the largest torque the
@@ -111,6 +111,11 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
     DeadZone("pressure_deadzone", "no torque until the pressure passes a threshold",
              _one("threshold_kpa", "kPa", 0.0, 0.0, 100.0, 5.0),
              reference="a membrane's pre-tension", rtcore_field="pressure_deadzone_kpa"),
+    # searched on request (diagnose --search): it refines a lag diagnose already has
+    FieldEffect("valve_vent_lag", "the chamber vents with a lag of its own (valve_lag's then fills only)",
+                _one("tau_s", "s", 0.0, VALVE_VENT_TAU_S.lower, VALVE_VENT_TAU_S.upper, 0.1),
+                reference="a valve board whose exhaust is narrower than its supply",
+                rtcore_field="valve_vent_tau_s", searched=False),
     Contact("contact", "a stop or object met past θc: Kc·(θ − θc)^n, one side",
                 (Parameter("stiffness_nm_per_radn", "N·m/radⁿ", 0.0, 0.0, 50.0, 0.5),
                  Parameter("onset_deg", "deg", 45.0, -90.0, 180.0, 5.0),

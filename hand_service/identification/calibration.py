@@ -23,6 +23,7 @@ from scipy import optimize, signal, stats
 
 from hand_service.config import effects as fx
 from hand_service.config.model import FingerModel
+from hand_service.config.plausible import VALVE_VENT_TAU_S
 from hand_service.errors import UserError
 from hand_service.recording import Recording
 from rtcore import Effects, Prbm
@@ -176,13 +177,16 @@ class ValveFit:
     measured_kpa: np.ndarray
     model_kpa: np.ndarray
     steps: str = "all"  # VALVE_STEPS: which command steps the fit is judged on
+    vent_tau_s: float = 0.0  # the lag while venting, where fitted apart (fit_valve's vent); 0: tau_s
 
     def to_json(self) -> dict[str, Any]:
-        return {"valve_lag_tau_s": self.tau_s, "dead_time_s": self.delay_s, "rmse_kpa": self.rmse_kpa,
+        vent = {"valve_vent_tau_s": self.vent_tau_s} if self.vent_tau_s > 0.0 else {}
+        return {"valve_lag_tau_s": self.tau_s, **vent, "dead_time_s": self.delay_s, "rmse_kpa": self.rmse_kpa,
                 "samples": self.samples}
 
     def effects(self) -> fx.EffectParams:
-        return {"valve_lag": {"tau_s": self.tau_s}, "dead_time": {"delay_s": self.delay_s}}
+        vent = {"valve_vent_lag": {"tau_s": self.vent_tau_s}} if self.vent_tau_s > 0.0 else {}
+        return {"valve_lag": {"tau_s": self.tau_s}, **vent, "dead_time": {"delay_s": self.delay_s}}
 
 
 # A finger that never moves (no pressure gain), only there to carry the valve through the
@@ -192,11 +196,14 @@ _VALVE_PROBE = SimFinger(Prbm(inertia_kgm2=1.0, damping_nms_per_rad=1.0, stiffne
                          supply_min_kpa=-1e6, supply_max_kpa=1e6)
 
 
-def valve_response_kpa(command_kpa: np.ndarray, dt_s: float, tau_s: float, delay_s: float) -> np.ndarray:
+def valve_response_kpa(command_kpa: np.ndarray, dt_s: float, tau_s: float, delay_s: float,
+                       vent_tau_s: float = 0.0) -> np.ndarray:
     """Chamber pressure at each sample for commands held one sample each, delayed by
-    delay_s, through a first-order lag τ (the simulator's valve, csrc/rtcore_sim_plant.c: exact,
-    with the delay's breakpoint inside a period). Sample k is read before command k acts."""
-    probe = _VALVE_PROBE.replace(effects=Effects(valve_lag_tau_s=tau_s, dead_time_s=delay_s))
+    delay_s, through a first-order lag τ (vent_tau_s while it vents, 0: τ; the simulator's
+    valve, csrc/rtcore_sim_plant.c: exact, with the delay's breakpoint inside a period).
+    Sample k is read before command k acts."""
+    probe = _VALVE_PROBE.replace(effects=Effects(valve_lag_tau_s=tau_s, dead_time_s=delay_s,
+                                                 valve_vent_tau_s=vent_tau_s))
     _, chamber = simulate(probe, command_kpa, 1.0 / dt_s, substeps=1,
                           chamber0_kpa=float(command_kpa[0]))
     return chamber
@@ -216,9 +223,10 @@ def step_samples(command_kpa: np.ndarray, steps: str) -> np.ndarray:
     return mask
 
 
-def fit_valve(recording: Recording, steps: str = "all") -> ValveFit:
+def fit_valve(recording: Recording, steps: str = "all", vent: bool = False) -> ValveFit:
     """The first-order lag and dead time whose response to the recorded commands best
-    matches the measured chamber pressure, judged after the `steps` (VALVE_STEPS) only."""
+    matches the measured chamber pressure, judged after the `steps` (VALVE_STEPS) only; with
+    `vent`, the lag while the chamber vents fitted apart (the valve_vent_lag effect)."""
     measured = recording.columns.get("pressure_meas_kpa")
     if measured is None:
         raise UserError(f"{recording.path}: the valve fit needs the measured chamber pressure "
@@ -237,16 +245,21 @@ def fit_valve(recording: Recording, steps: str = "all") -> ValveFit:
         raise UserError(f"{recording.path}: the commands have no {steps} step")
 
     def residual(params: np.ndarray) -> np.ndarray:
-        return (valve_response_kpa(command, dt, params[0], params[1]) - measured)[judged]
+        return (valve_response_kpa(command, dt, *params) - measured)[judged]
 
     starts = [(tau, delay) for tau in (0.01, 0.03, 0.1) for delay in (0.0, 0.005, 0.02, 0.05)]
     best = min(starts, key=lambda s: float(np.sum(residual(np.array(s)) ** 2)))
     result = optimize.least_squares(residual, x0=best, bounds=([1e-4, 0.0], [0.5, 0.25]),
                                     x_scale=[0.01, 0.01], diff_step=1e-4)
-    tau, delay = (float(v) for v in result.x)
-    model = valve_response_kpa(command, dt, tau, delay)
-    return ValveFit(tau, delay, float(np.sqrt(np.mean((model - measured)[judged] ** 2))), int(judged.sum()),
-                    command, measured, model, steps)
+    values = tuple(float(v) for v in result.x)
+    if vent:  # from the symmetric fit, the vent's lag free
+        result = optimize.least_squares(residual, x0=(*values, values[0]),
+                                        bounds=([1e-4, 0.0, 1e-4], [0.5, 0.25, VALVE_VENT_TAU_S.upper]),
+                                        x_scale=[0.01, 0.01, 0.01], diff_step=1e-4)
+        values = tuple(float(v) for v in result.x)
+    model = valve_response_kpa(command, dt, *values)
+    return ValveFit(values[0], values[1], float(np.sqrt(np.mean((model - measured)[judged] ** 2))),
+                    int(judged.sum()), command, measured, model, steps, *values[2:])
 
 
 __all__ = ["VALVE_STEPS", "GainFit", "SensorFit", "ValveFit", "fit_pressure_gain", "fit_sensor_map",

@@ -34,7 +34,7 @@ from rtcore.sim import SimFinger
 
 # The mismatched plant with valves that vent as fast as they fill: a lag within diagnose's library.
 EVEN_VALVES = dataclasses.replace(PAPER_MISMATCH, valves=BoardValves(vent_over_fill=1.0))
-SEARCH = ("pressure_stiffening", "hysteresis")  # beyond diagnose's default search
+SEARCH = ("pressure_stiffening", "hysteresis", "valve_vent_lag")  # beyond diagnose's default search
 STEP_LEVELS = (0.0, 0.4, 0.8, 0.2, 0.6, 0.0, 0.7, 0.3, 0.9, 0.1, 0.5, 0.0)  # shares of the limit
 STEP_S = 2.0
 RATE_HZ = 100.0
@@ -98,6 +98,7 @@ class LabDiagnosis:
     diagnosis: Diagnosis
     valve_lag_tau_s: float  # the lab's `calibrate valve` on the same recording
     dead_time_s: float
+    valve_vent_tau_s: float = 0.0  # its lag while venting, where fitted apart (0: valve_lag's)
 
     def effects_said(self) -> str:
         """The effects diagnose named, as `name(param=value, ...)`, or "none"."""
@@ -107,25 +108,26 @@ class LabDiagnosis:
 
 def lab_diagnosis(truth: FingerProfile, lab: FingerProfile, mismatch: Mismatch,
                   rng: np.random.Generator, noise_deg: float, noise_kpa: float,
-                  search: Sequence[str] = SEARCH) -> LabDiagnosis:
+                  search: Sequence[str] = SEARCH, vent: bool = True) -> LabDiagnosis:
     """One finger's steps recording on the mismatched plant (the lab's calibrated angle and the
     board's measured chamber pressure), the lab's `calibrate valve` fit on it written into the
-    model's valve_lag and dead_time, then `diagnose` on it with that model."""
+    model's valve_lag and dead_time (with `vent`, the lag while venting fitted apart too, the
+    falling steps' row of `calibrate valve`: valve_vent_lag), then `diagnose` on it with that
+    model."""
     command = step_command_kpa(truth)
     true_deg, chamber_kpa = free_run(truth, mismatch, command)
     angle = recorded_deg(truth, lab, mismatch, true_deg, noise_deg, rng)
     measured_kpa = chamber_kpa + noise_kpa * rng.standard_normal(command.size)
     t_s = np.arange(command.size) / RATE_HZ
     valve = fit_valve(Recording(Path(f"{truth.name}_steps.csv"), t_s, command, angle,
-                                {"pressure_meas_kpa": measured_kpa}))
-    model = lab.model.with_changes(effects={**lab.model.effects, "valve_lag": {"tau_s": valve.tau_s},
-                                            "dead_time": {"delay_s": valve.delay_s}})
+                                {"pressure_meas_kpa": measured_kpa}), vent=vent)
+    model = lab.model.with_changes(effects={**lab.model.effects, **valve.effects()})
     result = diagnose(model, t_s, command, angle, RATE_HZ, also=tuple(search))
-    return LabDiagnosis(truth.name, result, valve.tau_s, valve.delay_s)
+    return LabDiagnosis(truth.name, result, valve.tau_s, valve.delay_s, valve.vent_tau_s)
 
 
 def diagnosed_controller(truth: Profile, controller: Profile, mismatch: Mismatch, seed: int,
-                         fingers: Sequence[str], search: Sequence[str] = SEARCH
+                         fingers: Sequence[str], search: Sequence[str] = SEARCH, vent: bool = True
                          ) -> tuple[Profile, list[LabDiagnosis]]:
     """The controller after the lab's valve calibration and diagnose on each named finger:
     that finger's model replaced by what `diagnose --write-model` writes (the refit k, B, N
@@ -139,7 +141,7 @@ def diagnosed_controller(truth: Profile, controller: Profile, mismatch: Mismatch
     done = []
     for name in fingers:
         lab = by_name[name]
-        found = lab_diagnosis(truth.finger(name), lab, mismatch, rng, noise_deg, noise_kpa, search)
+        found = lab_diagnosis(truth.finger(name), lab, mismatch, rng, noise_deg, noise_kpa, search, vent)
         done.append(found)
         by_name[name] = dataclasses.replace(lab, model=found.diagnosis.refit_model())
     control = dataclasses.replace(controller.control, force_estimate_hysteresis=True)

@@ -107,6 +107,37 @@ def test_valve_lag_and_dead_time_from_steps(profile: Profile, tmp_path: Path) ->
     assert fit.rmse_kpa < 0.6  # the pressure sensor's noise is 0.5 kPa
 
 
+def test_a_valve_that_vents_slower_than_it_fills(profile: Profile, tmp_path: Path) -> None:
+    """The one-lag fit lands between the fill's and the vent's lags; with vent=True both are
+    recovered and written into the effects block (valve_vent_lag)."""
+    finger = with_effect(with_effect(with_effect(profile.finger("thumb"), "valve_lag", {"tau_s": 0.03}),
+                                     "valve_vent_lag", {"tau_s": 0.12}), "dead_time", {"delay_s": 0.012})
+    path = trials.valve_steps(finger, profile.simulation, seed=2).write(tmp_path / "valve.csv")
+    one = fit_valve(read_recording(path))
+    assert 0.035 < one.tau_s < 0.11 and "valve_vent_lag" not in one.effects()
+    fit = fit_valve(read_recording(path), vent=True)
+    assert fit.tau_s == pytest.approx(0.03, rel=0.05)
+    assert fit.vent_tau_s == pytest.approx(0.12, rel=0.05)
+    assert fit.delay_s == pytest.approx(0.012, abs=0.001)
+    assert fit.rmse_kpa < 0.6 < one.rmse_kpa
+    assert fit.effects()["valve_vent_lag"] == {"tau_s": fit.vent_tau_s}
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(DEFAULT_PROFILE.read_text())
+    assert main(["calibrate", "valve", str(path), "--model", str(mine), "--finger", "thumb", "--vent",
+                 "--json", str(tmp_path / "v.json"), "--update-profile", str(mine)]) == 0
+    assert json.loads((tmp_path / "v.json").read_text())["valve_vent_tau_s"] == pytest.approx(fit.vent_tau_s)
+    written = load_profile(mine).finger("thumb").model.effects
+    assert written["valve_vent_lag"]["tau_s"] == pytest.approx(fit.vent_tau_s)
+    assert written["valve_lag"]["tau_s"] == pytest.approx(fit.tau_s)
+
+
+def test_valve_response_vents_with_its_own_lag() -> None:
+    command = np.r_[np.full(30, 100.0), np.zeros(40)]
+    response = valve_response_kpa(command, 0.01, 0.03, 0.0, 0.12)
+    top = response[30]
+    np.testing.assert_allclose(response[30:], top * np.exp(-np.arange(40) * 0.01 / 0.12), atol=1e-9)
+
+
 def test_valve_response_is_the_exact_first_order_lag() -> None:
     command = np.r_[np.zeros(5), np.full(40, 100.0)]
     response = valve_response_kpa(command, 0.01, 0.03, 0.005)

@@ -1,7 +1,7 @@
 """The lab's diagnose on the mismatched plant (hand_service.pinch.lab_diagnose): on valves
 within the library it names the silicone's loop at about its size, and the controller that
 runs the model diagnose writes renders the set stiffness where the calibrated one does not;
-the board's slow vent hides the loop from it."""
+the board's slow vent hides the loop from it unless the valve fit takes the vent's lag apart."""
 
 from __future__ import annotations
 
@@ -75,9 +75,22 @@ def test_the_diagnosed_controller_renders_the_set_stiffness(truth: Profile, cali
     assert got["calibrated"] - 1.0 > 0.15  # the loop read as contact force
 
 
-def test_the_boards_slow_vent_hides_the_loop_from_diagnose(truth: Profile) -> None:
+def test_the_boards_slow_vent_hides_the_loop_unless_the_valve_fit_takes_it_apart(truth: Profile) -> None:
+    """One lag for both directions lands between the fill's and the vent's and hides the loop;
+    the vent's own lag (valve_vent_lag) recovers both lags, and diagnose names the loop."""
     with tempfile.TemporaryDirectory() as scratch:
         lab = identify_on_plant(truth, truth, PAPER_MISMATCH, 1, Path(scratch))
-    found = lab_diagnosis(truth.finger("index"), lab.finger("index"), PAPER_MISMATCH,
+    valves = PAPER_MISMATCH.valves
+    assert valves is not None
+    fill_s = valves.fill_tau_of("index")
+    one = lab_diagnosis(truth.finger("index"), lab.finger("index"), PAPER_MISMATCH,
+                        np.random.default_rng(1), 0.3, 0.5, vent=False)
+    assert "hysteresis" not in {e.name for e in one.diagnosis.effects}
+    assert fill_s * 1.5 < one.valve_lag_tau_s < fill_s * valves.vent_over_fill / 1.5
+    apart = lab_diagnosis(truth.finger("index"), lab.finger("index"), PAPER_MISMATCH,
                           np.random.default_rng(1), 0.3, 0.5)
-    assert "hysteresis" not in {e.name for e in found.diagnosis.effects}
+    assert apart.valve_lag_tau_s == pytest.approx(fill_s, rel=0.05)
+    assert apart.valve_vent_tau_s == pytest.approx(fill_s * valves.vent_over_fill, rel=0.05)
+    assert "hysteresis" in {e.name for e in apart.diagnosis.effects}
+    written = apart.diagnosis.refit_model().effects
+    assert written["valve_vent_lag"]["tau_s"] == pytest.approx(apart.valve_vent_tau_s)

@@ -28,6 +28,7 @@ def maybe(strategy: st.SearchStrategy[float]) -> st.SearchStrategy[float]:
 effects_strategy = st.builds(
     Effects,
     valve_lag_tau_s=maybe(positive(0.005, 0.1)),
+    valve_vent_tau_s=maybe(positive(0.005, 0.4)),
     dead_time_s=maybe(positive(0.001, 0.05)),
     coulomb_torque_nm=maybe(positive(1e-4, 0.01)),
     coulomb_smoothing_deg_per_s=positive(0.5, 20.0),
