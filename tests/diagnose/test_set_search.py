@@ -47,19 +47,25 @@ def selection_with(picks: list[str]) -> Selection:
     return Selection(rounds=[Round("refit", round1), *later], accepted=accepted, final=fit)
 
 
-@pytest.fixture
-def stand_ins(monkeypatch):
+def use_stand_ins(monkeypatch, gains: dict[tuple[str, str], bool], screened: dict[str, float]) -> list:
+    """set_search's fits replaced by `gains` (significant beside that fit?) and its screen
+    by `screened`; the fits asked for, in order."""
     calls: list[tuple[str, str]] = []
 
     def add(problem, base, name):
         calls.append((base, name))
-        gains = GAINS.get((base, name), False)
-        return FakeCandidate(name, f"{base}+{name}", gains, 400.0 if gains else -20.0)
+        gained = gains.get((base, name), False)
+        return FakeCandidate(name, f"{base}+{name}", gained, 400.0 if gained else -20.0)
 
-    monkeypatch.setattr(set_search, "screen", lambda problem, base, name: FakeScreen(name, SCREEN[name]))
+    monkeypatch.setattr(set_search, "screen", lambda problem, base, name: FakeScreen(name, screened[name]))
     monkeypatch.setattr(set_search, "add", add)
     monkeypatch.setattr(set_search, "holds", lambda problem, members: True)
     return calls
+
+
+@pytest.fixture
+def stand_ins(monkeypatch):
+    return use_stand_ins(monkeypatch, GAINS, SCREEN)
 
 
 def test_a_withdrawn_later_pick_gives_way_to_the_pair_it_crowded_out(stand_ins, monkeypatch):
