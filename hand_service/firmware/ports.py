@@ -1,6 +1,6 @@
 """The firmware's side of the wire: a python-can bus, or a pseudo-terminal it owns.
 
-On a pty the mock plays the device: it holds the master end, the host opens the slave
+On a pty the board plays the device: it holds the master end, the host opens the slave
 (a path, like a USB serial port). `SlcanAdapterPort` plays an SLCAN (Lawicel) USB-CAN
 adapter on that pty, so the host's python-can `slcan` interface talks to it unchanged.
 Writes never block: when nobody reads, bytes are dropped, as a UART drops them.

@@ -1,11 +1,12 @@
-"""A mock firmware and the way to reach it, for each of the three tested links.
+"""The C board (board/core) standing in for a valve board, and the way to reach it, for each
+of the three tested links (`mock-firmware` is the command that runs it on this host):
 
-    virtual  can-v1-virtual.yaml  python-can virtual bus; the mock runs in a thread
-    slcan    can-v1-slcan.yaml    SLCAN on a pty; the mock runs in another process
-    serial   serial-v1.yaml       serial-v1 on a pty; the mock runs in another process
+    virtual  can-v1-virtual.yaml  python-can virtual bus; the board runs in a thread (cffi)
+    slcan    can-v1-slcan.yaml    SLCAN on a pty; the board runs in another process
+    serial   serial-v1.yaml       serial-v1 on a pty; the board runs in another process
 
 Each rig gets its own channel (a fresh virtual channel name, or a pty path in its own
-directory) and ends everything it started in close(): transports, hosts, the mock.
+directory) and ends everything it started in close(): transports, hosts, the board.
 The HIL tests and the I/O benchmarks (bench/io.py) both build on it.
 """
 
