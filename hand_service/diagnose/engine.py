@@ -233,16 +233,20 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     residual = refit.residual(problem)
     valid = fit_mask | held
     win = stats.windows(residual, valid, problem.t_s, sigma, rate_hz)
-    final_e, nominal_e = problem.innovations(final.angle_deg), problem.innovations(nominal_angle)
-    final_white = stats.ljung_box(final_e[fit_mask], lags)
+    nominal_e = problem.innovations(nominal_angle)
     u = problem.pressure_kpa[fit_mask]
     first_lag = 1 if problem.input_hold == "zoh" else 0  # see stats.input_independence
     refit_cross = stats.input_independence(refit_e[fit_mask], u, lags, first_lag)
-    final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
     xcorr = stats.cross_correlation(refit_e[fit_mask], u, lags, rate_hz)
-    # every model against the raw angle, a constant offset each and no drift: raw_error.py
-    errors = raw_error.raw_errors(problem, fitted, scored_held,
-                                  models(nominal_angle, refit, final))
+
+    def judged_final(augmented: Fit) -> tuple[stats.Whiteness, stats.Whiteness, raw_error.RawErrors]:
+        """The final model's whiteness and input independence on the innovations, and every
+        model against the raw angle, a constant offset each and no drift (raw_error.py)."""
+        e = problem.innovations(augmented.angle_deg)[fit_mask]
+        return (stats.ljung_box(e, lags), stats.input_independence(e, u, lags, first_lag),
+                raw_error.raw_errors(problem, fitted, scored_held, models(nominal_angle, refit, augmented)))
+
+    final_white, final_cross, errors = judged_final(final)
     rmse = errors.heldout_deg
     refit_gain = stats.heldout_z_innovations(nominal_e[held], refit_e[held],
                                              problem.innovation_sigma(refit_e, len(params)))
@@ -266,10 +270,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         kept, final = list(selection.accepted), standout.selection.final
         # each against the round it was fitted in (its own selection's: one candidate a round)
         found = [found_effect(problem, c, standout.selection, (fitted, scored_held)) for c in kept]
-        final_e = problem.innovations(final.angle_deg)
-        final_white = stats.ljung_box(final_e[fit_mask], lags)
-        final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
-        errors = raw_error.raw_errors(problem, fitted, scored_held, models(nominal_angle, refit, final))
+        final_white, final_cross, errors = judged_final(final)
         rmse = errors.heldout_deg
     elif len(found) > 1 and (structure_left(final_white, final_cross) or unstable_later):
         # Structure outside the library remains even with every effect, or a later effect
@@ -283,11 +284,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         extra, found = found[1:], [found_effect(problem, first, alone, (fitted, scored_held))]
         final = first.fit
         kept = [first]
-        final_e = problem.innovations(final.angle_deg)
-        final_white = stats.ljung_box(final_e[fit_mask], lags)
-        final_cross = stats.input_independence(final_e[fit_mask], u, lags, first_lag)
-        errors = raw_error.raw_errors(problem, fitted, scored_held,
-                                      models(nominal_angle, refit, final))
+        final_white, final_cross, errors = judged_final(final)
         rmse = errors.heldout_deg
     explained = explained_share(problem, refit, final) if found else 0.0
     if found and any(c.prior_gain > 0.0 for c in kept):  # the refit's distance from the nominal was evidence
