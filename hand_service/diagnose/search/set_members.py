@@ -90,8 +90,12 @@ class Standing:
     def all_stand_out(self) -> bool:
         return bool(self.members) and all(self.stands_out(m) for m in self.members)
 
+    def each_without(self) -> str:
+        """The set's raw error with each member left out, as the sentences print it."""
+        return ", ".join(f"without {m.name} {m.without_deg:.3g}" for m in self.members)
+
     def sentence(self) -> str:
-        each = ", ".join(f"without {m.name} {m.without_deg:.3g}" for m in self.members)
+        each = self.each_without()
         left = float(np.sqrt(self.left_deg2))
         return (f"structure is left beside {', '.join(m.name for m in self.members)}, but each explains "
                 f"more of the recorded angle than all that is left: simulated from the command, the set "
@@ -130,7 +134,7 @@ class StandOut:
 
     def sentence(self) -> str:
         them = "it" if len(self.dropped) == 1 else "them"
-        each = ", ".join(f"without {m.name} {m.without_deg:.3g}" for m in self.standing.members)
+        each = self.standing.each_without()
         kept = ", ".join(m.name for m in self.standing.members)
         return (f"structure is left beside the effects found, and {', '.join(self.dropped)} explains less of "
                 f"the recorded angle than all that is left; {kept}, fitted again without {them}, each "
