@@ -82,7 +82,7 @@ class NoiseBound:
 
     def sentence(self) -> str:
         return (f"the refitted model's misfit ({self.misfit_std_deg:.3g} deg RMS, the sensor's offset and "
-                f"slow drift taken out) is {self.misfit_std_deg / self.rest_std_deg:.2g} times the "
+                f"slow drift taken out) is {self.ratio:.2g} times the "
                 f"sensor's noise where the finger is at rest ({self.rest_std_deg:.3g} deg over "
                 f"{self.rest_s:.3g} s with the command held): the noise model would take input-driven "
                 "structure for correlated noise, so the recording is not called consistent")
@@ -120,9 +120,7 @@ def bounded_order(model: noise.NoiseModel, residual_deg: np.ndarray, misfit_deg:
     if rest is None:
         return model
     rest_std = float(np.sqrt(np.mean(rest * rest)))
-    m = misfit_deg[scored]
-    m = m - m.mean()
-    if not float(np.sqrt(np.mean(m * m))) > STRUCTURE_FACTOR * rest_std:
+    if not misfit_std(misfit_deg, scored) > STRUCTURE_FACTOR * rest_std:
         return model
     order = noise.choose_order(rest)
     a, variance = noise.yule_walker(rest, order) if order else (np.zeros(0), float(np.var(rest)))
@@ -153,12 +151,17 @@ def bound(residual_deg: np.ndarray, misfit_deg: np.ndarray, scored: np.ndarray, 
     rest = rest_noise(residual_deg, scored, pressure_kpa, rate_hz, finger)
     if rest is None:
         return None
-    m = misfit_deg[scored]
-    m = m - m.mean()
     rest_std = float(np.sqrt(np.mean(rest * rest)))
     if rest_std <= 0.0:
         return None
-    return NoiseBound(rest_std, float(np.sqrt(np.mean(m * m))), rest.size / rate_hz)
+    return NoiseBound(rest_std, misfit_std(misfit_deg, scored), rest.size / rate_hz)
+
+
+def misfit_std(misfit_deg: np.ndarray, scored: np.ndarray) -> float:
+    """The misfit's spread over the scored samples, about its mean."""
+    m = misfit_deg[scored]
+    m = m - m.mean()
+    return float(np.sqrt(np.mean(m * m)))
 
 
 __all__ = ["NoiseBound", "bound", "bounded_order", "rest_noise", "rest_stretches", "slowest_decay_s"]
