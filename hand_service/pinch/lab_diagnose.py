@@ -111,8 +111,8 @@ def lab_diagnosis(truth: FingerProfile, lab: FingerProfile, mismatch: Mismatch,
                   search: Sequence[str] = SEARCH, vent: bool = True) -> LabDiagnosis:
     """One finger's steps recording on the mismatched plant (the lab's calibrated angle and the
     board's measured chamber pressure), the lab's `calibrate valve` fit on it written into the
-    model's valve_lag and dead_time (with `vent`, the lag while venting fitted apart too, the
-    falling steps' row of `calibrate valve`: valve_vent_lag), then `diagnose` on it with that
+    model's valve_lag and dead_time (with `vent`, the lag while venting fitted apart too, over
+    every step, as `calibrate valve --vent`: valve_vent_lag), then `diagnose` on it with that
     model."""
     command = step_command_kpa(truth)
     true_deg, chamber_kpa = free_run(truth, mismatch, command)
