@@ -8,11 +8,11 @@ periods, and its spread about that average is the noise alone, whatever its corr
 within a period. This is a measure of the noise that needs no stretch at rest
 (residual/noise_bound.py needs held commands, which a loop tracking a cosine never has).
 
-A hysteresis loop under a loop tracking a cosine (200 Hz, 39 periods), named
-asymmetric_stiffness, left a part that repeats of 0.200 deg RMS against a noise of 0.158
-between periods (the truth's 0.145), while its innovations passed as white: the grade was
-`complete`. Dry friction named on a slow sine leaves 0.029 against 0.220. A named model is
-graded `complete` only where what repeats stands under STRUCTURE_SHARE of the noise.
+A hysteresis loop under a loop tracking a cosine, named asymmetric_stiffness, is the case
+that showed the need: its innovations passed as white and its grade was `complete`, while
+what repeated stood above the noise between periods (docs/results.md §12.22 has the
+figures). A named model is graded `complete` only where what repeats stands under
+STRUCTURE_SHARE of the noise.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from hand_service.diagnose.recording.excitation import period_s
 
 MIN_PERIODS = 4  # fewer, and the average over periods still carries much of the noise
 # What repeats, its noise share taken off, above this share of the noise between periods is
-# structure: its estimate's spread is about the noise over √periods (a sixth of it at 39)
+# structure: its estimate's spread is about the noise over √periods
 STRUCTURE_SHARE = 0.5
 
 
