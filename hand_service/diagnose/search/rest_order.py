@@ -77,16 +77,15 @@ def search(problem: Problem, refit: Fit, selection: Selection, searched: list[st
     def raw_deg(angle_deg: np.ndarray) -> float:
         return raw_error.raw_rms_deg(problem, angle_deg, fitting, fitting | held)
 
-    rest = noise_bound.rest_noise(refit.residual(problem), valid, problem.pressure_kpa, problem.rate_hz,
-                                  refit.finger)
+    residual = refit.residual(problem)
+    rest = noise_bound.rest_noise(residual, valid, problem.pressure_kpa, problem.rate_hz, refit.finger)
     if rest is None:
         return None
     rest_deg = float(np.sqrt(np.mean(rest * rest)))
     raw_before = raw_deg((selection.final or refit).angle_deg)
     if raw_error.at_noise(raw_before, rest_deg):
         return None
-    at_rest = noise_bound.bounded_order(problem.noise, refit.residual(problem),
-                                        problem.misfit(refit.angle_deg),
+    at_rest = noise_bound.bounded_order(problem.noise, residual, problem.misfit(refit.angle_deg),
                                         valid, problem.pressure_kpa, problem.rate_hz, refit.finger)
     if at_rest.order >= problem.noise.order:
         return None
