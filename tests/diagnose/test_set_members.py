@@ -117,7 +117,7 @@ def stand_out_stand_ins(monkeypatch, alone: Standing, significant: bool = True) 
         fitted.append((base, name))
         return FakeCandidate(name, f"{base}+{name}", significant, 500.0)
 
-    monkeypatch.setattr(set_members, "added", added)
+    monkeypatch.setattr(set_members, "beside", added)
     monkeypatch.setattr(set_members, "standing", lambda problem, final, names, fitting, held: alone)
     return fitted
 

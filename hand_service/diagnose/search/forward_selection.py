@@ -254,6 +254,14 @@ def second_split_z(problem: Problem, base: Fit, joint: Fit) -> float:
     return stats.heldout_z_innovations(before[held], other.innovations(with_effect.angle_deg)[held], sigma)
 
 
+def beside(problem: Problem, base: Fit, name: str, lazy: bool = False) -> Candidate:
+    """`name` screened and fitted jointly with every parameter of `base` (the effects before
+    it included), scored against `base`'s innovations: a candidate as a round scores it
+    (`lazy`: its other starts only where the most promising one gains, see `score`)."""
+    sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
+    return score(problem, base, screen(problem, base, name), sigma, lazy=lazy)
+
+
 def expected_z(problem: Problem, base: Fit, candidate: Candidate) -> float:
     """The held-out z a real effect of the candidate's fitted gain would show, were its gain
     spread as evenly over the held-out blocks as over the fitted ones: z ≈ ‖δ‖/2σ on the
@@ -366,9 +374,7 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
             # better than the best alone, they are two names for one signature.
             if progress:
                 progress(f"{best.name} or {runner.name}? fitting both together")
-            both = score(problem, best.fit, screen(problem, best.fit, runner.name),
-                         problem.innovation_sigma(problem.innovations(best.fit.angle_deg),
-                                                  len(best.fit.params)))
+            both = beside(problem, best.fit, runner.name)
             if not both.significant:
                 selection.ambiguous = (best, runner)
                 selection.carried.append(best)

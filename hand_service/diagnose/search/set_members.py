@@ -51,8 +51,7 @@ from hand_service.diagnose.fitting.output_error import Fit, fit
 from hand_service.diagnose.fitting.raw_error import TIE_SHARE
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.recording.response_onset import white_noise_deg
-from hand_service.diagnose.search.forward_selection import Candidate, Round, Selection, score
-from hand_service.diagnose.search.screening import screen
+from hand_service.diagnose.search.forward_selection import Round, Selection, beside
 
 
 @dataclass(frozen=True)
@@ -143,12 +142,6 @@ class StandOut:
                 f"{self.standing.noise_deg:.3g}; {each} deg), so they are named")
 
 
-def added(problem: Problem, base: Fit, name: str) -> Candidate:
-    """`name` fitted jointly with every parameter of `base`: a forward-selection candidate."""
-    sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
-    return score(problem, base, screen(problem, base, name), sigma)
-
-
 def stand_out(problem: Problem, refit: Fit, found: Standing, fitting: np.ndarray,
               held: np.ndarray) -> StandOut | None:
     """The members of `found` that stand out, fitted again from the plain `refit` without the
@@ -159,7 +152,7 @@ def stand_out(problem: Problem, refit: Fit, found: Standing, fitting: np.ndarray
         return None
     rounds, accepted, base = [], [], refit
     for name in keep:
-        candidate = added(problem, base, name)
+        candidate = beside(problem, base, name)
         if not candidate.significant:
             return None
         rounds.append(Round(base, [candidate]))

@@ -41,8 +41,8 @@ from hand_service.diagnose.search.forward_selection import (
     Progress,
     Round,
     Selection,
+    beside,
     evidence,
-    score,
 )
 from hand_service.diagnose.search.screening import screen
 
@@ -85,10 +85,9 @@ def withdrawn(problem: Problem, selection: Selection) -> list[str]:
 
 
 def add(problem: Problem, base: Fit, name: str) -> Candidate:
-    """`name` fitted jointly with every parameter of `base` (the effects before it included),
-    from its other starts only where the most promising one gains."""
-    sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
-    return score(problem, base, screen(problem, base, name), sigma, lazy=True)
+    """`name` fitted beside `base`, from its other starts only where the most promising one
+    gains (the module's docstring)."""
+    return beside(problem, base, name, lazy=True)
 
 
 def holds(problem: Problem, members: list[Candidate]) -> bool:

@@ -17,17 +17,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search.forward_selection import (
     NAME_MARGIN_BIC,
-    Candidate,
     Progress,
     Round,
     Selection,
-    score,
+    beside,
 )
-from hand_service.diagnose.search.screening import screen
 from hand_service.diagnose.search.set_members import without
 
 
@@ -42,12 +39,6 @@ class Resolved:
         return (f"{self.named} and {self.other} could not be told apart at first; with the effects found "
                 f"since in the model, {self.named} explains the residual better (ΔBIC {self.margin_bic:.0f} "
                 f"over {self.other}, each fitted beside them) and is significant beside them, so it is named")
-
-
-def beside(problem: Problem, base: Fit, name: str) -> Candidate:
-    """`name` fitted jointly with every parameter of `base`."""
-    sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
-    return score(problem, base, screen(problem, base, name), sigma)
 
 
 def revisit(problem: Problem, selection: Selection, progress: Progress | None = None) -> Resolved | None:
