@@ -20,8 +20,8 @@ run: $(STAMP)
 
 # The tests that keep time (service, api, transports, HIL, CLI, bench) run at normal priority;
 # the CPU-bound ones (diagnose, effects, identification, replicate, export, commands, config, rtcore,
-# wire, packaging, the recording reader, fuzz, the board's C build) beside them at nice 19, in
-# the time the first leave idle waiting on real time, so they cannot delay a deadline. The
+# wire, packaging, the recording reader, fuzz, the board's C build, the source scans) beside them
+# at nice 19, in the time the first leave idle waiting on real time, so they cannot delay a deadline. The
 # CPU-bound ones run in two pytest-xdist workers: one process alone left a core idle while
 # the timed tests waited.
 # `make test DURATIONS=--durations=25` lists the CPU-bound group's slowest.
@@ -29,7 +29,7 @@ CPU_TESTS := tests/diagnose tests/identification tests/replicate tests/export te
              tests/rtcore tests/pinch tests/wire tests/packaging tests/test_recording.py tests/test_excel_csv.py \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py tests/board/test_board_build.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py tests/effects \
-             tests/service/test_no_false_fault.py
+             tests/service/test_no_false_fault.py tests/test_supervisor_surface.py tests/test_c_call_graph.py
 SELECT := -m "not slow and not thorough and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu and not firsthour and not soak"
 
 test: $(STAMP)
