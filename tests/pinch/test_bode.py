@@ -88,3 +88,27 @@ def test_the_diagnosed_table_says_what_diagnose_found(capsys: pytest.CaptureFixt
     assert "calibrated and diagnosed" in out and "diagnose's verdict: effects" in out
     row = next(line for line in out.splitlines() if line.startswith("| k +0 %, N +0 %"))
     assert row.rstrip(" |").split("|")[-1].strip() == "consistent: none"  # the PRBM plant: nothing missing
+
+
+def test_the_free_tare_removes_opposite_errors_in_closed_loop(truth: Profile) -> None:
+    from hand_service.pinch.compliance import free_tare
+
+    k_set = gain_limits(truth.finger("index").model)[0]
+    broken = with_errors(truth, 5.0, -5.0)
+    untared = rendered(truth, broken, "index", k_set, 0.1).stiffness_n_per_deg / k_set
+    assert untared - 1.0 < -0.10  # quasi_static_ratio: -15.8 %
+    tared = free_tare(truth, broken, "index", k_set, 80.0)
+    model = tared.finger("index").model
+    true_gain = truth.finger("index").model.pressure_gain_nm_per_kpa
+    gain_pct = 100.0 * (model.pressure_gain_nm_per_kpa / true_gain - 1.0)
+    assert gain_pct == pytest.approx(5.0, abs=0.5)  # N's error now k's: the ratio right
+    got = rendered(truth, tared, "index", k_set, 0.1).stiffness_n_per_deg / k_set
+    assert got == pytest.approx(quasi_static_ratio(1.0, 5.0, gain_pct), abs=0.03)
+    assert abs(got - 1.0) < 0.10
+
+
+def test_the_tare_is_the_last_step_of_a_corner(truth: Profile) -> None:
+    k_set = gain_limits(truth.finger("index").model)[0]
+    corner = corner_controller(truth, "index", -5.0, 5.0, NONE, calibrate=False, seed=1, tare_n_per_deg=k_set)
+    assert corner.stiffness_pct == pytest.approx(-5.0, abs=1e-9)
+    assert corner.gain_pct == pytest.approx(-5.0, abs=0.5)
