@@ -80,6 +80,18 @@ def quasi_static_ratio(share_of_limit: float, stiffness_pct: float, gain_pct: fl
     return (1.0 + 2.0 * (e_n - e_k) / share_of_limit) / (1.0 + e_n)
 
 
+def loop_in_phase_share(width_deg: float, amplitude_deg: float) -> float:
+    """The in-phase stiffness of a joint friction, as a share of the joint's k: the plant's
+    silicone loop (mismatch.Hysteresis: the torque k (θ − z), z a play of half-width w, a
+    Jenkins element) under θ = A cos ωt has the first harmonic k·A·(ψ − sin ψ cos ψ)/π in
+    phase, cos ψ = 1 − 2w/A (ψ the phase where it yields; all of k while A ≤ w). Unseen by
+    the estimate, it adds this share times k_F/K = 2/share to the rendered stiffness."""
+    if amplitude_deg <= width_deg:
+        return 1.0
+    psi = math.acos(1.0 - 2.0 * width_deg / amplitude_deg)
+    return (psi - math.sin(psi) * math.cos(psi)) / math.pi
+
+
 def _phasor(t_s: np.ndarray, signal: np.ndarray, omega: float) -> complex:
     """The least-squares sinusoid at omega through signal (with an offset): a + b sin + c cos,
     as the complex amplitude b + i c (sin as the reference phase)."""
