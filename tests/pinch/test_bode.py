@@ -135,3 +135,11 @@ def test_a_push_inside_the_loops_play_meets_the_whole_finger(truth: Profile) -> 
            for h, plant in plants.items()}
     # K·2° moves the finger 0.25°, inside the 0.5° play: the loop adds all of k_F = 2 K_max
     assert got[0.5] - got[0.0] == pytest.approx(2.0 * loop_in_phase_share(0.5, 0.25) / 0.3, rel=0.15)
+
+
+def test_the_table_says_the_controller_was_tared(capsys: pytest.CaptureFixture[str]) -> None:
+    from hand_service.pinch.bode import main
+
+    assert main(["--quick", "--tare", "--frequency", "0.2"]) == 0
+    out = capsys.readouterr().out
+    assert "tared free at the reference" in out and "| 0.2 Hz |" in out
