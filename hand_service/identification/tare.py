@@ -15,13 +15,21 @@ k's alone against the finger's pressure gain, (1 + e_k) instead of (1 + e_N) −
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from hand_service.config.model import FingerModel
 from hand_service.config.profile import Profile
-from rtcore.reference_model import effective_pressure
+from hand_service.recording import Recording
+from rtcore.reference_model import (
+    effective_pressure,
+    hysteresis_angle_update,
+    hysteresis_torque,
+    model_torque,
+    stiffening_torque,
+)
 
 MIN_EFFECTIVE_KPA = 5.0  # below this the estimate hardly depends on N: nothing to tare on
 
@@ -60,6 +68,48 @@ def tare_gain(model: FingerModel, finger: str, estimate_n: np.ndarray, chamber_k
     lever_m = model.prbm("the tare").lever_arm_m
     gain = model.pressure_gain_nm_per_kpa
     return Tare(finger, mean_n, effective_kpa, gain, gain - lever_m * mean_n / effective_kpa)
+
+
+@dataclass
+class _LoopState:
+    """The part of a finger's state the controller's Dahl copy keeps (reference_model.FingerState)."""
+
+    angle_filt_deg: float = 0.0
+    angle_ref_deg: float = 0.0
+    velocity_ref_deg_per_s: float = 0.0
+    creep_ref_deg: float = 0.0
+    hysteresis_ref_z: float = 0.0
+    hysteresis_ref_angle_deg: float = 0.0
+    hysteresis_z: float = 0.0
+    hysteresis_angle_deg: float = math.nan  # none seen yet
+
+
+def tare_from_recording(recording: Recording, model: FingerModel, finger: str,
+                        with_loop: bool = False) -> Tare:
+    """The tare from a recorded free hold (`hand-service calibrate tare`): the controller's
+    static estimate made again from the recorded angle and measured chamber pressure
+    (N·p_eff − τ(θ) − stiffening, and H·z with_loop, z the Dahl state over the recorded
+    angle, as control.force_estimate_hysteresis takes it), then tare_gain."""
+    measured = recording.optional("pressure_meas_kpa")
+    if measured is None:
+        raise ValueError(f"{recording.path}: the tare needs the measured chamber pressure "
+                         "(pressure_meas_kpa) in every sample")
+    prbm = model.prbm("the tare")
+    effects = prbm.effects
+    lever_m = prbm.lever_arm_m
+    loop = _LoopState()
+    estimate = np.empty(len(recording.angle_deg))
+    for i, (angle_deg, chamber_kpa) in enumerate(zip(recording.angle_deg, measured, strict=True)):
+        angle_rad = float(np.radians(angle_deg))
+        effective_kpa = effective_pressure(effects, float(chamber_kpa))
+        torque = (model.pressure_gain_nm_per_kpa * effective_kpa
+                  - stiffening_torque(prbm, angle_rad, effective_kpa) - model_torque(prbm, angle_rad, 0.0))
+        if with_loop:
+            loop.angle_filt_deg = float(angle_deg)
+            hysteresis_angle_update(effects, loop)
+            torque -= hysteresis_torque(effects, loop.hysteresis_z)
+        estimate[i] = torque / lever_m
+    return tare_gain(model, finger, estimate, measured)
 
 
 def apply_tare(profile: Profile, tare: Tare) -> Profile:
