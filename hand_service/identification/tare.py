@@ -8,8 +8,9 @@ force-estimating hand tares its estimate where it knows the force: in free motio
 contact. Here the tare holds the finger free (no contact) at the operating angle, averages
 the controller's own estimate and the chamber pressure it used, and sets the N that makes
 that mean estimate 0: N' = N − r·F̄ / p̄_eff. With k right or wrong, the tared model's N/k is
-the finger's own at that angle (its secant torque per pressure), so the slope error left is
-k's alone against the finger's pressure gain, (1 + e_k) instead of (1 + e_N) − (e_N − e_k)·2·K_max/K.
+the finger's own at that angle (its secant torque per pressure), so only k's error is left:
+the rendered stiffness K/(1 + e_k) instead of (K + (e_N − e_k)·2·K_max)/(1 + e_N). What acts
+only under a force (a joint friction, a contact point that moves) a free hold cannot see.
 """
 
 from __future__ import annotations
