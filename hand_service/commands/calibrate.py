@@ -1,4 +1,4 @@
-"""`hand-service calibrate gain|sensor|valve`: calibrations from measured data."""
+"""`hand-service calibrate gain|sensor|valve|tare`: calibrations from measured data."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-HELP = "calibrate the pressure gain N, the flex sensor map or the valve from measured data"
+HELP = "calibrate the pressure gain N, the sensor map, the valve or the estimate's tare from measured data"
 GAIN_DOC = """\
 gain SWEEP.csv --model MODEL.yaml [--finger NAME]
     N (pressure gain, N·m/kPa) from a slow pressure sweep at quasi-static equilibrium:
@@ -30,12 +30,20 @@ valve STEPS.csv --model MODEL.yaml [--finger NAME] [--vent]
     With --vent the fit over every step takes the vent's lag apart from the fill's and
     writes it too (the valve_vent_lag effect).
 """
+TARE_DOC = """\
+tare HOLD.csv --model MODEL.yaml [--finger NAME] [--loop]
+    The force estimate's tare: N set so that the estimate of a free finger (no contact)
+    reads 0 N over the recording, a hold at the angle the finger will work at (measured
+    chamber pressure, pressure_meas_kpa, needed). It pins N/k to the finger's own there,
+    which an error in k and N apart breaks (docs/replicate.md, impedance). --loop takes
+    the model's hysteresis loop into the estimate, as control.force_estimate_hysteresis does.
+"""
 OUTPUT_DOC = """
 All print a table and write JSON with --json. --write-model OUT.yaml writes the model
 with the new value(s); --update-profile PROFILE.yaml changes the values in the profile
 in place, line by line, so its comments survive.
 """
-DESCRIPTION = GAIN_DOC + SENSOR_DOC + VALVE_DOC + OUTPUT_DOC + """
+DESCRIPTION = GAIN_DOC + SENSOR_DOC + VALVE_DOC + TARE_DOC + OUTPUT_DOC + """
 Examples:
   hand-service calibrate gain sweep.csv --model sim.yaml --finger index --update-profile my.yaml
   hand-service calibrate sensor pairs.csv --json sensor.json --update-profile my.yaml
@@ -54,7 +62,7 @@ def _common(parser: argparse.ArgumentParser, model: bool) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="what", required=True, metavar="gain|sensor|valve")
+    sub = parser.add_subparsers(dest="what", required=True, metavar="gain|sensor|valve|tare")
 
     def add(name: str, help_text: str, doc: str) -> argparse.ArgumentParser:
         return sub.add_parser(name, help=help_text, description=doc + OUTPUT_DOC,
@@ -73,6 +81,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     valve.add_argument("recording", type=Path, metavar="STEPS.csv")
     valve.add_argument("--vent", action="store_true", help="fit the vent's lag apart (valve_vent_lag)")
     _common(valve, model=True)
+    tare = add("tare", "N that zeroes a free hold's force estimate", TARE_DOC)
+    tare.add_argument("recording", type=Path, metavar="HOLD.csv")
+    tare.add_argument("--loop", action="store_true", help="the model's hysteresis loop in the estimate")
+    _common(tare, model=True)
 
 
 def _finger_name(args: argparse.Namespace, model_finger: str | None, recording_finger: str | None) -> str:
@@ -209,11 +221,38 @@ def _valve(args: argparse.Namespace) -> dict[str, Any]:
             **{steps: each.to_json() for steps, each in directions.items()}}
 
 
+def _tare(args: argparse.Namespace) -> dict[str, Any]:
+    from hand_service.config.profile import load_model
+    from hand_service.errors import UserError
+    from hand_service.identification.tare import tare_from_recording
+    from hand_service.recording import check_finger, read_recording
+
+    model = load_model(args.model, args.finger)
+    recording = read_recording(args.recording, args.finger)
+    check_finger(recording, args.finger or model.finger)
+    finger = model.finger or recording.finger or "?"
+    try:
+        tare = tare_from_recording(recording, model, finger, with_loop=args.loop)
+    except ValueError as error:
+        raise UserError(str(error)) from error
+    print(f"calibrate tare: {args.recording.name}, finger {finger}, {len(recording.angle_deg)} samples "
+          f"about {float(recording.angle_deg.mean()):.2f}°\n")
+    print("| estimate before (N) | p_eff (kPa) | N before (N·m/kPa) | N after (N·m/kPa) | change |")
+    print("|---|---|---|---|---|")
+    print(f"| {tare.estimate_n:+.4f} | {tare.effective_kpa:.2f} | {tare.gain_before_nm_per_kpa:.6g} "
+          f"| {tare.gain_after_nm_per_kpa:.6g} | {tare.gain_change_pct:+.2f} % |")
+    _write_back(args, model, {"pressure_gain_nm_per_kpa": tare.gain_after_nm_per_kpa}, recording.finger,
+                f"N from `hand-service calibrate tare {args.recording.name}`")
+    return {"finger": finger, "estimate_n": tare.estimate_n, "effective_kpa": tare.effective_kpa,
+            "pressure_gain_before_nm_per_kpa": tare.gain_before_nm_per_kpa,
+            "pressure_gain_nm_per_kpa": tare.gain_after_nm_per_kpa}
+
+
 def main(args: argparse.Namespace) -> int:
     from hand_service.jsonio import tables_out, write_json
 
     with tables_out(args.json):
-        result = {"gain": _gain, "sensor": _sensor, "valve": _valve}[args.what](args)
+        result = {"gain": _gain, "sensor": _sensor, "valve": _valve, "tare": _tare}[args.what](args)
     if args.json is not None:
         write_json(args.json, result)
     return 0

@@ -4,7 +4,8 @@ a small sinusoidal push, with the controller's model exact or ±5 % off.
     python -m hand_service.pinch.bode [--finger index] [--share 1.0] [--plot PATH] [--quick]
                                       [--plant model|mismatched|mismatched-even-valves]
                                       [--calibrate | --diagnose]
-                                      [--amplitude-deg 2] [--reference-deg 80]
+                                      [--amplitude-deg 2] [--reference-deg 80] [--tare]
+                                      [--errors-last] [--frequency HZ ...]
 
 A probe fixed to the force point (hand_service.pinch.compliance.closed_loop's push: it
 pushes and pulls, so the finger cannot leave it) pushes the finger open with a
@@ -47,7 +48,7 @@ import numpy as np
 
 from hand_service.api.impedance import gain_limits
 from hand_service.config.profile import Profile, load_profile
-from hand_service.pinch.compliance import closed_loop
+from hand_service.pinch.compliance import closed_loop, free_tare
 from hand_service.pinch.lab_diagnose import EVEN_VALVES, LabDiagnosis, diagnosed_controller
 from hand_service.pinch.mismatch import NONE, PLANTS, Mismatch, identify_on_plant
 
@@ -77,6 +78,18 @@ def quasi_static_ratio(share_of_limit: float, stiffness_pct: float, gain_pct: fl
     finger renders (K + 2 (e_N − e_k) K_max) / (1 + e_N) (K_max = 0.5 k / (r·180/π))."""
     e_k, e_n = stiffness_pct / 100.0, gain_pct / 100.0
     return (1.0 + 2.0 * (e_n - e_k) / share_of_limit) / (1.0 + e_n)
+
+
+def loop_in_phase_share(width_deg: float, amplitude_deg: float) -> float:
+    """The in-phase stiffness of a joint friction, as a share of the joint's k: the plant's
+    silicone loop (mismatch.Hysteresis: the torque k (θ − z), z a play of half-width w, a
+    Jenkins element) under θ = A cos ωt has the first harmonic k·A·(ψ − sin ψ cos ψ)/π in
+    phase, cos ψ = 1 − 2w/A (ψ the phase where it yields; all of k while A ≤ w). Unseen by
+    the estimate, it adds this share times k_F/K = 2/share to the rendered stiffness."""
+    if amplitude_deg <= width_deg:
+        return 1.0
+    psi = math.acos(1.0 - 2.0 * width_deg / amplitude_deg)
+    return (psi - math.sin(psi) * math.cos(psi)) / math.pi
 
 
 def _phasor(t_s: np.ndarray, signal: np.ndarray, omega: float) -> complex:
@@ -184,13 +197,16 @@ class Corner:
 
 def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pct: float,
                       mismatch: Mismatch, calibrate: bool, seed: int, diagnosed: bool = False,
-                      errors_last: bool = False) -> Corner:
+                      errors_last: bool = False, tare_n_per_deg: float | None = None,
+                      reference_deg: float = REFERENCE_DEG) -> Corner:
     """The controller with k and N off by these percentages; with calibrate, the lab's
     `calibrate sensor` and `calibrate gain` then run on the plant (N measured again for
     that k); with diagnosed, after those the lab's `calibrate valve` and `diagnose` on a
     steps recording of the finger, the controller's model the one diagnose writes
     (hand_service.pinch.lab_diagnose); with errors_last the errors are put on the model
-    diagnose wrote instead (its effects kept), not on the lab's starting model."""
+    diagnose wrote instead (its effects kept), not on the lab's starting model; with
+    tare_n_per_deg, last, the estimate's free-motion tare in impedance mode at that K about
+    reference_deg (compliance.free_tare), which sets N again."""
     controller = truth if errors_last and diagnosed else with_errors(truth, stiffness_pct, gain_pct)
     if calibrate or diagnosed:
         with tempfile.TemporaryDirectory(prefix="pinch-bode-") as scratch:
@@ -200,6 +216,8 @@ def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pc
         controller, (diagnosis,) = diagnosed_controller(truth, controller, mismatch, seed, [finger])
         if errors_last:
             controller = with_errors(controller, stiffness_pct, gain_pct)
+    if tare_n_per_deg is not None:
+        controller = free_tare(truth, controller, finger, tare_n_per_deg, reference_deg, seed, mismatch)
     mine, true = controller.finger(finger).model, truth.finger(finger).model
     return Corner(controller, 100.0 * (mine.stiffness_nm_per_rad / true.stiffness_nm_per_rad - 1.0),
                   100.0 * (mine.pressure_gain_nm_per_kpa / true.pressure_gain_nm_per_kpa - 1.0), diagnosis)
@@ -213,6 +231,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="K as a share of the finger's K_max (default 1)")
     parser.add_argument("--plot", type=Path, help="write the Bode plot of the first finger here (.png)")
     parser.add_argument("--quick", action="store_true", help="three frequencies, no model error")
+    parser.add_argument("--frequency", type=float, action="append",
+                        help="a push frequency in Hz (repeatable; default "
+                             + ", ".join(f"{f:g}" for f in FREQUENCIES_HZ) + ")")
     parser.add_argument("--plant", choices=sorted(BODE_PLANTS), default="model",
                         help="the PRBM (model, default), the pinch's mismatched plant, or that plant "
                              "with valves that vent as fast as they fill")
@@ -224,6 +245,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--errors-last", action="store_true",
                         help="with --diagnose, put the k and N errors on the model diagnose writes "
                              "(its effects kept) instead of on the lab's starting model")
+    parser.add_argument("--tare", action="store_true",
+                        help="last, tare the force estimate on the free finger at the reference "
+                             "(hand_service.identification.tare), as the lab does before contact")
     parser.add_argument("--amplitude-deg", type=float, default=AMPLITUDE_DEG,
                         help=f"the push's amplitude as K times this angle (default {AMPLITUDE_DEG:g})")
     parser.add_argument("--reference-deg", type=float, default=REFERENCE_DEG,
@@ -238,6 +262,7 @@ def main(argv: list[str] | None = None) -> int:
     truth = load_profile(None)
     mismatch = BODE_PLANTS[args.plant]
     frequencies = (0.1, 1.0, 5.0) if args.quick else FREQUENCIES_HZ
+    frequencies = tuple(args.frequency) if args.frequency else frequencies
     errors = ERRORS[:1] if args.quick else ERRORS
     for n, finger in enumerate(args.finger or ["index"]):
         k_set = args.share * gain_limits(truth.finger(finger).model)[0]
@@ -245,6 +270,7 @@ def main(argv: list[str] | None = None) -> int:
         head = f"{finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), D = {DAMPING_N_S_PER_DEG:g} N·s/deg"
         lab = ", calibrated and diagnosed" if args.diagnose else ", calibrated" if args.calibrate else ""
         lab += ", the errors on diagnose's model" if args.diagnose and args.errors_last else ""
+        lab += ", tared free at the reference" if args.tare else ""
         tail = (f"{args.plant} plant{lab}, "
                 f"push K·{args.amplitude_deg:g}° about {args.reference_deg:g}°")
         print(f"\n{head}, {tail}: stiffness error against K (%); damping (N·s/deg)\n")
@@ -255,7 +281,9 @@ def main(argv: list[str] | None = None) -> int:
         for k_pct, n_pct in errors:
             label = f"k {k_pct:+g} %, N {n_pct:+g} %"
             corner = corner_controller(truth, finger, k_pct, n_pct, mismatch, args.calibrate, seed=1,
-                                       diagnosed=args.diagnose, errors_last=args.errors_last)
+                                       diagnosed=args.diagnose, errors_last=args.errors_last,
+                                       tare_n_per_deg=k_set if args.tare else None,
+                                       reference_deg=args.reference_deg)
             points = sweep(truth, corner.controller, finger, k_set, frequencies, mismatch=mismatch,
                            amplitude_deg=args.amplitude_deg, reference_deg=args.reference_deg)
             curves[label] = points

@@ -31,6 +31,7 @@ import numpy as np
 import rtcore
 from hand_service.config.effects import effect_value
 from hand_service.config.profile import Profile
+from hand_service.identification.tare import apply_tare, tare_gain
 from hand_service.pinch.mismatch import NONE, Hysteresis, Mismatch, ValveLag
 from rtcore.motion import FingerMotions
 from rtcore.sim import SimFinger
@@ -40,6 +41,9 @@ SUBSTEPS = 10
 ONSET_DEG = 5.0
 ONSET_FORCE_N = 0.25
 STEP_DEG = 10.0
+TARE_HOLD_S = 4.0  # the free hold before contact: settled after 3 s, averaged over the last
+TARE_MEAN_S = 1.0
+TARE_ROUNDS = 2
 
 
 @dataclass
@@ -69,11 +73,14 @@ def miscalibrated(controller: Profile, error_pct: float) -> Profile:
 
 @dataclass
 class Loop:
-    """Per control tick: the true angle, the true contact force, the chamber pressure."""
+    """Per control tick: the true angle, the true contact force, the chamber pressure; the
+    controller's force estimate and the chamber pressure it made it from."""
 
     angle_deg: np.ndarray
     force_n: np.ndarray
     chamber_kpa: np.ndarray
+    estimate_n: np.ndarray
+    estimate_kpa: np.ndarray
 
 
 def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
@@ -116,7 +123,7 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
     motion = FingerMotions([SimFinger(prbm, contact_angle_deg=wall_deg(0.0) or 0.0,
                                       contact_stiffness_n_per_m=WALL_STIFFNESS_N_PER_M if walled else 0.0)])
     angle = chamber = 0.0
-    out = Loop(np.zeros(ticks), np.zeros(ticks), np.zeros(ticks))
+    out = Loop(*(np.zeros(ticks) for _ in range(5)))
     for tick in range(ticks):
         t_s = tick / rate_hz
         wall = wall_deg(t_s) if walled else None
@@ -127,6 +134,8 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
         hand.inputs.sensor_mv[0] = (angle_deg - f.sensor_offset_deg) / f.sensor_gain_deg_per_mv
         hand.inputs.pressure_meas_kpa[0] = chamber + noise_kpa * rng.standard_normal()
         hand.step()
+        out.estimate_n[tick] = hand.outputs.force_normal_n[0]
+        out.estimate_kpa[tick] = hand.outputs.chamber_pressure_kpa[0]
         command = float(hand.outputs.pressure_cmd_kpa[0])
         push = 0.0 if push_n is None else push_n(t_s)
         for k in range(SUBSTEPS):
@@ -145,6 +154,23 @@ def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping
         force = max(WALL_STIFFNESS_N_PER_M * depth_m, 0.0) + push
         out.angle_deg[tick], out.force_n[tick], out.chamber_kpa[tick] = np.degrees(angle), force, chamber
     return out
+
+
+def free_tare(truth: Profile, controller: Profile, finger: str, stiffness_n_per_deg: float,
+              reference_deg: float, seed: int = 1, mismatch: Mismatch = NONE,
+              rounds: int = TARE_ROUNDS) -> Profile:
+    """The controller with its force estimate tared (hand_service.identification.tare) on
+    the free finger: impedance mode holds the reference with no contact for TARE_HOLD_S, and
+    the estimate over its last TARE_MEAN_S fixes N; rounds times, each from the last's N
+    (the tared finger rests nearer its reference, where the next tare is made)."""
+    ticks = round(TARE_MEAN_S * truth.control.rate_hz)
+    for n in range(rounds):
+        loop = closed_loop(truth, finger, stiffness_n_per_deg, 0.0, TARE_HOLD_S, lambda _: reference_deg,
+                           lambda _: None, seed + n, controller, mismatch=mismatch)
+        tare = tare_gain(controller.finger(finger).model, finger, loop.estimate_n[-ticks:],
+                         loop.estimate_kpa[-ticks:])
+        controller = apply_tare(controller, tare)
+    return controller
 
 
 def slow_push(profile: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,

@@ -3,12 +3,15 @@ the defaults hold every finger of every shipped profile still."""
 
 from __future__ import annotations
 
+import dataclasses
+import math
+
 import numpy as np
 import pytest
 
 import rtcore
 from hand_service.config.profile import PROFILE_DIR, Profile, load_profile
-from hand_service.config.tuning import GAIN_MARGIN, margin_gains, sos_response
+from hand_service.config.tuning import GAIN_MARGIN, margin_gains, sos_response, valve_lag_s
 from hand_service.simulator import profile_sim_finger
 from rtcore.sim import Simulator
 
@@ -41,6 +44,28 @@ def test_critical_gain_is_where_the_loop_starts_to_oscillate(finger: str) -> Non
     gains = margin_gains(profile.fingers[i].rtcore_config(profile.control), profile.control.rate_hz)
     # below the critical gain the loop settles; above it, it oscillates until the pressure
     # limits hold the swing (a limit cycle), so judge the last quarter's spread
+    for factor, oscillates in ((0.8, False), (1.3, True)):
+        angle = hold(profile, i, factor * gains.critical_kp_kpa_per_deg, 0.0, noise=False)
+        spread = np.std(angle[3 * angle.size // 4:])
+        assert (spread > 1.0) == oscillates, f"{factor} x critical: std {spread:.3g} deg at the end"
+
+
+@pytest.mark.parametrize(("finger", "vent_over_fill"), [("middle", 4.0), ("thumb", 2.0)])
+def test_a_slower_vent_moves_the_critical_gain_as_predicted(finger: str, vent_over_fill: float) -> None:
+    """With a vent lag of its own (valve_vent_lag), the loop's τ is the geometric mean of the
+    fill's and the vent's: below 0.8 times the predicted critical gain the loop settles, above
+    1.3 times it oscillates (with the fill's lag alone the prediction is half the gain)."""
+    profile = load_profile()
+    i = profile.finger_names.index(finger)
+    fill_s = 0.04
+    effects = {**profile.fingers[i].model.effects, "valve_lag": {"tau_s": fill_s},
+               "valve_vent_lag": {"tau_s": vent_over_fill * fill_s}}
+    fingers = list(profile.fingers)
+    fingers[i] = dataclasses.replace(fingers[i], model=fingers[i].model.with_changes(effects=effects))
+    profile = dataclasses.replace(profile, fingers=fingers)
+    config = profile.fingers[i].rtcore_config(profile.control)
+    assert valve_lag_s(config.prbm.effects) == pytest.approx(fill_s * math.sqrt(vent_over_fill))
+    gains = margin_gains(config, profile.control.rate_hz)
     for factor, oscillates in ((0.8, False), (1.3, True)):
         angle = hold(profile, i, factor * gains.critical_kp_kpa_per_deg, 0.0, noise=False)
         spread = np.std(angle[3 * angle.size // 4:])

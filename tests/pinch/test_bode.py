@@ -17,11 +17,12 @@ from hand_service.pinch.bode import (
     _phasor,
     bandwidth_hz,
     corner_controller,
+    loop_in_phase_share,
     quasi_static_ratio,
     rendered,
     with_errors,
 )
-from hand_service.pinch.mismatch import NONE, PAPER_MISMATCH
+from hand_service.pinch.mismatch import NONE, PAPER_MISMATCH, Hysteresis
 
 
 def test_the_lock_in_finds_amplitude_and_phase() -> None:
@@ -88,3 +89,57 @@ def test_the_diagnosed_table_says_what_diagnose_found(capsys: pytest.CaptureFixt
     assert "calibrated and diagnosed" in out and "diagnose's verdict: effects" in out
     row = next(line for line in out.splitlines() if line.startswith("| k +0 %, N +0 %"))
     assert row.rstrip(" |").split("|")[-1].strip() == "consistent: none"  # the PRBM plant: nothing missing
+
+
+def test_the_free_tare_removes_opposite_errors_in_closed_loop(truth: Profile) -> None:
+    from hand_service.pinch.compliance import free_tare
+
+    k_set = gain_limits(truth.finger("index").model)[0]
+    broken = with_errors(truth, 5.0, -5.0)
+    untared = rendered(truth, broken, "index", k_set, 0.1).stiffness_n_per_deg / k_set
+    assert untared - 1.0 < -0.10  # quasi_static_ratio: -15.8 %
+    tared = free_tare(truth, broken, "index", k_set, 80.0)
+    model = tared.finger("index").model
+    true_gain = truth.finger("index").model.pressure_gain_nm_per_kpa
+    gain_pct = 100.0 * (model.pressure_gain_nm_per_kpa / true_gain - 1.0)
+    assert gain_pct == pytest.approx(5.0, abs=0.5)  # N's error now k's: the ratio right
+    got = rendered(truth, tared, "index", k_set, 0.1).stiffness_n_per_deg / k_set
+    assert got == pytest.approx(quasi_static_ratio(1.0, 5.0, gain_pct), abs=0.03)
+    assert abs(got - 1.0) < 0.10
+
+
+def test_the_tare_is_the_last_step_of_a_corner(truth: Profile) -> None:
+    k_set = gain_limits(truth.finger("index").model)[0]
+    corner = corner_controller(truth, "index", -5.0, 5.0, NONE, calibrate=False, seed=1, tare_n_per_deg=k_set)
+    assert corner.stiffness_pct == pytest.approx(-5.0, abs=1e-9)
+    assert corner.gain_pct == pytest.approx(-5.0, abs=0.5)
+
+
+@pytest.mark.parametrize("width_deg, amplitude_deg", [(0.5, 2.0), (0.5, 0.8), (0.2, 5.0), (0.5, 0.4)])
+def test_the_loops_in_phase_share_is_the_plants_first_harmonic(width_deg: float,
+                                                               amplitude_deg: float) -> None:
+    loop = Hysteresis(math.radians(width_deg), (1,))
+    phase = np.linspace(0.0, 4.0 * math.pi, 40001)
+    angle_rad = np.radians(amplitude_deg) * np.cos(phase)
+    torque = np.array([loop.torque_nm(np.array([1.0]), np.array([a]))[0] for a in angle_rad])
+    second = phase >= 2.0 * math.pi  # the second period: the play settled into its loop
+    in_phase = 2.0 * np.mean(torque[second] * np.cos(phase[second])) / np.radians(amplitude_deg)
+    assert in_phase == pytest.approx(loop_in_phase_share(width_deg, amplitude_deg), abs=2e-3)
+
+
+def test_a_push_inside_the_loops_play_meets_the_whole_finger(truth: Profile) -> None:
+    k_set = 0.3 * gain_limits(truth.finger("index").model)[0]
+    plants = {h: dataclasses.replace(PAPER_MISMATCH, lever_drift_per_rad=0.0, hysteresis_deg=h)
+              for h in (0.5, 0.0)}
+    got = {h: rendered(truth, truth, "index", k_set, 0.2, mismatch=plant).stiffness_n_per_deg / k_set
+           for h, plant in plants.items()}
+    # K·2° moves the finger 0.25°, inside the 0.5° play: the loop adds all of k_F = 2 K_max
+    assert got[0.5] - got[0.0] == pytest.approx(2.0 * loop_in_phase_share(0.5, 0.25) / 0.3, rel=0.15)
+
+
+def test_the_table_says_the_controller_was_tared(capsys: pytest.CaptureFixture[str]) -> None:
+    from hand_service.pinch.bode import main
+
+    assert main(["--quick", "--tare", "--frequency", "0.2"]) == 0
+    out = capsys.readouterr().out
+    assert "tared free at the reference" in out and "| 0.2 Hz |" in out
