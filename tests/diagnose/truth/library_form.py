@@ -6,7 +6,8 @@ at its best leaves of the truth's Hunt-Crossley contact, K·δ^1.5·(1 + λ·δ'
 grows with the depth, and where that best form puts the contact.
 
 The fit is the library's own model (the project's simulator) fitted by output error to the
-truth's noise-free angle on the recorded command: k, B, N, K, θc, n and C together, from
+truth's noise-free angle on the recorded command (the sensor's offset and slow drift taken
+out as diagnose takes them): k, B, N, K, θc, n and C together, from
 the truth's onset, Hertz's n = 1.5 and no damper and from starts beside them, the best
 kept. `left` (its RMS error over the sensor's noise RMS) says whether the library's form
 can explain the contact (below on_request.OBSERVABLE_LEFT) or only part of it (then
@@ -17,6 +18,7 @@ its spring's torque at the deepest angle recorded is the size an estimate is sco
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tempfile
 from dataclasses import dataclass
@@ -66,13 +68,16 @@ def best_form(case: cs.Case, effect: str, size: float,
     from hand_service.diagnose.fitting.output_error import fit
     from hand_service.diagnose.model.params import EffectScales, Param
     from hand_service.diagnose.model.problem import PLAIN, build_problem
+    from hand_service.diagnose.residual.noise import nuisance_only
 
     with tempfile.TemporaryDirectory(prefix="library-form-") as scratch:
         _, path = cs.write(case, Path(scratch))
         model = load_model(path)
     traj, rate = case.trajectory, case.rate_hz
     t_s = np.arange(traj.theta_deg.size) / rate
-    problem = build_problem(model, t_s, traj.command_kpa, traj.theta_deg, rate)
+    # with the sensor's offset and slow drift as nuisances, as diagnose fits every model
+    problem = dataclasses.replace(build_problem(model, t_s, traj.command_kpa, traj.theta_deg, rate),
+                                  noise=nuisance_only(traj.theta_deg.size, rate))
     family = case.truth.family
     plain = [Param.plain(name, getattr(model, name)) for name in PLAIN]
     plain_start = [family.stiffness_nm_per_rad, family.damping_nms_per_rad + cs.linear_damping(case.truth),
