@@ -25,7 +25,12 @@ int rtcore_effects_valid(const rtcore_effects *e);
 double rtcore_valve_tau_s(const rtcore_effects *e, double rising);
 double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s);
 double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad);
-double rtcore_contact_torque_nm(const rtcore_effects *e, double angle_rad);
+double rtcore_model_side_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s,
+                                   int32_t in_contact);
+int32_t rtcore_contact_reached(const rtcore_effects *e, double angle_rad);
+double rtcore_contact_push_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s);
+double rtcore_contact_side_torque_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s,
+                                     int32_t in_contact);
 double rtcore_contact_stiffness_nm_per_rad(const rtcore_effects *e, double angle_rad);
 double rtcore_model_slope_bound_nm_per_rad(const rtcore_effects *e, double angle_rad, double reach_rad);
 double rtcore_stiffening_torque_nm(const rtcore_prbm *m, double angle_rad, double effective_kpa);

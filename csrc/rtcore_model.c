@@ -26,7 +26,8 @@ int rtcore_effects_valid(const rtcore_effects *e)
            && isfinite(e->contact_stiffness_nm_per_radn) && e->contact_stiffness_nm_per_radn >= 0.0
            && (e->contact_stiffness_nm_per_radn == 0.0
                || (isfinite(e->contact_onset_deg) && isfinite(e->contact_exponent) && e->contact_exponent >= 1.0
-                   && e->contact_exponent <= 3.0))
+                   && e->contact_exponent <= 3.0 && isfinite(e->contact_damping_nms_per_rad)
+                   && e->contact_damping_nms_per_rad >= 0.0))
            && isfinite(e->pressure_stiffening_gain) && e->pressure_stiffening_gain >= 0.0
            && (e->pressure_stiffening_gain == 0.0
                || (isfinite(e->pressure_stiffening_ref_kpa) && e->pressure_stiffening_ref_kpa > 0.0))
@@ -70,11 +71,37 @@ static double contact_depth_rad(const rtcore_effects *e, double angle_rad)
     return e->contact_stiffness_nm_per_radn > 0.0 && depth_rad > 0.0 ? depth_rad : 0.0;
 }
 
-/* The contact's torque Kc*(theta - theta_c)^n past its onset (0 before it). */
-double rtcore_contact_torque_nm(const rtcore_effects *e, double angle_rad)
+/* Whether angle_rad is past the contact's onset (never without a contact). */
+int32_t rtcore_contact_reached(const rtcore_effects *e, double angle_rad)
+{
+    return contact_depth_rad(e, angle_rad) > 0.0;
+}
+
+/* The contact's push in contact, Kc*max(theta - theta_c, 0)^n + Cc*omega, continued across
+ * the onset (the damper's share does not vanish there: the simulator keeps one side of it
+ * for a whole step) and not yet limited to pushing. */
+double rtcore_contact_push_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s)
 {
     const double depth_rad = contact_depth_rad(e, angle_rad);
-    return depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent) : 0.0;
+    const double spring_nm = depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent)
+                                             : 0.0;
+    return spring_nm + e->contact_damping_nms_per_rad * velocity_rad_per_s;
+}
+
+/* The contact's torque with its damper in contact (in_contact) or not: the push, pushing
+ * only (a finger leaving faster than the spring relaxes leaves the damper behind), or the
+ * spring's alone (0 before the onset). */
+double rtcore_contact_side_torque_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s,
+                                     int32_t in_contact)
+{
+    const double depth_rad = contact_depth_rad(e, angle_rad);
+    const double spring_nm = depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent)
+                                             : 0.0;
+    const double push_nm = spring_nm + e->contact_damping_nms_per_rad * velocity_rad_per_s;
+    if (!in_contact) {
+        return spring_nm;
+    }
+    return push_nm > 0.0 ? push_nm : 0.0;
 }
 
 /* Its slope d/dtheta, n*Kc*(theta - theta_c)^(n-1) past the onset. */
@@ -104,9 +131,11 @@ static double linear_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad
     return m->stiffness_nm_per_rad;
 }
 
-/* Torque the finger's structure resists with at (angle, velocity), beyond A*th'':
- * B is not included (the callers add B*th' where the dynamics call for it). */
-double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s)
+/* Torque the finger's structure resists with at (angle, velocity), beyond A*th'', with
+ * the contact taken as in_contact says (rtcore_contact_side_torque_nm): B is not included
+ * (the callers add B*th' where the dynamics call for it). */
+double rtcore_model_side_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s,
+                                   int32_t in_contact)
 {
     const rtcore_effects *e = &m->effects;
     double torque = linear_stiffness_nm_per_rad(m, angle_rad) * angle_rad;
@@ -121,9 +150,15 @@ double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double vel
         torque += e->gravity_torque_nm * (1.0 - cos(angle_rad));
     }
     if (e->contact_stiffness_nm_per_radn > 0.0) {
-        torque += rtcore_contact_torque_nm(e, angle_rad);
+        torque += rtcore_contact_side_torque_nm(e, angle_rad, velocity_rad_per_s, in_contact);
     }
     return torque;
+}
+
+/* The same with the contact where the angle is (past its onset or not). */
+double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s)
+{
+    return rtcore_model_side_torque_nm(m, angle_rad, velocity_rad_per_s, rtcore_contact_reached(&m->effects, angle_rad));
 }
 
 /* d tau / d theta: the local stiffness, with velocity held fixed. */
@@ -152,8 +187,16 @@ double rtcore_model_torque_rate_nm_per_s(const rtcore_prbm *m, double angle_rad,
         const double th = tanh(velocity_rad_per_s / smoothing_rad_per_s);
         d_velocity += e->coulomb_torque_nm * (1.0 - th * th) / smoothing_rad_per_s;
     }
-    return rtcore_model_stiffness_nm_per_rad(m, angle_rad) * velocity_rad_per_s
-           + d_velocity * accel_rad_per_s2;
+    double rate = rtcore_model_stiffness_nm_per_rad(m, angle_rad) * velocity_rad_per_s;
+    if (rtcore_contact_reached(e, angle_rad)) {
+        /* in contact the damper's Cc*theta'' too; while it pushes at all (else none of it) */
+        if (rtcore_contact_push_nm(e, angle_rad, velocity_rad_per_s) > 0.0) {
+            d_velocity += e->contact_damping_nms_per_rad;
+        } else {
+            rate -= rtcore_contact_stiffness_nm_per_rad(e, angle_rad) * velocity_rad_per_s;
+        }
+    }
+    return rate + d_velocity * accel_rad_per_s2;
 }
 
 /* Pressure that produces a wanted effective pressure through the dead zone. */

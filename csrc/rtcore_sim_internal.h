@@ -45,6 +45,11 @@ static inline double rtcore_sim_chamber_at(double start_kpa, double input_kpa, d
     return input_kpa + (start_kpa - input_kpa) * exp(-t_s / tau_s);
 }
 
+/* The sides a step keeps throughout (rtcore_sim_touches): the object touched, the contact
+ * effect past its onset; each a bit of `touching`. */
+#define SIM_TOUCH_OBJECT 1
+#define SIM_TOUCH_CONTACT 2
+
 /* One finger's linear plant and the bounds on g's slopes, derived once per sample. */
 typedef struct {
     const rtcore_sim_finger *finger;

@@ -10,6 +10,9 @@
 
 /* ---- dynamics ---------------------------------------------------------------------- */
 
+/* the cuts of a step toward a damped contact's onset (before_kink's interpolation repeated) */
+static const int32_t ONSET_REFINEMENTS = 4;
+
 /* The finger is A·θ'' + B·θ' + k·θ = u(t): a linear plant, integrated exactly for any step
  * (e^(L·h), L = [[0, 1], [−k/A, −B/A]], in closed form), driven by the torque
  * u = N·p_eff(t) + g(θ, θ'), where g is every torque beyond k·θ + B·θ' (the effects and
@@ -75,10 +78,12 @@ static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propa
 }
 
 /* Where g has a kink or a jump (the object's surface, the contact force reaching 0 as
- * the finger leaves, θ = 0 with an asymmetric stiffness, the contact effect's onset) a step is only as accurate as
- * that allows: a step that crosses one is cut where it does, by linear interpolation
- * between its ends. The fraction of the step before the first crossing (1 for none), and
- * in *surface whether that one is the object's surface. */
+ * the finger leaves, θ = 0 with an asymmetric stiffness, the contact effect's onset and its
+ * push reaching 0) a step is only as accurate as that allows: a step that crosses one is
+ * cut where it does, by linear interpolation between its ends. The fraction of the step
+ * before the first crossing (1 for none), and in *surface the side that one changes (its
+ * bit of `touching`: the object's surface, or the onset of a contact with a damper; 0 for
+ * a kink that changes none). */
 static double before_kink(const sim_plant *p, int32_t touching, double angle0_rad, double velocity0_rad_per_s,
                           double angle1_rad, double velocity1_rad_per_s, int32_t *surface)
 {
@@ -89,11 +94,12 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
         const double surface_rad = f->contact_angle_deg * RTCORE_RAD_PER_DEG;
         const double depth0 = angle0_rad - surface_rad;
         const double depth1 = angle1_rad - surface_rad;
-        if (touching ? depth1 < 0.0 && depth0 > 0.0 : depth1 > 0.0 && depth0 < 0.0) {
+        const int32_t object = (touching & SIM_TOUCH_OBJECT) != 0;
+        if (object ? depth1 < 0.0 && depth0 > 0.0 : depth1 > 0.0 && depth0 < 0.0) {
             fraction = depth0 / (depth0 - depth1);
-            *surface = 1;
+            *surface = SIM_TOUCH_OBJECT;
         }
-        if (touching && f->contact_damping_ns_per_m > 0.0) {
+        if (object && f->contact_damping_ns_per_m > 0.0) {
             const double push0 = f->contact_stiffness_n_per_m * depth0 + f->contact_damping_ns_per_m * velocity0_rad_per_s;
             const double push1 = f->contact_stiffness_n_per_m * depth1 + f->contact_damping_ns_per_m * velocity1_rad_per_s;
             if (((push0 > 0.0 && push1 < 0.0) || (push0 < 0.0 && push1 > 0.0)) && push0 / (push0 - push1) < fraction) {
@@ -109,11 +115,26 @@ static double before_kink(const sim_plant *p, int32_t touching, double angle0_ra
         *surface = 0;
     }
     if (f->prbm.effects.contact_stiffness_nm_per_radn > 0.0) {
-        const double depth0 = angle0_rad - f->prbm.effects.contact_onset_deg * RTCORE_RAD_PER_DEG;
-        const double depth1 = angle1_rad - f->prbm.effects.contact_onset_deg * RTCORE_RAD_PER_DEG;
-        if (((depth0 < 0.0 && depth1 > 0.0) || (depth0 > 0.0 && depth1 < 0.0)) && depth0 / (depth0 - depth1) < fraction) {
+        const rtcore_effects *e = &f->prbm.effects;
+        const double depth0 = angle0_rad - e->contact_onset_deg * RTCORE_RAD_PER_DEG;
+        const double depth1 = angle1_rad - e->contact_onset_deg * RTCORE_RAD_PER_DEG;
+        const int32_t damped = e->contact_damping_nms_per_rad > 0.0;
+        const int32_t in_contact = (touching & SIM_TOUCH_CONTACT) != 0;
+        /* with a damper the push jumps at the onset: a side, left only from the one the step
+         * is on (as the object's surface); without, a kink either way */
+        const int32_t crosses = damped ? (in_contact ? depth0 > 0.0 && depth1 < 0.0 : depth0 < 0.0 && depth1 > 0.0)
+                                       : (depth0 < 0.0 && depth1 > 0.0) || (depth0 > 0.0 && depth1 < 0.0);
+        if (crosses && depth0 / (depth0 - depth1) < fraction) {
             fraction = depth0 / (depth0 - depth1);
-            *surface = 0;
+            *surface = damped ? SIM_TOUCH_CONTACT : 0;
+        }
+        if (damped && in_contact) {
+            const double push0 = rtcore_contact_push_nm(e, angle0_rad, velocity0_rad_per_s);
+            const double push1 = rtcore_contact_push_nm(e, angle1_rad, velocity1_rad_per_s);
+            if (((push0 > 0.0 && push1 < 0.0) || (push0 < 0.0 && push1 > 0.0)) && push0 / (push0 - push1) < fraction) {
+                fraction = push0 / (push0 - push1);
+                *surface = 0;
+            }
         }
     }
     return fraction;
@@ -217,10 +238,16 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
         const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
                                      ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
                                      : 0.0;
-        /* the friction's and the drag's slopes here, integrated exactly over the step: the
-         * plant with B + slope0; over a span the drag's stays explicit (drag_explicit) */
+        /* a contact's damper in contact: its Cc, taken into the exact part whole (g gives back
+         * only what the push's limit to pushing leaves of it, a kink that cuts the step) */
+        const double damper0 = (touching & SIM_TOUCH_CONTACT) && f->prbm.effects.contact_stiffness_nm_per_radn > 0.0
+                                   ? f->prbm.effects.contact_damping_nms_per_rad
+                                   : 0.0;
+        /* the friction's, the drag's and the damper's slopes here, integrated exactly over the
+         * step: the plant with B + slope0; over a span the drag's stays explicit (drag_explicit) */
         const double slope0
-            = friction0 + (drag_explicit ? 0.0 : 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s));
+            = friction0 + (drag_explicit ? 0.0 : 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s))
+              + damper0;
         sim_plant local;
         with_damping(p, slope0, &local);
         double h = settle_range_rad > 0.0 && cap_s < request_cap_s
@@ -249,7 +276,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
         double torque_mid = torque_start;
         double torque_end = torque_start;
         double chamber_end_kpa = chamber_now_kpa;
-        int32_t cut = 0; /* the step was shortened to end at a kink */
+        int32_t cut = 0; /* the times the step was shortened to end at a kink */
+        int32_t refining = 0; /* the last cut was at a damped contact's onset */
         int32_t flipped = 0; /* the step was taken again on the far side of the surface */
 
         next_touching = -1;
@@ -291,8 +319,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             h = fmin(h, rtcore_sim_damping_step_s(&local, s->velocity_rad_per_s,
                                                   rtcore_sim_velocity_reach_rad_per_s(&local, s->velocity_rad_per_s, friction0, h, !drag_explicit), net_nm,
                                                   drift_nm, drift_rate_nm_per_s, h));
-            g_start += slope0 * s->velocity_rad_per_s;
         }
+        g_start += slope0 * s->velocity_rad_per_s;
         if (span != 0) {
             h = rtcore_sim_span_step_s(span, t_s, h);
         }
@@ -317,19 +345,27 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             }
             step(&local, s, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
                  touching, slope0, torque_nm);
-            if (p->kinks && !cut) {
+            if (p->kinks && (!cut || (refining && cut < ONSET_REFINEMENTS))) {
                 fraction = before_kink(p, touching, s->angle_rad, s->velocity_rad_per_s, angle_rad,
                                        velocity_rad_per_s, &surface);
+                if (cut && !(fraction > KINK_MIN_FRACTION)) {
+                    fraction = 1.0; /* a refined step that ends at the onset */
+                } else if (cut && fraction == 1.0) {
+                    next_touching = -1; /* it ends short of it: the next step meets it at its start */
+                }
             }
             if (fraction < 1.0 && fraction > KINK_MIN_FRACTION) {
                 h *= fraction; /* the next step starts at the kink, past the surface if it is that */
                 last = 0;
-                cut = 1;
-                next_touching = surface ? !touching : -1;
+                cut += 1;
+                /* a damped contact's push jumps at its onset: the step that ends there is cut
+                 * again until it ends at the onset (linear interpolation, repeated) */
+                refining = surface == SIM_TOUCH_CONTACT;
+                next_touching = surface ? touching ^ surface : -1;
                 continue;
             }
             if (fraction < 1.0 && surface && !flipped) {
-                touching = !touching; /* the surface is where the step starts: take it past */
+                touching ^= surface; /* the surface is where the step starts: take it past */
                 flipped = 1;
                 g_start = rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
                           + slope0 * s->velocity_rad_per_s;

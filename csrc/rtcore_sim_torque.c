@@ -16,16 +16,24 @@ static double touching_force_n(const rtcore_sim_finger *f, double angle_rad, dou
     return force_n > 0.0 ? force_n : 0.0;
 }
 
-int32_t rtcore_sim_touches(const rtcore_sim_finger *f, double angle_rad)
+static int32_t object_touches(const rtcore_sim_finger *f, double angle_rad)
 {
     return f->contact_stiffness_n_per_m > 0.0
            && f->prbm.lever_arm_m * (angle_rad - f->contact_angle_deg * RTCORE_RAD_PER_DEG) > 0.0;
 }
 
+/* The sides at angle_rad: SIM_TOUCH_OBJECT where the object is touched, SIM_TOUCH_CONTACT
+ * where the contact effect is past its onset. */
+int32_t rtcore_sim_touches(const rtcore_sim_finger *f, double angle_rad)
+{
+    return (object_touches(f, angle_rad) ? SIM_TOUCH_OBJECT : 0)
+           | (rtcore_contact_reached(&f->prbm.effects, angle_rad) ? SIM_TOUCH_CONTACT : 0);
+}
+
 /* normal force of the object on the finger at the force point (>= 0, pushes back) */
 double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s)
 {
-    return rtcore_sim_touches(f, angle_rad) ? touching_force_n(f, angle_rad, velocity_rad_per_s) : 0.0;
+    return object_touches(f, angle_rad) ? touching_force_n(f, angle_rad, velocity_rad_per_s) : 0.0;
 }
 
 /* The loop's z at angle_rad, from `from` (the state at a step's start) moving one way:
@@ -58,9 +66,10 @@ double rtcore_sim_creep_angle_rad(const rtcore_effects *e, const rtcore_sim_moti
            + (angle_rad - from->angle_rad) * (time_s / elapsed_s) * expm1(-elapsed_s / time_s);
 }
 
-/* g(θ, θ'): the torque beyond N·p_eff − k·θ − B·θ', with the object touching or not as a
- * step has it (the damper makes the force jump as the finger reaches the surface, so a
- * step that reaches it ends there and the next one starts touching), and the loop's as it
+/* g(θ, θ'): the torque beyond N·p_eff − k·θ − B·θ', with the object touching or not and
+ * the contact effect in contact or not as a step has them (`touching`'s bits: a damper
+ * makes the force jump as the finger reaches the surface or the onset, so a step that
+ * reaches one ends there and the next one starts on its far side), and the loop's as it
  * has moved from `from`, the state at the step's start. rtcore_model_torque_nm (shared
  * with the controller) includes the plain k·θ, which the linear part takes. drive_nm is
  * the drive at that instant, N·p_eff plus the segment's external torque: the pressure's
@@ -71,7 +80,8 @@ double rtcore_sim_nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motio
 {
     const rtcore_sim_finger *f = p->finger;
     const rtcore_prbm *m = &f->prbm;
-    double torque_nm = m->stiffness_nm_per_rad * angle_rad - rtcore_model_torque_nm(m, angle_rad, velocity_rad_per_s);
+    double torque_nm = m->stiffness_nm_per_rad * angle_rad
+                       - rtcore_model_side_torque_nm(m, angle_rad, velocity_rad_per_s, (touching & SIM_TOUCH_CONTACT) != 0);
     if (m->effects.pressure_stiffening_gain > 0.0 && m->pressure_gain_nm_per_kpa > 0.0) {
         torque_nm -= rtcore_stiffening_torque_nm(m, angle_rad,
                                                  (drive_nm - p->external_torque_nm) / m->pressure_gain_nm_per_kpa);
@@ -83,7 +93,8 @@ double rtcore_sim_nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motio
     if (f->hysteresis_torque_nm > 0.0) {
         torque_nm -= f->hysteresis_torque_nm * rtcore_sim_loop_z(f, from, angle_rad);
     }
-    return touching ? torque_nm - m->lever_arm_m * touching_force_n(f, angle_rad, velocity_rad_per_s) : torque_nm;
+    return (touching & SIM_TOUCH_OBJECT) ? torque_nm - m->lever_arm_m * touching_force_n(f, angle_rad, velocity_rad_per_s)
+                                          : torque_nm;
 }
 
 double rtcore_sim_pressure_torque_nm(const rtcore_sim_finger *f, double chamber_kpa)
@@ -107,6 +118,7 @@ void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p)
                    || e->pressure_stiffening_gain > 0.0 || e->creep_stiffness_ratio > 0.0;
     p->external_torque_nm = 0.0;
     p->kinks = contact || e->asymmetric_stiffness_ratio != 1.0 || e->contact_stiffness_nm_per_radn > 0.0;
+    /* (the contact effect's damper is integrated exactly in contact: integrate_segment) */
     p->damping_slope_nms_per_rad = contact ? f->contact_damping_ns_per_m * r2 : 0.0;
     p->stiffness_slope_nm_per_rad = fabs(e->asymmetric_stiffness_ratio - 1.0) * m->stiffness_nm_per_rad
                                     + fabs(e->gravity_torque_nm)

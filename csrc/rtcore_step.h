@@ -82,9 +82,10 @@ extern "C" {
  * The extra torque is
  *   tau(theta, omega) = k_eff(theta)*theta + k3*theta^3 + c2*|omega|*omega
  *                       + Tc*tanh(omega/omega_s) + G*(1 - cos theta)
- *                       + Kc*max(theta - theta_c, 0)^n
+ *                       + max(Kc*(theta - theta_c)^n + Cc*omega, 0) for theta > theta_c
  * with k_eff = k for theta >= 0 and k*ratio for theta < 0, and the last term a contact met
- * past theta_c (contact_stiffness_nm_per_radn 0: none; n in [1, 3]). The chamber pressure
+ * past theta_c (contact_stiffness_nm_per_radn 0: none; n in [1, 3]), a spring with a
+ * Kelvin-Voigt damper Cc in parallel while in contact, pushing only. The chamber pressure
  * acts only above the dead zone: M = N*max(p - p0, 0), and stiffens the finger by
  * k*c*(p_eff/p_ref)*theta (pressure_stiffening_gain c, 0: none), so the pressure's torque
  * is G(theta)*p_eff with G = N - k*c*theta/p_ref. Valve lag and dead time are
@@ -106,6 +107,7 @@ typedef struct {
     double contact_stiffness_nm_per_radn;
     double contact_onset_deg;
     double contact_exponent;
+    double contact_damping_nms_per_rad;
     double pressure_stiffening_gain;
     double pressure_stiffening_ref_kpa;
     /* creep: a standard-linear-solid branch beside k, a spring ratio*k in series with a

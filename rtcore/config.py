@@ -69,10 +69,12 @@ class Effects:
     asymmetric_stiffness_ratio: float = 1.0
     quadratic_damping_nms2_per_rad2: float = 0.0
     pressure_deadzone_kpa: float = 0.0
-    # a contact met past contact_onset_deg: Kc·(θ − θc)^n; stiffness 0 means none
+    # a contact met past contact_onset_deg: max(Kc·(θ − θc)^n + Cc·θ', 0), a spring with a
+    # Kelvin-Voigt damper Cc while in contact, pushing only; stiffness 0 means none
     contact_stiffness_nm_per_radn: float = 0.0
     contact_onset_deg: float = 0.0
     contact_exponent: float = 1.0
+    contact_damping_nms_per_rad: float = 0.0
     # the chamber pressure stiffens the finger: k·(1 + c·p_eff/p_ref); gain 0 means none
     pressure_stiffening_gain: float = 0.0
     pressure_stiffening_ref_kpa: float = 100.0

@@ -24,7 +24,8 @@ def linear_stiffness(m: Prbm, angle_rad: float) -> float:
 
 
 def model_torque(m: Prbm, angle_rad: float, velocity: float) -> float:
-    """k th + k3 th^3 + c2 |th'| th' + Tc tanh(th'/w) + G (1 - cos th) + Kc max(th - th_c, 0)^n."""
+    """k th + k3 th^3 + c2 |th'| th' + Tc tanh(th'/w) + G (1 - cos th)
+    + max(Kc (th - th_c)^n + Cc th', 0) past th_c."""
     e = m.effects
     torque = linear_stiffness(m, angle_rad) * angle_rad
     torque += e.cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad
@@ -35,7 +36,7 @@ def model_torque(m: Prbm, angle_rad: float, velocity: float) -> float:
     if e.gravity_torque_nm != 0.0:
         torque += e.gravity_torque_nm * (1.0 - math.cos(angle_rad))
     if e.contact_stiffness_nm_per_radn > 0.0:
-        torque += contact_torque(e, angle_rad)
+        torque += contact_torque(e, angle_rad, velocity) if contact_depth(e, angle_rad) > 0.0 else 0.0
     return torque
 
 
@@ -44,10 +45,16 @@ def contact_depth(e: Effects, angle_rad: float) -> float:
     return depth if e.contact_stiffness_nm_per_radn > 0.0 and depth > 0.0 else 0.0
 
 
-def contact_torque(e: Effects, angle_rad: float) -> float:
-    """Kc (th - th_c)^n past the onset."""
+def contact_push(e: Effects, angle_rad: float, velocity: float) -> float:
+    """Kc max(th - th_c, 0)^n + Cc th': in contact, continued across the onset."""
     depth = contact_depth(e, angle_rad)
-    return e.contact_stiffness_nm_per_radn * math.pow(depth, e.contact_exponent) if depth > 0.0 else 0.0
+    spring = e.contact_stiffness_nm_per_radn * math.pow(depth, e.contact_exponent) if depth > 0.0 else 0.0
+    return spring + e.contact_damping_nms_per_rad * velocity
+
+
+def contact_torque(e: Effects, angle_rad: float, velocity: float = 0.0) -> float:
+    """The push in contact, pushing only (0 at rest before the onset)."""
+    return max(contact_push(e, angle_rad, velocity), 0.0)
 
 
 def contact_stiffness(e: Effects, angle_rad: float) -> float:
@@ -73,7 +80,13 @@ def model_torque_rate(m: Prbm, angle_rad: float, velocity: float, accel: float) 
         smoothing = e.coulomb_smoothing_deg_per_s * RAD_PER_DEG
         th = math.tanh(velocity / smoothing)
         d_velocity += e.coulomb_torque_nm * (1.0 - th * th) / smoothing
-    return model_stiffness(m, angle_rad) * velocity + d_velocity * accel
+    rate = model_stiffness(m, angle_rad) * velocity
+    if contact_depth(e, angle_rad) > 0.0:
+        if contact_push(e, angle_rad, velocity) > 0.0:
+            d_velocity += e.contact_damping_nms_per_rad
+        else:
+            rate -= contact_stiffness(e, angle_rad) * velocity
+    return rate + d_velocity * accel
 
 
 def deadzone_invert(e: Effects, pressure_kpa: float) -> float:

@@ -1,8 +1,8 @@
 /* The simulator's integrator: the plain linear finger exact against closed forms at one
  * step per sample and over spans of held samples (under-, critically and over-damped,
  * undamped), no overflow however stiff the plant and long the step, a diverging finger
- * that ends its run, a sliver of a segment that changes nothing, and spans against a step
- * per sample. */
+ * that ends its run, a sliver of a segment that changes nothing, spans against a step
+ * per sample, and a damped contact. */
 #include "check.h"
 
 static rtcore_sim_finger plain_finger(double inertia, double damping, double stiffness)
@@ -247,6 +247,51 @@ static void check_hysteresis_loop(void)
           "a loop without a travel is refused");
 }
 
+/* the contact effect with its Kelvin-Voigt damper: not static (a held level settles where
+ * the undamped contact does, to the ringing left after 1.5 s), it damps the arrival (less
+ * overshoot), spans agree with a step per sample, and a negative damper is refused */
+static void check_damped_contact(void)
+{
+    enum { N = 3000 };
+    static double command[N];
+    static double damped[N];
+    static double undamped[N];
+    static double stepped[N];
+    rtcore_sim_finger f = plain_finger(1.6e-4, 0.003, 0.57);
+    double peak_damped = -INFINITY;
+    double peak_undamped = -INFINITY;
+    double worst = 0.0;
+    int i;
+    f.prbm.effects.contact_stiffness_nm_per_radn = 5.0;
+    f.prbm.effects.contact_onset_deg = 20.0;
+    f.prbm.effects.contact_exponent = 1.5;
+    for (i = 0; i < N; ++i) {
+        command[i] = i < N / 2 ? 120.0 : 60.0; /* a step past the onset, then one back toward it */
+    }
+    CHECK(rtcore_sim_run(&f, 1000.0, 1, N, command, 0.0, 0.0, 0.0, undamped, 0) == RTCORE_OK, "undamped runs");
+    f.prbm.effects.contact_damping_nms_per_rad = 0.05;
+    CHECK(rtcore_sim_run(&f, 1000.0, 1, N, command, 0.0, 0.0, 0.0, stepped, 0) == RTCORE_OK, "damped runs");
+    CHECK(rtcore_sim_run(&f, 1000.0, 0, N, command, 0.0, 0.0, 0.0, damped, 0) == RTCORE_OK, "damped spans");
+    for (i = 0; i < N; ++i) {
+        CHECK(isfinite(damped[i]), "damped angle %d finite", i);
+        worst = fmax(worst, fabs(damped[i] - stepped[i]));
+        if (i < N / 2) {
+            peak_damped = fmax(peak_damped, stepped[i]);
+            peak_undamped = fmax(peak_undamped, undamped[i]);
+        }
+    }
+    CHECK(fabs(stepped[N / 2 - 1] - undamped[N / 2 - 1]) < 1e-4 && fabs(stepped[N - 1] - undamped[N - 1]) < 1e-4,
+          "the damper is not static: %g and %g against %g and %g", stepped[N / 2 - 1], stepped[N - 1],
+          undamped[N / 2 - 1], undamped[N - 1]);
+    CHECK(stepped[N / 2 - 1] > 20.0 && peak_damped < peak_undamped,
+          "past the onset (%g deg), the damper takes overshoot: peak %g against %g", stepped[N / 2 - 1],
+          peak_damped, peak_undamped);
+    CHECK(worst < 1e-4 * (peak_damped - stepped[0]), "spans within 1e-4 of the range: %g deg", worst);
+    f.prbm.effects.contact_damping_nms_per_rad = -0.01;
+    CHECK(rtcore_sim_run(&f, 1000.0, 1, N, command, 0.0, 0.0, 0.0, stepped, 0) != RTCORE_OK,
+          "a negative contact damping is refused");
+}
+
 void run_sim_tests(void)
 {
     const double a = 1.6e-4;
@@ -265,4 +310,5 @@ void run_sim_tests(void)
     check_spans();
     check_vent_lag();
     check_hysteresis_loop();
+    check_damped_contact();
 }

@@ -57,8 +57,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
                         help="search also for a library effect diagnose leaves out by default "
                              "(contact, hysteresis, pressure_stiffening, creep, valve_vent_lag: each "
-                             "fitted with its shape, a contact's onset and exponent, a loop's travel, "
-                             "creep's time; "
+                             "fitted with its shape, a contact's onset, exponent and damping, "
+                             "a loop's travel, creep's time; "
                              "docs/diagnose.md); repeatable")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress on stderr (else a bar on a terminal, a line every few "

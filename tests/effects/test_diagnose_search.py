@@ -103,3 +103,18 @@ def test_a_loop_is_named_with_its_travel_fitted() -> None:
     assert [e.name for e in found.effects] == ["hysteresis"]
     assert found.effects[0].params == pytest.approx(loop, rel=0.05)
     assert set(found.effects[0].shape_std) == {"travel_deg"}
+
+
+def test_a_damped_contact_is_named_with_its_damper_fitted() -> None:
+    """A stop met at 60° with a Kelvin-Voigt damper in contact (0.02 N·m·s/rad, several times
+    the finger's B): searched for, the damper is fitted beside K, θc and n (from 0, its
+    neutral), each close to the truth's; the undamped contact's fit would leave the damper's
+    torque as a residual."""
+    stop = {"stiffness_nm_per_radn": 1.0, "onset_deg": 60.0, "exponent": 1.5, "damping_nms_per_rad": 0.02}
+    r = stop_recording(stop)
+    found = diagnose(r.nominal, r.t_s, r.command_kpa, r.angle_deg, 100.0, also=("contact",))
+    assert [e.name for e in found.effects] == ["contact"]
+    params = found.effects[0].params
+    assert params["damping_nms_per_rad"] == pytest.approx(0.02, rel=0.25)
+    assert params["stiffness_nm_per_radn"] == pytest.approx(1.0, rel=0.15)
+    assert params["onset_deg"] == pytest.approx(60.0, abs=2.0)

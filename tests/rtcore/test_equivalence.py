@@ -40,6 +40,7 @@ effects_strategy = st.builds(
     contact_stiffness_nm_per_radn=maybe(positive(0.05, 5.0)),
     contact_onset_deg=positive(-10.0, 60.0),
     contact_exponent=positive(1.0, 3.0),
+    contact_damping_nms_per_rad=maybe(positive(1e-4, 0.05)),
     pressure_stiffening_gain=maybe(positive(0.05, 3.0)),
     pressure_stiffening_ref_kpa=positive(20.0, 200.0),
     creep_stiffness_ratio=maybe(positive(0.01, 2.0)),

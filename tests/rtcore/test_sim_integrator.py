@@ -49,6 +49,9 @@ EFFECTS = {
     "asymmetric_stiffness": Effects(asymmetric_stiffness_ratio=2.0),
     "contact_linear": Effects(contact_stiffness_nm_per_radn=2.0, contact_onset_deg=20.0),
     "contact_hertz": Effects(contact_stiffness_nm_per_radn=5.0, contact_onset_deg=20.0, contact_exponent=1.5),
+    # a damper that jumps in at the onset and lets go (pushing only) before the finger leaves
+    "contact_damped": Effects(contact_stiffness_nm_per_radn=5.0, contact_onset_deg=20.0, contact_exponent=1.5,
+                              contact_damping_nms_per_rad=0.05),
     "pressure_stiffening": Effects(pressure_stiffening_gain=1.5, valve_lag_tau_s=0.03),
     "creep": Effects(creep_stiffness_ratio=0.5, creep_time_s=0.4),
     "all": Effects(coulomb_torque_nm=0.005, cubic_stiffness_nm_per_rad3=0.3, gravity_torque_nm=0.05,

@@ -1,20 +1,24 @@
 """The library's forms fitted to the truth's, apart from diagnose's search (best_form): for
 pressure stiffening, the library's k·(1 + c·p/p_ref) against the truth's power or
 exponential; for contact (contact_form) the library's contact against Hunt-Crossley's:
-what a contact K·(θ − θc)^n (docs/formats.md §2.1) at its best leaves of the truth's
-Hunt-Crossley contact, K·δ^1.5·(1 + λ·δ'), whose damping the library's form lacks, and
-where that best form puts the contact.
+what a contact max(K·(θ − θc)^n + C·θ', 0) (docs/formats.md §2.1: a Kelvin-Voigt damper)
+at its best leaves of the truth's Hunt-Crossley contact, K·δ^1.5·(1 + λ·δ'), whose damper
+grows with the depth, and where that best form puts the contact.
 
 The fit is the library's own model (the project's simulator) fitted by output error to the
-truth's noise-free angle on the recorded command: k, B, N, K, θc and n together, from the
-truth's onset and Hertz's n = 1.5 and from starts beside them, the best kept. `left` (its
-RMS error over the sensor's noise RMS) says whether the library's form can explain the
-contact (below on_request.OBSERVABLE_LEFT) or only part of it (then diagnose's "partial"
-is the truthful answer); its torque at the deepest angle recorded is the size an estimate
-is scored against (its K alone, at another n, is not comparable)."""
+truth's noise-free angle on the recorded command (the sensor's offset and slow drift taken
+out as diagnose takes them): k, B, N, K, θc, n and C together, from
+the truth's onset, Hertz's n = 1.5 and no damper and from starts beside them, the best
+kept. `left` (its RMS error over the sensor's noise RMS) says whether the library's form
+can explain the contact (below on_request.OBSERVABLE_LEFT) or only part of it (then
+diagnose's "partial" is the truthful answer), and beside `plain_left` (k, B and N alone)
+how much of the contact the library's form can show at all (`gain`, on_request.observable);
+its spring's torque at the deepest angle recorded is the size an estimate is scored against
+(its K alone, at another n, is not comparable)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import tempfile
 from dataclasses import dataclass
@@ -25,7 +29,7 @@ import numpy as np
 from tests.diagnose.truth import cases as cs
 
 DEG = math.pi / 180.0
-# the fit's starts: (θc − the truth's onset in degrees, n)
+# the fit's starts: (θc − the truth's onset in degrees, n); the damper's from 0
 STARTS = ((0.0, 1.5), (-5.0, 2.0), (3.0, 1.2))
 
 
@@ -34,8 +38,14 @@ class ContactForm:
     stiffness_nm_per_radn: float
     onset_deg: float
     exponent: float
+    damping_nms_per_rad: float
     left: float  # what the best library form leaves over the noise RMS
     plain_left: float  # what k, B and N alone leave, for comparison
+
+    @property
+    def gain(self) -> float:
+        """The part of the angle the form explains beyond k, B and N, over the noise RMS."""
+        return math.sqrt(max(self.plain_left**2 - self.left**2, 0.0))
 
     def torque_nm(self, theta_deg: float) -> float:
         return contact_torque_nm(self.stiffness_nm_per_radn, self.onset_deg, self.exponent, theta_deg)
@@ -58,13 +68,16 @@ def best_form(case: cs.Case, effect: str, size: float,
     from hand_service.diagnose.fitting.output_error import fit
     from hand_service.diagnose.model.params import EffectScales, Param
     from hand_service.diagnose.model.problem import PLAIN, build_problem
+    from hand_service.diagnose.residual.noise import nuisance_only
 
     with tempfile.TemporaryDirectory(prefix="library-form-") as scratch:
         _, path = cs.write(case, Path(scratch))
         model = load_model(path)
     traj, rate = case.trajectory, case.rate_hz
     t_s = np.arange(traj.theta_deg.size) / rate
-    problem = build_problem(model, t_s, traj.command_kpa, traj.theta_deg, rate)
+    # with the sensor's offset and slow drift as nuisances, as diagnose fits every model
+    problem = dataclasses.replace(build_problem(model, t_s, traj.command_kpa, traj.theta_deg, rate),
+                                  noise=nuisance_only(traj.theta_deg.size, rate))
     family = case.truth.family
     plain = [Param.plain(name, getattr(model, name)) for name in PLAIN]
     plain_start = [family.stiffness_nm_per_rad, family.damping_nms_per_rad + cs.linear_damping(case.truth),
@@ -88,6 +101,7 @@ def contact_form(case: cs.Case) -> ContactForm:
     """The library's contact at its best against the truth's contact case (see the module)."""
     onset = case.truth.contact_deg
     values, left, plain_left = best_form(case, "contact", case.truth.contact_nm_per_rad15,
-                                         [{"onset_deg": onset + d, "exponent": n} for d, n in STARTS])
-    return ContactForm(values["stiffness_nm_per_radn"], values["onset_deg"], values["exponent"], left,
-                       plain_left)
+                                         [{"onset_deg": onset + d, "exponent": n, "damping_nms_per_rad": 0.0}
+                                          for d, n in STARTS])
+    return ContactForm(values["stiffness_nm_per_radn"], values["onset_deg"], values["exponent"],
+                       values["damping_nms_per_rad"], left, plain_left)

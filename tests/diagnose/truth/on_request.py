@@ -35,7 +35,12 @@ from tests.diagnose.truth import cases as cs  # noqa: E402
 from tests.diagnose.truth.battery import diagnose_argv  # noqa: E402
 from tests.diagnose.truth.distinct import left_over, library_torques  # noqa: E402
 from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
-from tests.diagnose.truth.library_form import best_form, contact_form, contact_torque_nm  # noqa: E402
+from tests.diagnose.truth.library_form import (  # noqa: E402
+    ContactForm,
+    best_form,
+    contact_form,
+    contact_torque_nm,
+)
 
 EFFECTS = (*cs.ON_REQUEST, *cs.OUT_OF_LIBRARY)
 # the least time past a contact's onset that shows it, and the least angle range that turns
@@ -62,11 +67,17 @@ def library_left(case: cs.Case) -> float:
                      case.sensor.noise_rms_deg, library_torques(traj.theta_deg, traj.omega_rad_s))
 
 
-def observable(case: cs.Case) -> tuple[bool, str]:
+def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, str]:
     """Observable: the physics exercised (for pressure stiffening and creep the case's own
     rule, cases.exercised; the finger past the contact's onset for CONTACT_TIME_S; the angle
     moved over LOOP_RANGE_DEG for a loop), visibility 0.4 (the plain refit leaves 0.4 × the
-    noise), and library_left ≥ OBSERVABLE_LEFT: measured on the truth, apart from diagnose."""
+    noise), and library_left ≥ OBSERVABLE_LEFT: measured on the truth, apart from diagnose.
+    For a contact also the library form's gain (`form`, library_form.contact_form) ≥
+    OBSERVABLE_LEFT: what its best fit to the noise-free angle explains beyond k, B and N
+    fitted alone. library_left is linearised about the truth's plain finger, so k, B and N
+    move in it only as far as a linear step takes them: a contact that a plain refit moving
+    k by a third absorbs whole was counted observable by it (docs/results.md §12.31); the
+    nonlinear refit on a noise-free copy cannot overcount so."""
     effect = case.spec.effect
     if effect in cs.ON_REQUEST and not case.observable:
         return False, case.reason
@@ -81,6 +92,8 @@ def observable(case: cs.Case) -> tuple[bool, str]:
     if left < OBSERVABLE_LEFT:
         return False, (f"k, B, N, the sensor's offset and drift and the eight's state torques leave "
                        f"{left:.2f} × the noise of it")
+    if form is not None and form.gain < OBSERVABLE_LEFT:
+        return False, f"the library's contact explains {form.gain:.2f} × the noise beyond a plain refit"
     return True, ""
 
 
@@ -95,13 +108,13 @@ def truth_shape(case: cs.Case) -> dict[str, float]:
     return {}
 
 
-def contact_scores(case: cs.Case, estimate: dict[str, float] | None, partial: list[str]) -> dict:
+def contact_scores(case: cs.Case, form: ContactForm, estimate: dict[str, float] | None,
+                   partial: list[str]) -> dict:
     """A contact case against the library's form at its best (library_form.py): what that form
     leaves (`library_form_left`; at OBSERVABLE_LEFT or more the library explains only part of
     the truth's contact, and `partial`, the contact reported first in partial_effects, is the
     truthful answer), and the named estimate's error against it: of its torque at the deepest
     angle recorded (`torque_error`) and of its K (`form_error`, comparable only near its n)."""
-    form = contact_form(case)
     deepest_deg = float(np.max(case.trajectory.theta_deg))
     out = {"library_form": dataclasses.asdict(form), "library_form_left": form.left,
            "beyond_form": form.left >= OBSERVABLE_LEFT,
@@ -147,10 +160,11 @@ def run_case(spec: cs.CaseSpec, folder: Path, shape_known: bool = False, search:
     error = None
     if names and names[0] == spec.effect and true:
         error = abs(next(iter(first["params"].values())) - true) / abs(true)
-    seen, reason = observable(case)
-    form = contact_scores(case, first.get("params") if names and names[0] == "contact" else None,
+    contact = contact_form(case) if spec.effect == "contact" else None
+    seen, reason = observable(case, contact)
+    form = contact_scores(case, contact, first.get("params") if names and names[0] == "contact" else None,
                           [e.get("name") for e in result.get("partial_effects") or []]) \
-        if spec.effect == "contact" and (search or spec.effect) == "contact" else {}
+        if contact is not None and (search or spec.effect) == "contact" else {}
     if spec.effect == "pressure_stiffening" and (search or spec.effect) == spec.effect and seen:
         form = stiffening_scores(case, first.get("params") if names and names[0] == spec.effect else None)
     return {**case.summary(), "shape_known": shape_known, "searched": search or spec.effect,
