@@ -24,8 +24,8 @@ is the sensor's noise alone: the filter then has the noise's correlation, not th
 The noise's size is its spread about a straight line on each stretch, not about the
 stretch's mean: slow physics the model leaves out (creep under a held pressure, a settling
 slower than the model's) still moves the angle after the model's finger has settled, and
-about the mean that movement counts as noise. A recording of a creeping finger named with
-dry friction alone measured its noise at rest at 1.25 times the sensor's, enough to grade
+about the mean that movement counts as noise. Two recordings of a creeping finger named with
+dry friction measured its noise at rest at 1.25 and 1.39 times the sensor's, enough to grade
 the stand-in `complete` (docs/results.md §12.36). About a line it measures the sensor's.
 The AR filter's order (bounded_order) is still chosen on the stretches less their means.
 
