@@ -128,3 +128,41 @@ def test_the_noise_filter_takes_its_order_from_the_finger_at_rest_where_structur
             assert got.innovation_std_deg < 0.12
         else:
             assert got is model
+
+
+def _steps_with_creep(creep_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The steps and AR(1) noise of _steps_with_structure, plus a creep after each step: the
+    angle goes on moving towards `creep_deg` times the step's size (in units of 80 kPa) with a
+    time constant of 1.5 s, far slower than the finger's own settling (0.1 s)."""
+    pressure, noise = _steps_with_structure(0.0)
+    step_kpa = np.diff(pressure, prepend=pressure[0])
+    creep = np.zeros(pressure.size)
+    decay = np.exp(-1.0 / (1.5 * RATE_HZ))
+    target = 0.0
+    for i in range(1, pressure.size):
+        target += creep_deg * step_kpa[i] / 80.0
+        creep[i] = target + (creep[i - 1] - target) * decay
+    return pressure, noise + creep
+
+
+def test_the_noise_at_rest_is_measured_about_a_line_so_that_creep_is_not_noise() -> None:
+    """Creep under a held command moves the angle after the finger has settled: about each
+    stretch's mean it would count as the sensor's noise (and a stand-in model's misfit would
+    stand within the noise so measured); about each stretch's line the noise is the sensor's,
+    with creep or without."""
+    from types import SimpleNamespace
+
+    from hand_service.diagnose.residual import noise_bound
+
+    finger = SimpleNamespace(prbm=SimpleNamespace(inertia_kgm2=1e-5, damping_nms_per_rad=0.05,
+                                                  stiffness_nm_per_rad=0.5))  # decays in 0.1 s
+    noise_std_deg = 0.1
+    for creep_deg in (3.0, 0.0):
+        pressure, residual = _steps_with_creep(creep_deg)
+        scored = np.ones(residual.size, dtype=bool)
+        got = noise_bound.bound(residual, residual, scored, pressure, RATE_HZ, finger)  # type: ignore[arg-type]
+        about_mean = noise_bound.rest_noise(residual, scored, pressure, RATE_HZ, finger)  # type: ignore[arg-type]
+        assert got is not None and about_mean is not None
+        assert abs(got.rest_std_deg / noise_std_deg - 1.0) < 0.15, got.rest_std_deg
+        if creep_deg:
+            assert float(np.std(about_mean)) > 1.5 * noise_std_deg, float(np.std(about_mean))

@@ -81,7 +81,7 @@ def classes_for(effect: str, seed: int, per_effect: int, classes: tuple[str, ...
     effect), so three seeds of six cover all ten classes for every effect."""
     if per_effect >= len(classes):
         return list(classes)
-    shift = 4 * seed + cs.ALL_EFFECTS.index(effect)
+    shift = 4 * seed + (*cs.ALL_EFFECTS, *cs.ON_REQUEST).index(effect)
     return [classes[(j + shift) % len(classes)] for j in range(per_effect)]
 
 
@@ -100,9 +100,10 @@ def specs(
         if effect == cs.CLEAN:
             out += [cs.CaseSpec(effect, cls, seed, "none") for seed in range(clean_seeds) for cls in classes]
             continue
-        for seed in range(ool_seeds if effect in cs.OUT_OF_LIBRARY else seeds):
+        outside = effect in cs.OUT_OF_LIBRARY or effect in cs.ON_REQUEST
+        for seed in range(ool_seeds if outside else seeds):
             for cls in classes_for(effect, seed, per_effect, classes):
-                if effect in cs.OUT_OF_LIBRARY and cls == "free_release":
+                if outside and cls == "free_release":
                     continue  # a finger let go already in contact is not a free release
                 out += [cs.CaseSpec(effect, cls, seed, mag) for mag in ("concealed", "evident")]
     # seed by seed, so that a run cut short has every effect and class
@@ -219,6 +220,7 @@ def run_case(spec: cs.CaseSpec, folder: str, noise_model: str, timeout_s: float 
         "diagnose_s": diag_s,
         "diagnose_seconds_reported": result.get("seconds"),
         "param_error": param_error(summary, result),
+        "grade": result.get("grade"),
         "params": (result.get("effects") or [{}])[0].get("params"),
         "partial_effects": [e.get("name") for e in result.get("partial_effects") or []],
         "warnings": result.get("warnings"),
@@ -250,7 +252,9 @@ def main(argv: list[str] | None = None) -> int:
         default=6,
         help="classes per effect and seed, a window moving with the seed (10: every class)",
     )
-    ap.add_argument("--effects", nargs="*", choices=cs.ALL_EFFECTS)
+    ap.add_argument("--effects", nargs="*", choices=(*cs.ALL_EFFECTS, *cs.ON_REQUEST),
+                    help="the battery's effects (default: all but the on-request ones, which, not "
+                         "searched here, are then cases outside the searched library)")
     ap.add_argument("--classes", nargs="*", choices=CLASSES)
     ap.add_argument("--noise-model", choices=("ar", "white"), default="ar")
     ap.add_argument("--search", nargs="*", default=[], help="effects diagnose searches beyond its default")
@@ -260,6 +264,8 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="where recordings are kept (default: a folder in /tmp named after the generator's source)",
     )
+    ap.add_argument("--magnitudes", nargs="*", choices=("concealed", "evident"),
+                    help="only the effects' cases of these magnitudes (default both; clean cases stay)")
     ap.add_argument("--limit", type=int, default=0, help="run only the first N cases")
     ap.add_argument(
         "--timeout", type=float, default=600.0, help="seconds one diagnose may take (then: timeout)"
@@ -284,6 +290,8 @@ def main(argv: list[str] | None = None) -> int:
         args.classes_per_effect,
         args.clean_seeds,
     )
+    if args.magnitudes:
+        todo = [s for s in todo if s.effect == cs.CLEAN or s.magnitude in args.magnitudes]
     if args.limit:
         todo = todo[: args.limit]
     print(

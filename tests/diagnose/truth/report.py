@@ -20,7 +20,8 @@ def tables(rows: list[dict]) -> dict:
     obs = [r for r in lib if r["observable"]]
     unobs = [r for r in lib if not r["observable"]]
     clean = [r for r in rows if r["effect"] == cs.CLEAN]
-    ool = [r for r in rows if r["effect"] in cs.OUT_OF_LIBRARY]
+    outside = (*cs.OUT_OF_LIBRARY, *cs.ON_REQUEST)  # the on-request ones: not searched here
+    ool = [r for r in rows if r["effect"] in outside]
 
     def top1(group: list[dict]) -> dict:
         return {"n": len(group), "top1": sum(r["outcome"] == "top1" for r in group)}
@@ -61,9 +62,11 @@ def tables(rows: list[dict]) -> dict:
         "clean_named": dict(Counter(r["named"][0] for r in clean if r["named"])),
         "out_of_library": {
             e: dict(Counter(r["outcome"] for r in ool if r["effect"] == e))
-            for e in cs.OUT_OF_LIBRARY
+            for e in outside
             if any(r["effect"] == e for r in ool)
         },
+        "out_of_library_structure": {e: _structure(r for r in ool if r["effect"] == e)
+                                     for e in outside if any(r["effect"] == e for r in ool)},
         "out_of_library_named": dict(Counter(r["named"][0] for r in ool if r["named"])),
         "failures": [
             {"effect": k[0], "outcome": k[1], "said": k[2], "count": v} for k, v in failures.most_common()
@@ -78,6 +81,22 @@ def tables(rows: list[dict]) -> dict:
             },
         },
     }
+
+
+# what an out-of-library case must leave, over the sensor's noise, for issue 44's point: never
+# `consistent` or `parameters_only` there, never a library name graded `complete`
+STRUCTURE_RATIO = 3.0
+
+
+def _structure(rows) -> dict:
+    """Out-of-library cases whose plain refit leaves STRUCTURE_RATIO × the noise or more
+    (`visibility`): their answers (verdict, first name, grade) and the ones the point denies."""
+    big = [r for r in rows if r["visibility"] >= STRUCTURE_RATIO]
+    said = Counter(" ".join(str(x) for x in (r["verdict"], r["named"][0] if r["named"] else None,
+                                              r.get("grade")) if x) for r in big)
+    wrong = [r["id"] for r in big if r["verdict"] in ("consistent", "parameters_only")
+             or (r["named"] and r.get("grade") == "complete")]
+    return {"n": len(big), "said": dict(said), "violations": wrong}
 
 
 def _mean(values: list[float]) -> float:
@@ -118,6 +137,10 @@ def render(t: dict) -> str:
     )
     for e, counts in t["out_of_library"].items():
         lines.append(f"== out of library, {e}: " + ", ".join(f"{k} {v}" for k, v in counts.items()))
+    for e, big in t.get("out_of_library_structure", {}).items():
+        lines.append(f"   {e} at >= {STRUCTURE_RATIO:g} x the noise ({big['n']}): "
+                     + ", ".join(f"{k} {v}" for k, v in big["said"].items())
+                     + f"; consistent, parameters_only or named complete: {len(big['violations'])}")
     if t["out_of_library_named"]:
         lines.append(f"   named with a library name: {t['out_of_library_named']}")
     lines.append("== failures grouped (effect, outcome, what diagnose said: count)")
