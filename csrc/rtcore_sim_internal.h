@@ -36,7 +36,7 @@ static const double MIN_STEP_PER_SEGMENT = 1.0 / 1048576.0;
 /* a shorter segment (a dead time a hair past a whole number of periods) changes nothing
  * and is skipped: its step's h³ would underflow in the propagator */
 static const double MIN_SEGMENT_S = 1e-30;
-/* a kink this close to either end of a step is left there (before_kink) */
+/* a kink this close to either end of a step is left there (rtcore_sim_before_kink) */
 static const double KINK_MIN_FRACTION = 1e-3;
 
 /* the chamber t after the start of a held segment: its exact first-order solution */
@@ -56,7 +56,7 @@ typedef struct {
     rtcore_exact_plant linear; /* A, B, k: the part integrated exactly */
     int32_t nonlinear; /* g is not identically zero */
     int32_t state_dependent; /* a slope of g grows without bound with the state */
-    int32_t kinks; /* g has kinks (before_kink) */
+    int32_t kinks; /* g has kinks (rtcore_sim_before_kink) */
     double damping_slope_nms_per_rad; /* bound on −dg/dθ' (>= 0: g only damps) everywhere,
                                        * the friction's apart (rtcore_sim_damping_step_s) */
     double stiffness_slope_nm_per_rad; /* bound on |dg/dθ| everywhere */
@@ -103,6 +103,11 @@ double rtcore_sim_span_cap_s(const sim_plant *p, double dt_s);
 /* rtcore_sim_torque.c: g(θ, θ') and its parts, and the finger's local plant */
 double rtcore_sim_contact_force_n(const rtcore_sim_finger *f, double angle_rad, double velocity_rad_per_s);
 int32_t rtcore_sim_touches(const rtcore_sim_finger *f, double angle_rad);
+/* The fraction of a step from (angle0, velocity0) to (angle1, velocity1) before the first
+ * kink or jump of g it crosses (1 for none), and in *surface the side that one changes
+ * (rtcore_sim_kink.c). */
+double rtcore_sim_before_kink(const sim_plant *p, int32_t touching, double angle0_rad, double velocity0_rad_per_s,
+                              double angle1_rad, double velocity1_rad_per_s, int32_t *surface);
 double rtcore_sim_loop_z(const rtcore_sim_finger *f, const rtcore_sim_motion *from, double angle_rad);
 double rtcore_sim_creep_angle_rad(const rtcore_effects *e, const rtcore_sim_motion *from, double angle_rad,
                                   double elapsed_s);

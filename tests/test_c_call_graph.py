@@ -245,8 +245,8 @@ def included(source: Path) -> set[str]:
     return seen
 
 
-@pytest.mark.parametrize("unit", ["rtcore_sim_plant.c", "rtcore_sim_torque.c", "rtcore_sim_step_size.c",
-                                  "rtcore_sim_span.c", "rtcore_exact.c"])
+@pytest.mark.parametrize("unit", ["rtcore_sim_plant.c", "rtcore_sim_kink.c", "rtcore_sim_torque.c",
+                                  "rtcore_sim_step_size.c", "rtcore_sim_span.c", "rtcore_exact.c"])
 def test_the_finger_dynamics_see_nothing_of_the_hand_above_them(unit: str) -> None:
     """The finger's dynamics (rtcore_sim_plant.h) and the units below them do not depend on
     the simulated hand that calls them: not on its header's state (rtcore_sim.h: the valve's
