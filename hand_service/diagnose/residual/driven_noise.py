@@ -3,10 +3,9 @@ the recording's own motion and command can make.
 
 Where the command is never held (a PRBS, a chirp) there is no stretch at rest to measure the
 noise on (residual/noise_bound.py), and the AR noise model (residual/noise.py) takes smooth
-input-driven structure for correlated noise: a damping that grows with the pressure, on a
-PRBS through a stiff finger, left 3.3 times the sensor's noise, the AR filter put the noise
-at 0.640 deg against the truth's 0.194, and a stand-in was graded `complete`
-(docs/results.md §12.36).
+input-driven structure for correlated noise: on a PRBS, a damping that grows with the
+pressure left several times the sensor's noise, the AR filter took most of it for noise, and
+a stand-in was graded `complete` (docs/results.md §12.36).
 
 A torque the model misses moves the angle through the finger's own dynamics: the misfit it
 leaves is that torque through 1/(A·s² + B·s + k), the refitted finger's linear part. The
@@ -20,9 +19,8 @@ stays in the estimate, so it errs towards a noise too high, which lets structure
 before, never towards calling a clean recording structured.
 
 The high-frequency alternative (the spread of the angle's differences of order d, for white
-noise σ·√C(2d, d)) measures the white part only: on the truth's clean recordings, whose
-sensor adds noise correlated over 0.05–0.2 s, it stood at 0.23–0.87 of the noise (third
-differences, ten clean recordings; docs/results.md §12.39), and at twice it clean
+noise σ·√C(2d, d)) measures the white part only: on a sensor whose noise is partly correlated
+over a tenth of a second, it falls well under the noise (docs/results.md §12.39), and clean
 recordings would be called structured. It is not used.
 """
 
