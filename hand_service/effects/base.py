@@ -50,6 +50,15 @@ class FitScales(Protocol):
 
 
 @dataclass(frozen=True)
+class DerivedSize:
+    """A quantity derived from an effect's parameters (Effect.derived_size)."""
+
+    value: float
+    unit: str
+    what: str  # in words, for the report: "the spring's torque at 63.2°"
+
+
+@dataclass(frozen=True)
 class Effect(ABC):
     """A named effect. `diagnose` fits `parameters[0]` (its size: neutral is "no effect")
     and, beside it, the others marked `fitted` (its shape: an onset, a travel, a time), each
@@ -135,6 +144,21 @@ class Effect(ABC):
         return self.parameter(name).neutral
 
     # --- diagnose ----------------------------------------------------------------------
+    def derived_size(self, values: Mapping[str, float], deepest_deg: float) -> DerivedSize | None:
+        """Where the parameters trade with one another (a size whose units change with a
+        shape parameter), the quantity the recording fixes, from every parameter's value
+        (`values`) and the deepest angle the finger reached: `diagnose` asks that it, not the
+        size, stand clear of "no effect" (0). None (the default): the size itself."""
+        del values, deepest_deg
+        return None
+
+    @property
+    def refining(self) -> tuple[str, ...]:
+        """Shape parameters that only refine the effect and cannot carry it alone (a
+        contact's damper): `diagnose` names the effect only where it beats the plain model
+        with these held at their neutral too."""
+        return ()
+
     def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
         """The fit's bounds in a recording (`scale`, `lower`, `upper`: the table's, already
         grown with the finger's stiffness): by default the table's."""

@@ -5,13 +5,13 @@ the simulated finger's loop in the angle (csrc/rtcore_sim_plant.c)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from hand_service.config.plausible import DEAD_TIME_DELAY_S, VALVE_LAG_TAU_S, VALVE_VENT_TAU_S
-from hand_service.effects.base import FieldEffect, FingerEffect, FitScales, Parameter
+from hand_service.effects.base import DerivedSize, FieldEffect, FingerEffect, FitScales, Parameter
 
 # an effect's own torque over a recording may reach this many times the largest torque the
 # spring or the pressure makes in it (air drag in a fast vent can exceed them); dry friction
@@ -79,6 +79,21 @@ class Contact(FieldEffect):
         if name == "exponent":
             return HERTZ_EXPONENT
         return super().shape_start(name, angle_deg)
+
+    def derived_size(self, values: Mapping[str, float], deepest_deg: float) -> DerivedSize:
+        """The spring's torque K·(θmax − θc)ⁿ at the deepest angle reached: K alone trades
+        with n (its units change with it) and with the damper; this torque is what the
+        recording fixes."""
+        depth_rad = math.radians(max(deepest_deg - values["onset_deg"], 0.0))
+        torque = values[self.param] * depth_rad ** values["exponent"] if depth_rad > 0.0 else 0.0
+        return DerivedSize(float(torque), "N·m",
+                           f"the spring's torque at the deepest angle reached ({deepest_deg:.1f}°)")
+
+    @property
+    def refining(self) -> tuple[str, ...]:
+        # a damping that grows past an angle is what a damping growing with the pressure
+        # looks like where the angle follows the pressure: the spring must carry the contact
+        return ("damping_nms_per_rad",)
 
 
 def _one(name: str, unit: str, neutral: float, lower: float, upper: float,

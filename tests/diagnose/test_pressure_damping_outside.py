@@ -53,3 +53,22 @@ def test_what_a_pressure_damping_leaves_is_not_called_noise(excitation: str, fam
     capsys.readouterr()
     assert result["verdict"] not in ("consistent", "parameters_only")
     assert result["grade"] != "complete"
+
+
+@pytest.mark.thorough  # about 40 s
+def test_a_pressure_damping_is_not_named_a_contact_when_contact_is_searched(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Where the angle follows the pressure, a damping that grows with the pressure is one that
+    grows past an angle: the contact's fit took a spring of K 0.07 N·m/radⁿ (a stand-in
+    beside k ≈ 5 N·m/rad) and a damper doing the work, and was named. Its spring alone
+    (Effect.refining held at neutral) must beat the plain model for it to be named."""
+    from hand_service.cli import main
+
+    case = cs.build(cs.CaseSpec("pressure_damping", "vent_release", 0, "concealed"))
+    rec, model = cs.write(case, tmp_path)
+    out = tmp_path / "diagnose.json"
+    assert main([*diagnose_argv(rec, model, out), "--search", "contact"]) == 0
+    capsys.readouterr()
+    result = json.loads(out.read_text())
+    assert "contact" not in [e["name"] for e in result["effects"]]
+    assert result["grade"] != "complete"

@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import io
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -149,6 +150,21 @@ BATTERY_SLICE = [
 def test_battery_reports_pass_the_checks(spec: cs.CaseSpec, tmp_path: Path) -> None:
     recording, model = cs.write(cs.build(spec), tmp_path)
     assert _report_failures(_diagnosed(recording, model)) == []
+
+
+@pytest.mark.slow
+def test_a_searched_contact_report_passes_the_checks_and_gives_its_spring_torque(tmp_path: Path) -> None:
+    """A contact searched for and named says what the recording fixes: its spring's torque
+    at the deepest angle reached, in N·m, beside K (which trades with n)."""
+    recording, model = cs.write(cs.build(cs.CaseSpec("contact", "steps", 1, "evident")), tmp_path)
+    rec = read_recording(recording, None)
+    grid = regular_grid(rec.t_s, rec.pressure_kpa, rec.angle_deg, recording)
+    d = diagnose(load_model(model, None), grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz,
+                 missing=grid.missing, also=("contact",))
+    assert [e.name for e in d.effects][:1] == ["contact"]
+    assert re.search(r"the spring's torque at the deepest angle reached \(\d+\.\d°\) = \S+ ± \S+ N·m",
+                     d.effects[0].evidence), d.effects[0].evidence
+    assert _report_failures(d) == []
 
 
 @pytest.mark.slow

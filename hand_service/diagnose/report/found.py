@@ -9,6 +9,7 @@ from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.report.evidence import Context, sentence
 from hand_service.diagnose.report.verdict import FoundEffect
+from hand_service.diagnose.search import effect_size
 from hand_service.diagnose.search.forward_selection import Candidate, Selection
 
 
@@ -37,6 +38,9 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
         without_with = (base, c.fit.angle_deg)
     # without and with the effect, against the raw angle, a constant offset each
     errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
+    size = effect_size.derived_size(final, c.name)
     text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain,
-                    {member: (value, shape_std[member]) for member, value in shape.items()})
-    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr, shape, shape_std)
+                    {member: (value, shape_std[member]) for member, value in shape.items()},
+                    None if size is None else (size.what, size.value, size.std, size.unit))
+    return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr, shape, shape_std,
+                       size)

@@ -4,7 +4,7 @@ missing_physics with its grade, unexplained, insufficient_excitation)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -13,6 +13,7 @@ from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Problem
 from hand_service.diagnose.residual import noise, stats
+from hand_service.diagnose.search.effect_size import SizeEstimate
 from hand_service.diagnose.search.forward_selection import Selection, prior_chi2
 
 STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
@@ -33,6 +34,8 @@ class FoundEffect:
     # its shape parameters fitted beside its size (an onset, a travel, a time) and their stds
     shape: dict[str, float] = field(default_factory=dict)
     shape_std: dict[str, float] = field(default_factory=dict)
+    # what the recording fixes where the size trades with the shape (a contact's spring torque)
+    size: SizeEstimate | None = None
 
     @property
     def params(self) -> dict[str, float]:
@@ -43,7 +46,8 @@ class FoundEffect:
         param = fx.BY_NAME[self.name].param
         return {"name": self.name, "params": self.params, "evidence": self.evidence,
                 "std": {param: self.std, **self.shape_std}, "delta_bic": self.delta_bic,
-                "heldout_z": self.z_heldout, "signature_corr": self.signature_corr}
+                "heldout_z": self.z_heldout, "signature_corr": self.signature_corr,
+                **({} if self.size is None else {"derived": asdict(self.size)})}
 
 
 DOMINANT_SHARE = 0.6  # the share of the mismatch an effect must explain to be named over structure
@@ -59,7 +63,8 @@ def dominant(found: list[FoundEffect], explained: float) -> bool:
     """The graded verdict for real rigs: the effects explain most of the mismatch and the
     first is well determined, though structure outside the library remains."""
     first = found[0]
-    return explained >= DOMINANT_SHARE and abs(first.std) <= DOMINANT_RELATIVE_STD * abs(first.value)
+    value, std = (first.value, first.std) if first.size is None else (first.size.value, first.size.std)
+    return explained >= DOMINANT_SHARE and abs(std) <= DOMINANT_RELATIVE_STD * abs(value)
 
 
 def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:

@@ -32,6 +32,7 @@ from hand_service.diagnose.fitting.output_error import Fit, far_from_nominal, fi
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import NO_PRIOR, Problem
 from hand_service.diagnose.residual import stats
+from hand_service.diagnose.search import effect_size
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
 from hand_service.diagnose.workers import thread_count
 
@@ -64,6 +65,7 @@ class Candidate:
     z_heldout: float
     rmse_heldout_deg: float  # held out, the sensor's offset and drift taken out (Problem.misfit)
     prior_gain: float = 0.0  # how much closer to the nominal (prior's χ²) the effect lets k, B, N stay
+    carries: bool = True  # it beats `base` with its refining parameters at neutral too (effect_size.py)
 
     @property
     def index(self) -> int:
@@ -93,7 +95,12 @@ class Candidate:
         errors in the joint fit (with k, B, N free and their prior): what the recording
         cannot tell from k, B or N shows as a large std. (A correlation with k, B or N
         alone is no measure: on an over-damped finger k, B and N move together, and an
-        effect known to 3 % correlates at 0.997 with their common scale.)"""
+        effect known to 3 % correlates at 0.997 with their common scale.) An effect whose
+        size trades with its shape is judged on what the recording fixes instead (a
+        contact's spring torque at the deepest angle: effect_size.derived_size)."""
+        derived = effect_size.derived_size(self.fit, self.name)
+        if derived is not None:
+            return bool(abs(derived.value) > DETERMINED_Z * derived.std)
         neutral = fx.BY_NAME[self.name].neutral
         return bool(abs(self.estimate - neutral) > DETERMINED_Z * self.std)
 
@@ -107,7 +114,8 @@ class Candidate:
 
     @property
     def significant(self) -> bool:
-        return self.delta_bic > SIGNIFICANT_BIC and self.predicts and not self.at_bound and self.determined
+        return (self.delta_bic > SIGNIFICANT_BIC and self.predicts and not self.at_bound and self.determined
+                and self.carries)
 
 
 @dataclass
@@ -234,9 +242,29 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     z = stats.heldout_z_innovations(before[held], after[held], sigma)
     if bic > SIGNIFICANT_BIC and BORDERLINE_Z < z <= SIGNIFICANT_Z:
         z = (z + second_split_z(problem, base, joint)) / np.sqrt(2.0)
+    carried = bic <= SIGNIFICANT_BIC or carries_itself(problem, base, joint, screened.name, sigma)
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
                      screened.starts[0], joint, bic, z, stats.rmse(problem.misfit(joint.angle_deg)[held]),
-                     prior_gain)
+                     prior_gain, carried)
+
+
+def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: float) -> bool:
+    """Effect `name` without its refining parameters (Effect.refining, held at neutral),
+    refitted from `joint`, still beats `base` as an effect must (ΔBIC and the held-out data,
+    Candidate.predicts): a contact whose spring carries little of its torque, its damper
+    doing the work, is not a contact (a damping that grows with the pressure was named so)."""
+    core = effect_size.without_refining(joint, name)
+    if core is None:
+        return True
+    spec = fx.BY_NAME[name]
+    refining = [Param.shape(name, member) for member in spec.refining]
+    held = problem.finger(refining, [spec.parameter(member).neutral for member in spec.refining], base.finger)
+    params, start = core
+    alone = fit(problem, params, start, base=held)
+    before = problem.innovations(base.angle_deg)
+    bic, prior_gain, after = evidence(problem, base, before, alone)
+    z = stats.heldout_z_innovations(before[problem.held_mask], after[problem.held_mask], sigma)
+    return bool(bic > SIGNIFICANT_BIC and (z > SIGNIFICANT_Z or (prior_gain > SIGNIFICANT_BIC and z > -1.0)))
 
 
 def second_split_z(problem: Problem, base: Fit, joint: Fit) -> float:
