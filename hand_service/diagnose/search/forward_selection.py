@@ -33,6 +33,7 @@ from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import NO_PRIOR, Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import effect_size
+from hand_service.diagnose.search.held_out import expected_z, second_split_z
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
 from hand_service.diagnose.workers import thread_count
 
@@ -267,37 +268,12 @@ def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: fl
     return bool(bic > SIGNIFICANT_BIC and (z > SIGNIFICANT_Z or (prior_gain > SIGNIFICANT_BIC and z > -1.0)))
 
 
-def second_split_z(problem: Problem, base: Fit, joint: Fit) -> float:
-    """The held-out z on a second, disjoint quarter of the blocks (Problem.rotated), the
-    model without and with the effect each refitted on the other three quarters. For a
-    borderline candidate: a real effect of ΔBIC 30 to 100 expects z of only 1.6 to 2.9 on
-    one quarter, and misses the bar half the time; the two quarters' z together,
-    (z₁ + z₂)/√2, have the same null distribution as one and twice the held-out data."""
-    other = problem.rotated()
-    without = fit(other, base.params, base.values, base=base.finger)
-    with_effect = fit(other, joint.params, joint.values, base=base.finger)
-    held = other.held_mask
-    before = other.innovations(without.angle_deg)
-    sigma = other.innovation_sigma(before, len(without.params))
-    return stats.heldout_z_innovations(before[held], other.innovations(with_effect.angle_deg)[held], sigma)
-
-
 def beside(problem: Problem, base: Fit, name: str, lazy: bool = False) -> Candidate:
     """`name` screened and fitted jointly with every parameter of `base` (the effects before
     it included), scored against `base`'s innovations: a candidate as a round scores it
     (`lazy`: its other starts only where the most promising one gains, see `score`)."""
     sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
     return score(problem, base, screen(problem, base, name), sigma, lazy=lazy)
-
-
-def expected_z(problem: Problem, base: Fit, candidate: Candidate) -> float:
-    """The held-out z a real effect of the candidate's fitted gain would show, were its gain
-    spread as evenly over the held-out blocks as over the fitted ones: z ≈ ‖δ‖/2σ on the
-    held-out samples, with ‖δ‖²/σ² the fitted samples' gain (ΔBIC, its penalty added back
-    and the nominal's prior taken out: the data's share) scaled by their numbers."""
-    extra = len(candidate.fit.params) - len(base.params)
-    gain = max(candidate.delta_bic - candidate.prior_gain + extra * np.log(problem.n_fit), 0.0)
-    return float(0.5 * np.sqrt(gain * problem.held_mask.sum() / problem.fit_mask.sum()))
 
 
 def second_look(problem: Problem, round_: Round) -> None:
