@@ -15,8 +15,8 @@ It simulates the model on the recorded command, refits k, B and N (A held) by
 output-error least squares, tests the residual (whiteness, cross-correlation with the
 command, time windows), then fits each library effect the model does not already
 include (valve_lag, dead_time, coulomb_friction, cubic_stiffness, gravity,
-asymmetric_stiffness, quadratic_damping, pressure_deadzone, pressure_stiffening, and those an
-installed package adds: docs/effects.md; contact, creep, hysteresis and valve_vent_lag
+asymmetric_stiffness, quadratic_damping, pressure_deadzone, and those an installed package
+adds: docs/effects.md; contact, pressure_stiffening, creep, hysteresis and valve_vent_lag
 with --search)
 jointly with k, B and N.
 An effect is named only when the information criterion and held-out data both favour it
@@ -56,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "independent samples (see docs/diagnose.md)")
     parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
                         help="search also for a library effect diagnose leaves out by default "
-                             "(contact, hysteresis, creep, valve_vent_lag: each "
+                             "(contact, hysteresis, pressure_stiffening, creep, valve_vent_lag: each "
                              "fitted with its shape, a contact's onset, exponent and damping, "
                              "a loop's travel, creep's time; "
                              "docs/diagnose.md); repeatable")

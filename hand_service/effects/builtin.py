@@ -135,7 +135,7 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
                 reference="a fibre-reinforced actuator's pressure-dependent stiffness "
                           "(Polygerinos et al. 2015)",
                 rtcore_field="pressure_stiffening_gain",
-                more_fields=(("reference_kpa", "pressure_stiffening_ref_kpa"),)),
+                more_fields=(("reference_kpa", "pressure_stiffening_ref_kpa"),), searched=False),
     FieldEffect("creep", "a standard-linear-solid branch: β·k·(θ − x), T·x' = θ − x",
                 (Parameter("stiffness_ratio", "1", 0.0, 0.0, 5.0, 0.1),
                  Parameter("time_s", "s", 1.0, 0.01, 100.0, 1.0)),

@@ -142,7 +142,6 @@ BATTERY_SLICE = [
     cs.CaseSpec("coulomb_friction", "ramp", 0, "evident", "stiff", 500.0),
     cs.CaseSpec(cs.CLEAN, "slow_sine", 0, "none", "overdamped", 100.0),
     cs.CaseSpec("contact", "steps", 0, "evident", "ringing", 100.0),
-    cs.CaseSpec("pressure_stiffening", "prbs", 0, "evident", "stiff", 100.0),  # searched by default
 ]
 
 

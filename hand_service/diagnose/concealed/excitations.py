@@ -75,4 +75,4 @@ EXCITATIONS: dict[str, Excitation] = {"steps": steps, "sweep": sweep, "sine": si
 REPRESENTATIVE: dict[str, str] = {
     "valve_lag": "sweep", "dead_time": "steps", "coulomb_friction": "steps", "cubic_stiffness": "sweep",
     "gravity": "steps", "asymmetric_stiffness": "steps", "quadratic_damping": "steps",
-    "pressure_deadzone": "sweep", "pressure_stiffening": "steps"}
+    "pressure_deadzone": "sweep"}

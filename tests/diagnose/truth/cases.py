@@ -62,11 +62,8 @@ LIBRARY = (
 OUT_OF_LIBRARY = ("hysteresis", "contact", "pressure_damping")
 CLEAN = "clean"
 ALL_EFFECTS = (*LIBRARY, CLEAN, *OUT_OF_LIBRARY)
-# library effects beyond the eight, run by on_request.py (with `--search`); the battery
-# builds their cases only when asked (--effects)
+# library effects diagnose searches only on request (`--search`): run by on_request.py
 ON_REQUEST = ("pressure_stiffening", "creep")
-# those of them diagnose searches without being asked: scored as the eight are
-SEARCHED_BEYOND_EIGHT = ("pressure_stiffening",)
 # the order that rotates each effect's family and rate (CaseSpec.resolved): a later effect
 # appended at its end moves no earlier case
 ROTATION = (*LIBRARY, CLEAN, "hysteresis", "contact", *ON_REQUEST, "pressure_damping")

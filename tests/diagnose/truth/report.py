@@ -16,12 +16,11 @@ def _frac(hits: int, n: int) -> str:
 
 
 def tables(rows: list[dict]) -> dict:
-    lib = [r for r in rows if r["effect"] in (*cs.LIBRARY, *cs.SEARCHED_BEYOND_EIGHT)]
+    lib = [r for r in rows if r["effect"] in cs.LIBRARY]
     obs = [r for r in lib if r["observable"]]
     unobs = [r for r in lib if not r["observable"]]
     clean = [r for r in rows if r["effect"] == cs.CLEAN]
-    # the on-request ones not searched by default: outside here
-    outside = (*cs.OUT_OF_LIBRARY, *(e for e in cs.ON_REQUEST if e not in cs.SEARCHED_BEYOND_EIGHT))
+    outside = (*cs.OUT_OF_LIBRARY, *cs.ON_REQUEST)  # the on-request ones: not searched here
     ool = [r for r in rows if r["effect"] in outside]
 
     def top1(group: list[dict]) -> dict:
