@@ -37,6 +37,7 @@ def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None
     from hand_service.diagnose.report.evidence import estimate, sentence, uncertainty
 
     assert uncertainty(0.00213, "s") == "± 0.0021 s" and estimate(0.0312, 0.0021, "s") == "0.0312 ± 0.0021 s"
+    assert estimate(0.1061, 0.00043, "1") == "0.1061 ± 0.00043"  # a gain: no unit "1" printed after it
     for std in (np.inf, np.nan):
         assert uncertainty(std) == "not identifiable"
         assert estimate(0.0312, std, "s") == "0.0312 s (not identifiable)"

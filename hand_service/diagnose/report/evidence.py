@@ -136,6 +136,9 @@ NOT_IDENTIFIABLE = "not identifiable"
 UNKNOWN = "unknown: over 100 % of the value"
 
 
+DIMENSIONLESS = "1"  # a ratio or a gain: printed without a unit
+
+
 def uncertainty(std: float, unit: str = "", value: float | None = None) -> str:
     """`± 0.0021 s`, or "not identifiable" where the data leave the value free (an infinite
     or undefined standard deviation), never "± inf"; with the `value`, a std larger than it
@@ -144,7 +147,7 @@ def uncertainty(std: float, unit: str = "", value: float | None = None) -> str:
     if not np.isfinite(std):
         return NOT_IDENTIFIABLE
     printed = f"{std:.2g}"
-    text = f"± {printed}{f' {unit}' if unit else ''}"
+    text = f"± {printed}{f' {unit}' if unit and unit != DIMENSIONLESS else ''}"
     unknown = value is not None and max(std, float(printed)) > abs(value)
     return f"{text} ({UNKNOWN})" if unknown else text
 
@@ -152,7 +155,7 @@ def uncertainty(std: float, unit: str = "", value: float | None = None) -> str:
 def estimate(value: float, std: float, unit: str = "") -> str:
     """`0.03 ± 0.002 s`, or `0.03 s (not identifiable)`."""
     if not np.isfinite(std):
-        return f"{value:.4g}{f' {unit}' if unit else ''} ({NOT_IDENTIFIABLE})"
+        return f"{value:.4g}{f' {unit}' if unit and unit != DIMENSIONLESS else ''} ({NOT_IDENTIFIABLE})"
     return f"{value:.4g} {uncertainty(std, unit, value)}"
 
 
