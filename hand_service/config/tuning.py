@@ -13,9 +13,8 @@ find where its phase reaches −180°, and choose kp so that the loop gain there
 three digits for every default finger (tests/config/test_tuning.py checks the margin in
 closed loop). A valve that vents with a lag of its own (the valve_vent_lag effect) is
 not linear; τ is then the geometric mean of the fill's and the vent's lags
-(valve_lag_s): the simulator's critical gain then lies −4 to +15 % off the prediction
-(index and middle venting 4 times slower than they fill, thumb 2 times), where with the
-fill's lag alone it lay 1.4 to 2.2 times above it (a margin of 3 became 4.3 to 6.7).
+(valve_lag_s), which predicts the simulator's critical gain far closer than the fill's
+lag alone (docs/results.md §12.35).
 """
 
 from __future__ import annotations
