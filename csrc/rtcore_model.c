@@ -71,6 +71,13 @@ static double contact_depth_rad(const rtcore_effects *e, double angle_rad)
     return e->contact_stiffness_nm_per_radn > 0.0 && depth_rad > 0.0 ? depth_rad : 0.0;
 }
 
+/* The contact's spring, Kc*(theta - theta_c)^n past its onset (0 before it). */
+static double contact_spring_nm(const rtcore_effects *e, double angle_rad)
+{
+    const double depth_rad = contact_depth_rad(e, angle_rad);
+    return depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent) : 0.0;
+}
+
 /* Whether angle_rad is past the contact's onset (never without a contact). */
 int32_t rtcore_contact_reached(const rtcore_effects *e, double angle_rad)
 {
@@ -82,10 +89,7 @@ int32_t rtcore_contact_reached(const rtcore_effects *e, double angle_rad)
  * for a whole step) and not yet limited to pushing. */
 double rtcore_contact_push_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s)
 {
-    const double depth_rad = contact_depth_rad(e, angle_rad);
-    const double spring_nm = depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent)
-                                             : 0.0;
-    return spring_nm + e->contact_damping_nms_per_rad * velocity_rad_per_s;
+    return contact_spring_nm(e, angle_rad) + e->contact_damping_nms_per_rad * velocity_rad_per_s;
 }
 
 /* The contact's torque with its damper in contact (in_contact) or not: the push, pushing
@@ -94,13 +98,11 @@ double rtcore_contact_push_nm(const rtcore_effects *e, double angle_rad, double 
 double rtcore_contact_side_torque_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s,
                                      int32_t in_contact)
 {
-    const double depth_rad = contact_depth_rad(e, angle_rad);
-    const double spring_nm = depth_rad > 0.0 ? e->contact_stiffness_nm_per_radn * pow(depth_rad, e->contact_exponent)
-                                             : 0.0;
-    const double push_nm = spring_nm + e->contact_damping_nms_per_rad * velocity_rad_per_s;
+    double push_nm;
     if (!in_contact) {
-        return spring_nm;
+        return contact_spring_nm(e, angle_rad);
     }
+    push_nm = rtcore_contact_push_nm(e, angle_rad, velocity_rad_per_s);
     return push_nm > 0.0 ? push_nm : 0.0;
 }
 
