@@ -76,8 +76,8 @@ def candidate_torques(angle_deg: np.ndarray, pressure_kpa: np.ndarray, rate_hz: 
             np.tanh(speed / SPEED_SCALE_RAD_S), speed, p, p**2, np.gradient(p) * rate_hz]
 
 
-def through_finger(torque: np.ndarray, finger: SimFinger, rate_hz: float) -> np.ndarray | None:
-    """`torque` (about its mean) through the finger's linear part 1/(A·s² + B·s + k), by the
+def finger_filter(finger: SimFinger, rate_hz: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The finger's linear part 1/(A·s² + B·s + k) as a digital filter (b, a), by the
     bilinear transform; None where that is not a stable filter."""
     prbm = finger.prbm
     den = [prbm.inertia_kgm2, prbm.damping_nms_per_rad, prbm.stiffness_nm_per_rad]
@@ -87,7 +87,7 @@ def through_finger(torque: np.ndarray, finger: SimFinger, rate_hz: float) -> np.
     b, a = np.ravel(b), np.ravel(a)
     if np.any(np.abs(np.roots(a)) >= 1.0):
         return None
-    return signal.lfilter(b, a, torque - torque.mean())
+    return b, a
 
 
 def driven_noise(misfit_deg: np.ndarray, angle_deg: np.ndarray, pressure_kpa: np.ndarray,
@@ -96,12 +96,13 @@ def driven_noise(misfit_deg: np.ndarray, angle_deg: np.ndarray, pressure_kpa: np
     through the finger makes, over the `scored` samples; None where the estimate is
     unavailable (the finger's dynamics not a stable filter, too few samples)."""
     kept = scored.astype(bool)
+    dynamics = finger_filter(finger, rate_hz)
+    if dynamics is None:
+        return None
+    b, a = dynamics
     columns = []
     for torque in candidate_torques(angle_deg, pressure_kpa, rate_hz):
-        response = through_finger(torque, finger, rate_hz)
-        if response is None:
-            return None
-        column = response[kept]
+        column = signal.lfilter(b, a, torque - torque.mean())[kept]  # about its mean, through the finger
         size = float(np.linalg.norm(column))
         if size > 0.0 and np.isfinite(size):
             columns.append(column / size)
@@ -117,4 +118,4 @@ def driven_noise(misfit_deg: np.ndarray, angle_deg: np.ndarray, pressure_kpa: np
     return DrivenNoise(noise_std, float(np.sqrt(np.mean(m * m))), x.shape[1])
 
 
-__all__ = ["DrivenNoise", "candidate_torques", "driven_noise", "through_finger"]
+__all__ = ["DrivenNoise", "candidate_torques", "driven_noise", "finger_filter"]
