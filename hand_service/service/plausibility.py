@@ -92,8 +92,9 @@ class ModelCheck:
         self.floor_rad = self.static_rad + NOISE_SIGMAS * self.noise_rad + self.margin_rad
         # a trend judged only where the sensor has left the model by more than its noise makes
         level_deg = (DRIFT_NOISE_SIGMAS * self.noise_rad + self.margin_rad) / DEG
+        natural_rad_per_s = np.sqrt(self.stiffness / np.array([m.inertia_kgm2 for m in models]))
         self.trend = SensorTrend(n, dt, float(safety["sensor_drift_max_deg_per_s"]), self.persist_samples,
-                                 level_deg)
+                                 level_deg, natural_rad_per_s, self._slow_noise_deg(safety))
         self.dead_samples = np.array([round(effect_value(m.effects, "dead_time") * rate_hz)
                                       for m in models])
         self._commands = np.zeros((int(self.dead_samples.max()) + 1, n))  # newest first
@@ -141,6 +142,13 @@ class ModelCheck:
         self.asymmetry = np.abs(ratio - 1.0)
         self.drag_s2 = drag / k
         self.live_effects = bool(np.any(value[2:4]) or np.any(self.asymmetry) or np.any(drag))
+
+    def _slow_noise_deg(self, safety: dict) -> np.ndarray:
+        """The innovation's noise as a trend meets it: its white-equivalent density at low
+        frequency (deg), the flex sensor's and the pressure sensor's through the static gain
+        N/k (the prediction's ringing on that noise is far above a trend's band)."""
+        pressure_deg = self.gain / self.stiffness * safety["pressure_noise_kpa"] / DEG
+        return np.hypot(safety["angle_noise_deg"], pressure_deg)
 
     @property
     def predicted_deg(self) -> np.ndarray:

@@ -15,8 +15,21 @@ forgetting (time constant TREND_WINDOW_S), as
 
 where θ, s_k and s_B are the prediction and its sensitivities to the stiffness and the
 damping (a parameter error, to first order, is such a combination; plausibility.py).
-c1 is the innovation's trend in deg/s with what the state explains taken out. It is
-judged three ways before a fault:
+c1 is the innovation's trend in deg/s with what the state explains taken out.
+
+Both sides are low-passed first, by two first-order stages whose corner is
+FILTER_CORNER_SHARE of each finger's natural frequency. The prediction is driven by the
+measured pressure, and the finger's dynamics turn that sensor's noise into a ringing at
+the natural frequency that is in θ and, with the opposite sign, in the innovation. Fitted
+raw, a·θ with a ≈ −1 cancels the ringing and, on a finger that moves slowly meanwhile,
+leaves c1 ≈ −a·θ': a lightly damped finger's move read as a drift. A linear relation holds
+the same between the filtered signals (t delayed, which c0 absorbs), and the ringing is gone
+from both. The noise the trend meets is the innovation's at low frequency, which the
+filter passes whole: its white-equivalent level (the flex sensor's, and the pressure
+sensor's through N/k) stands for it in the standard error, and the filtered residual adds
+what it holds beyond that noise's filtered share (a misfit of the state's terms).
+
+It is judged three ways before a fault:
 - TREND_SIGMAS standard errors short of itself (a wave to 60° on the simulated hand, a
   model that is exact: c1 of 3.6 deg/s from noise alone, its standard error 1.6);
 - only where time is apart from the state over the fit: the trend's variance inflation
@@ -56,14 +69,26 @@ LEVEL_WINDOW_S = 0.1  # the innovation's smoothing, for the level a drift must h
 INFLATION_MAX = 10.0  # the trend's variance inflation beyond which time and the state are one
 TREND_SIGMAS = 3.0  # the trend judged is this many standard errors short of its estimate
 RIDGE = 1e-6  # of the weights' sum, on the diagonal: a finger at rest makes θ, s_k, s_B constants
+FILTER_CORNER_SHARE = 0.25  # the low-pass's corner, as a share of the finger's natural frequency
+FILTERED = 5  # θ, s_k, s_B, θ'·RATE_S, e: the signals low-passed before the fit
 
 
 class SensorTrend:
     """Per finger, the innovation's trend in deg/s with the state's part taken out."""
 
     def __init__(self, n_fingers: int, period_s: float, limit_deg_per_s: float, persist_samples: int,
-                 level_deg: np.ndarray, window_s: float = TREND_WINDOW_S) -> None:
+                 level_deg: np.ndarray, natural_rad_per_s: np.ndarray, slow_noise_deg: np.ndarray,
+                 window_s: float = TREND_WINDOW_S) -> None:
         self.period_s = period_s
+        # the low-pass: per finger, its pole and the white-noise gain of two stages
+        corner_rad_per_s = FILTER_CORNER_SHARE * np.asarray(natural_rad_per_s, dtype=float)
+        self.pole = np.exp(-period_s * corner_rad_per_s)
+        b = self.pole
+        self.noise_gain = (1 - b) ** 4 * (1 + b ** 2) / (1 - b ** 2) ** 3  # Σh², h[j] = (1−b)²(j+1)b^j
+        self.stages = np.zeros((2, n_fingers, FILTERED))
+        self._signals = np.zeros((n_fingers, FILTERED))
+        self.fresh = np.ones(n_fingers, dtype=bool)  # the low-pass starts from the next sample
+        self.slow_noise_var = np.asarray(slow_noise_deg, dtype=float) ** 2
         self.level_deg = np.asarray(level_deg, dtype=float)
         self.level_forget = math.exp(-period_s / LEVEL_WINDOW_S)
         self.smoothed_deg = np.zeros(n_fingers)  # the innovation, exponentially smoothed
@@ -97,6 +122,7 @@ class SensorTrend:
         self.weight2[fingers] = 0.0
         self.smoothed_deg[fingers] = 0.0
         self.samples[fingers] = 0
+        self.fresh[fingers] = True
         self.run[fingers] = 0
         self.trend_deg_per_s[fingers] = 0.0
 
@@ -122,8 +148,8 @@ class SensorTrend:
         self.skip(steps)
         sums, cross = self.sums, self.cross
         x = self._x
-        x[:, 2:5] = sensitive_rad
-        x[:, 5] = rate_rad_s * RATE_S
+        innovation_deg = self._low_pass(steps, innovation_deg, sensitive_rad, rate_rad_s)
+        x[:, 2:] = self.stages[1, :, :4]
         self.samples += checked
         weight = (checked & (self.samples > self.settle_samples)).astype(float)
         sums += weight[:, None, None] * x[:, :, None] * x[:, None, :]
@@ -156,6 +182,23 @@ class SensorTrend:
             return None
         return int(np.argmax(self.run))
 
+    def _low_pass(self, steps: int, innovation_deg: np.ndarray, sensitive_rad: np.ndarray,
+                  rate_rad_s: np.ndarray) -> np.ndarray:
+        """Both stages moved on by `steps` periods toward the new sample (a fresh finger's
+        start at it); the filtered innovation."""
+        signals = self._signals
+        signals[:, :3] = sensitive_rad
+        signals[:, 3] = rate_rad_s * RATE_S
+        signals[:, 4] = innovation_deg
+        stages = self.stages
+        if self.fresh.any():
+            stages[:, self.fresh] = signals[self.fresh]
+            self.fresh[:] = False
+        keep = (self.pole ** steps)[:, None]
+        stages[0] += (1 - keep) * (signals - stages[0])
+        stages[1] += (1 - keep) * (stages[0] - stages[1])
+        return stages[1, :, 4]
+
     def _standard_error(self, coef: np.ndarray, inverse: np.ndarray) -> np.ndarray:
         """The trend's standard error (deg/s): the residual's weighted variance through the
         fit's covariance, c·s²·(XᵀWX)⁻¹ with c = Σw²/Σw (exact for weights W² = c·W, close for
@@ -166,5 +209,6 @@ class SensorTrend:
         residual = np.maximum(self.square - np.einsum("ij,ij->i", coef, self.cross), 0.0) / weight
         effective = weight ** 2 / weight2  # samples, as many as the weights are worth
         unbiased = residual * effective / np.maximum(effective - TERMS, 1.0)
+        unbiased = self.slow_noise_var + np.maximum(unbiased - self.noise_gain * self.slow_noise_var, 0.0)
         variance = unbiased * (weight2 / weight) * inverse[:, 1, 1]
         return np.sqrt(np.maximum(variance, 0.0))

@@ -101,14 +101,15 @@ def test_a_lab_s_trajectory_on_a_hand_the_model_gets_a_little_wrong_never_faults
     assert rig.sup.state is State.HOLD, (rig.sup.faults.faults, segments, lab)
 
 
-@pytest.mark.xfail(strict=True, reason="a known false fault: the trend check reads a fast move of "
-                   "the least damped finger on a model with k and N each off by half the "
-                   "uncertainty, in opposite directions, as a drifting sensor")
-def test_a_fast_move_of_the_middle_finger_on_opposite_k_and_n_errors_does_not_fault() -> None:
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_fast_move_of_the_middle_finger_on_opposite_k_and_n_errors_is_no_drift(seed: int) -> None:
     """Found by a random draw of the test above: the middle finger (ζ 0.06) to 76° in 0.5 s,
     the host's k 3.125 % high and N 3.125 % low (each half of the stated uncertainty). The
-    trend check faults `implausible` (+4.4 deg/s against the 2.5 allowed) after the move; the
-    same move over 1 s, on the index finger, or with either error alone holds."""
+    prediction rang on the pressure sensor's noise, the fit cancelled the ringing with θ and
+    read the slow move that followed as a trend (+4.4 deg/s judged against 2.5: a FAULT).
+    Fitted on low-passed signals the trend, less its doubt, stays under half the limit."""
     rig = played([(0.5, [0.0, 0.0, 76.0, 0.0, 0.0]), (1.0, [0.0, 0.0, 83.0, 0.0, 0.0])],
-                 Lab(1.03125, 0.96875, 1.0, 1.0, 0.0, 1))
+                 Lab(1.03125, 0.96875, 1.0, 1.0, 0.0, seed))
     assert rig.sup.state is State.HOLD, rig.sup.faults.faults
+    trend = rig.sup.model_check.trend
+    assert trend.worst_judged_deg_per_s.max() < 0.5 * trend.limit_deg_per_s, trend.worst_judged_deg_per_s
