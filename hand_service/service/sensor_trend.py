@@ -84,6 +84,7 @@ class SensorTrend:
         corner_rad_per_s = FILTER_CORNER_SHARE * np.asarray(natural_rad_per_s, dtype=float)
         self.pole = np.exp(-period_s * corner_rad_per_s)
         b = self.pole
+        self._gain = (1 - b)[:, None]  # a stage's step toward the sample, one period on
         self.noise_gain = (1 - b) ** 4 * (1 + b ** 2) / (1 - b ** 2) ** 3  # Σh², h[j] = (1−b)²(j+1)b^j
         self.stages = np.zeros((2, n_fingers, FILTERED))
         self._signals = np.zeros((n_fingers, FILTERED))
@@ -194,9 +195,9 @@ class SensorTrend:
         if self.fresh.any():
             stages[:, self.fresh] = signals[self.fresh]
             self.fresh[:] = False
-        keep = (self.pole ** steps)[:, None]
-        stages[0] += (1 - keep) * (signals - stages[0])
-        stages[1] += (1 - keep) * (stages[0] - stages[1])
+        gain = self._gain if steps == 1 else (1 - self.pole ** steps)[:, None]
+        stages[0] += gain * (signals - stages[0])
+        stages[1] += gain * (stages[0] - stages[1])
         return stages[1, :, 4]
 
     def _standard_error(self, coef: np.ndarray, inverse: np.ndarray) -> np.ndarray:
