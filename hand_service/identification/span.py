@@ -13,6 +13,9 @@ s·load. The sweep, wider than the silicone's loop, averages that joint friction
 torque has the opposite sign on the closing and the opening leg); the inertia and damping
 average out over whole periods. The model's lever arm becomes r·s, so the estimate
 (a torque over r) reads the load as itself, and the impedance law renders K at the pad.
+On a real hand the lab records the two sweeps (whole periods, the measured chamber pressure
+in every sample) and runs `hand-service calibrate span FREE.csv LOADED.csv --load-n L`
+(span_from_recordings), after the tare.
 """
 
 from __future__ import annotations
@@ -22,7 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hand_service.config.model import FingerModel
 from hand_service.config.profile import Profile
+from hand_service.identification.tare import recorded_estimate_n
+from hand_service.recording import Recording
 
 MIN_LOAD_N = 0.05  # below this the sensor's noise over a few sweeps is a large part of the load
 SPAN_RANGE = (0.5, 2.0)  # a span outside this is not a scale the model can be off by: refused
@@ -67,6 +73,14 @@ def span_lever(finger: str, lever_arm_m: float, unloaded_estimate_n: np.ndarray,
         raise ValueError(f"{finger}: the estimate read {span.scale:.3f} N per N of load, outside "
                          f"{low:g} to {high:g}: the load or the sweeps are not what the span assumes")
     return span
+
+
+def span_from_recordings(free: Recording, loaded: Recording, load_n: float, model: FingerModel, finger: str,
+                         with_loop: bool = False) -> Span:
+    """The span from two recorded sweeps, free and with load_n hung on the pad: the
+    controller's static estimate made again from each (tare.recorded_estimate_n)."""
+    return span_lever(finger, model.prbm("the span").lever_arm_m, recorded_estimate_n(free, model, with_loop),
+                      recorded_estimate_n(loaded, model, with_loop), load_n)
 
 
 def apply_span(profile: Profile, span: Span) -> Profile:
