@@ -41,6 +41,7 @@ import dataclasses
 import math
 import sys
 import tempfile
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -171,7 +172,7 @@ def bode_figure(curves: dict[str, list[Point]], set_n_per_deg: float, title: str
         bottom.semilogx(f, error_pct, marker="o")
     top.axhline(set_n_per_deg, color="k", lw=0.8, ls="--")
     top.set_ylabel("|F / (θ_ref − θ)| (N/deg)")
-    top.set_title(title, fontsize=9)
+    top.set_title("\n".join(textwrap.fill(line, 100) for line in title.splitlines()), fontsize=8)
     top.legend(fontsize=7)
     middle.set_ylabel("phase (deg)")
     for level in (-100.0 * TOLERANCE, 100.0 * TOLERANCE):
