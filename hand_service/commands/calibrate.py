@@ -1,4 +1,4 @@
-"""`hand-service calibrate gain|sensor|valve|tare`: calibrations from measured data."""
+"""`hand-service calibrate gain|sensor|valve|tare|span`: calibrations from measured data."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-HELP = "calibrate the pressure gain N, the sensor map, the valve or the estimate's tare from measured data"
+HELP = ("calibrate the pressure gain N, the sensor map, the valve, or the estimate's tare or span from "
+        "measured data")
 GAIN_DOC = """\
 gain SWEEP.csv --model MODEL.yaml [--finger NAME]
     N (pressure gain, N·m/kPa) from a slow pressure sweep at quasi-static equilibrium:
@@ -38,12 +39,22 @@ tare HOLD.csv --model MODEL.yaml [--finger NAME] [--loop]
     which an error in k and N apart breaks (docs/replicate.md, impedance). --loop takes
     the model's hysteresis loop into the estimate, as control.force_estimate_hysteresis does.
 """
+SPAN_DOC = """\
+span FREE.csv LOADED.csv --load-n L --model MODEL.yaml [--finger NAME] [--loop]
+    The force estimate's span, after the tare: the lever arm r set so that a known load
+    (L newtons hung on the pad, opening the finger) reads as itself. The recordings are the
+    finger in impedance mode sweeping its reference a few degrees about the working angle,
+    free and with the load, each over whole sweeps (measured chamber pressure needed); the
+    sweep, wider than the silicone's loop, averages its friction out. It takes out what the
+    tare leaves: k's error as a scale and a contact point that moves with the bend
+    (docs/replicate.md, impedance).
+"""
 OUTPUT_DOC = """
 All print a table and write JSON with --json. --write-model OUT.yaml writes the model
 with the new value(s); --update-profile PROFILE.yaml changes the values in the profile
 in place, line by line, so its comments survive.
 """
-DESCRIPTION = GAIN_DOC + SENSOR_DOC + VALVE_DOC + TARE_DOC + OUTPUT_DOC + """
+DESCRIPTION = GAIN_DOC + SENSOR_DOC + VALVE_DOC + TARE_DOC + SPAN_DOC + OUTPUT_DOC + """
 Examples:
   hand-service calibrate gain sweep.csv --model sim.yaml --finger index --update-profile my.yaml
   hand-service calibrate sensor pairs.csv --json sensor.json --update-profile my.yaml
@@ -62,7 +73,7 @@ def _common(parser: argparse.ArgumentParser, model: bool) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    sub = parser.add_subparsers(dest="what", required=True, metavar="gain|sensor|valve|tare")
+    sub = parser.add_subparsers(dest="what", required=True, metavar="gain|sensor|valve|tare|span")
 
     def add(name: str, help_text: str, doc: str) -> argparse.ArgumentParser:
         return sub.add_parser(name, help=help_text, description=doc + OUTPUT_DOC,
@@ -85,6 +96,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     tare.add_argument("recording", type=Path, metavar="HOLD.csv")
     tare.add_argument("--loop", action="store_true", help="the model's hysteresis loop in the estimate")
     _common(tare, model=True)
+    span = add("span", "the lever arm that makes a known load read as itself", SPAN_DOC)
+    span.add_argument("free", type=Path, metavar="FREE.csv")
+    span.add_argument("loaded", type=Path, metavar="LOADED.csv")
+    span.add_argument("--load-n", type=float, required=True, help="the known load at the pad (N)")
+    span.add_argument("--loop", action="store_true", help="the model's hysteresis loop in the estimate")
+    _common(span, model=True)
 
 
 def _finger_name(args: argparse.Namespace, model_finger: str | None, recording_finger: str | None) -> str:
@@ -248,11 +265,39 @@ def _tare(args: argparse.Namespace) -> dict[str, Any]:
             "pressure_gain_nm_per_kpa": tare.gain_after_nm_per_kpa}
 
 
+def _span(args: argparse.Namespace) -> dict[str, Any]:
+    from hand_service.config.profile import load_model
+    from hand_service.errors import UserError
+    from hand_service.identification.span import span_from_recordings
+    from hand_service.recording import check_finger, read_recording
+
+    model = load_model(args.model, args.finger)
+    free, loaded = read_recording(args.free, args.finger), read_recording(args.loaded, args.finger)
+    for recording in (free, loaded):
+        check_finger(recording, args.finger or model.finger)
+    finger = model.finger or free.finger or "?"
+    try:
+        span = span_from_recordings(free, loaded, args.load_n, model, finger, with_loop=args.loop)
+    except ValueError as error:
+        raise UserError(str(error)) from error
+    print(f"calibrate span: {args.free.name} and {args.loaded.name}, finger {finger}, {args.load_n:g} N\n")
+    print("| estimate free (N) | estimate loaded (N) | read per N of load | r before (m) | r after (m) |")
+    print("|---|---|---|---|---|")
+    print(f"| {span.unloaded_n:+.4f} | {span.loaded_n:+.4f} | {span.scale:.4f} | {span.lever_before_m:.6g} "
+          f"| {span.lever_after_m:.6g} |")
+    _write_back(args, model, {"lever_arm_m": span.lever_after_m}, free.finger,
+                f"r from `hand-service calibrate span {args.free.name} {args.loaded.name}`")
+    return {"finger": finger, "estimate_free_n": span.unloaded_n, "estimate_loaded_n": span.loaded_n,
+            "load_n": span.load_n, "scale": span.scale, "lever_arm_before_m": span.lever_before_m,
+            "lever_arm_m": span.lever_after_m}
+
+
 def main(args: argparse.Namespace) -> int:
     from hand_service.jsonio import tables_out, write_json
 
     with tables_out(args.json):
-        result = {"gain": _gain, "sensor": _sensor, "valve": _valve, "tare": _tare}[args.what](args)
+        calibrations = {"gain": _gain, "sensor": _sensor, "valve": _valve, "tare": _tare, "span": _span}
+        result = calibrations[args.what](args)
     if args.json is not None:
         write_json(args.json, result)
     return 0

@@ -85,19 +85,16 @@ class _LoopState:
     hysteresis_angle_deg: float = math.nan  # none seen yet
 
 
-def tare_from_recording(recording: Recording, model: FingerModel, finger: str,
-                        with_loop: bool = False) -> Tare:
-    """The tare from a recorded free hold (`hand-service calibrate tare`): the controller's
-    static estimate made again from the recorded angle and measured chamber pressure
-    (N·p_eff − τ(θ) − stiffening, and H·z with_loop, z the Dahl state over the recorded
-    angle, as control.force_estimate_hysteresis takes it), then tare_gain."""
+def recorded_estimate_n(recording: Recording, model: FingerModel, with_loop: bool = False) -> np.ndarray:
+    """The controller's static force estimate (N) made again from a recording's angle and
+    measured chamber pressure: (N·p_eff − τ(θ) − stiffening) / r, and H·z with_loop, z the
+    Dahl state over the recorded angle, as control.force_estimate_hysteresis takes it."""
     measured = recording.optional("pressure_meas_kpa")
     if measured is None:
-        raise ValueError(f"{recording.path}: the tare needs the measured chamber pressure "
+        raise ValueError(f"{recording.path}: the estimate needs the measured chamber pressure "
                          "(pressure_meas_kpa) in every sample")
-    prbm = model.prbm("the tare")
+    prbm = model.prbm("the recorded estimate")
     effects = prbm.effects
-    lever_m = prbm.lever_arm_m
     loop = _LoopState()
     estimate = np.empty(len(recording.angle_deg))
     for i, (angle_deg, chamber_kpa) in enumerate(zip(recording.angle_deg, measured, strict=True)):
@@ -109,8 +106,16 @@ def tare_from_recording(recording: Recording, model: FingerModel, finger: str,
             loop.angle_filt_deg = float(angle_deg)
             hysteresis_angle_update(effects, loop)
             torque -= hysteresis_torque(effects, loop.hysteresis_z)
-        estimate[i] = torque / lever_m
-    return tare_gain(model, finger, estimate, measured)
+        estimate[i] = torque / prbm.lever_arm_m
+    return estimate
+
+
+def tare_from_recording(recording: Recording, model: FingerModel, finger: str,
+                        with_loop: bool = False) -> Tare:
+    """The tare from a recorded free hold (`hand-service calibrate tare`): the controller's
+    static estimate made again from it (recorded_estimate_n), then tare_gain."""
+    estimate = recorded_estimate_n(recording, model, with_loop)
+    return tare_gain(model, finger, estimate, recording.optional("pressure_meas_kpa"))
 
 
 def apply_tare(profile: Profile, tare: Tare) -> Profile:

@@ -5,7 +5,7 @@ a small sinusoidal push, with the controller's model exact or ±5 % off.
                                       [--plant model|mismatched|mismatched-even-valves]
                                       [--calibrate | --diagnose]
                                       [--amplitude-deg 2] [--reference-deg 80] [--tare]
-                                      [--errors-last] [--frequency HZ ...]
+                                      [--errors-last] [--span] [--frequency HZ ...]
 
 A probe fixed to the force point (hand_service.pinch.compliance.closed_loop's push: it
 pushes and pulls, so the finger cannot leave it) pushes the finger open with a
@@ -41,6 +41,7 @@ import dataclasses
 import math
 import sys
 import tempfile
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,7 +49,8 @@ import numpy as np
 
 from hand_service.api.impedance import gain_limits
 from hand_service.config.profile import Profile, load_profile
-from hand_service.pinch.compliance import closed_loop, free_tare
+from hand_service.identification.span import apply_span
+from hand_service.pinch.compliance import SPAN_LOAD_DEG, closed_loop, free_tare, loaded_span
 from hand_service.pinch.lab_diagnose import EVEN_VALVES, LabDiagnosis, diagnosed_controller
 from hand_service.pinch.mismatch import NONE, PLANTS, Mismatch, identify_on_plant
 
@@ -170,7 +172,7 @@ def bode_figure(curves: dict[str, list[Point]], set_n_per_deg: float, title: str
         bottom.semilogx(f, error_pct, marker="o")
     top.axhline(set_n_per_deg, color="k", lw=0.8, ls="--")
     top.set_ylabel("|F / (θ_ref − θ)| (N/deg)")
-    top.set_title(title, fontsize=9)
+    top.set_title("\n".join(textwrap.fill(line, 100) for line in title.splitlines()), fontsize=8)
     top.legend(fontsize=7)
     middle.set_ylabel("phase (deg)")
     for level in (-100.0 * TOLERANCE, 100.0 * TOLERANCE):
@@ -189,6 +191,7 @@ class Corner:
     stiffness_pct: float
     gain_pct: float
     diagnosis: LabDiagnosis | None = None
+    lever_pct: float = 0.0  # the lever arm in use against the model's r (the span's)
 
     def said(self) -> str:
         d = self.diagnosis
@@ -198,7 +201,7 @@ class Corner:
 def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pct: float,
                       mismatch: Mismatch, calibrate: bool, seed: int, diagnosed: bool = False,
                       errors_last: bool = False, tare_n_per_deg: float | None = None,
-                      reference_deg: float = REFERENCE_DEG) -> Corner:
+                      reference_deg: float = REFERENCE_DEG, span: bool = False) -> Corner:
     """The controller with k and N off by these percentages; with calibrate, the lab's
     `calibrate sensor` and `calibrate gain` then run on the plant (N measured again for
     that k); with diagnosed, after those the lab's `calibrate valve` and `diagnose` on a
@@ -206,7 +209,9 @@ def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pc
     (hand_service.pinch.lab_diagnose); with errors_last the errors are put on the model
     diagnose wrote instead (its effects kept), not on the lab's starting model; with
     tare_n_per_deg, last, the estimate's free-motion tare in impedance mode at that K about
-    reference_deg (compliance.free_tare), which sets N again."""
+    reference_deg (compliance.free_tare), which sets N again; with span, after it, the
+    estimate's span under a known load (compliance.loaded_span, at the controller's own
+    K_max with a load of K_max·SPAN_LOAD_DEG), which sets the lever arm."""
     controller = truth if errors_last and diagnosed else with_errors(truth, stiffness_pct, gain_pct)
     if calibrate or diagnosed:
         with tempfile.TemporaryDirectory(prefix="pinch-bode-") as scratch:
@@ -218,9 +223,15 @@ def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pc
             controller = with_errors(controller, stiffness_pct, gain_pct)
     if tare_n_per_deg is not None:
         controller = free_tare(truth, controller, finger, tare_n_per_deg, reference_deg, seed, mismatch)
+    if span:
+        k_max = gain_limits(controller.finger(finger).model)[0]
+        load_n = k_max * SPAN_LOAD_DEG
+        measured = loaded_span(truth, controller, finger, k_max, load_n, reference_deg, seed, mismatch)
+        controller = apply_span(controller, measured)
     mine, true = controller.finger(finger).model, truth.finger(finger).model
     return Corner(controller, 100.0 * (mine.stiffness_nm_per_rad / true.stiffness_nm_per_rad - 1.0),
-                  100.0 * (mine.pressure_gain_nm_per_kpa / true.pressure_gain_nm_per_kpa - 1.0), diagnosis)
+                  100.0 * (mine.pressure_gain_nm_per_kpa / true.pressure_gain_nm_per_kpa - 1.0), diagnosis,
+                  100.0 * (mine.lever_arm_m / true.lever_arm_m - 1.0))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -248,6 +259,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--tare", action="store_true",
                         help="last, tare the force estimate on the free finger at the reference "
                              "(hand_service.identification.tare), as the lab does before contact")
+    parser.add_argument("--span", action="store_true",
+                        help="after the tare (implied), the estimate's span under a known load at the pad "
+                             "(hand_service.identification.span), which sets the lever arm")
     parser.add_argument("--amplitude-deg", type=float, default=AMPLITUDE_DEG,
                         help=f"the push's amplitude as K times this angle (default {AMPLITUDE_DEG:g})")
     parser.add_argument("--reference-deg", type=float, default=REFERENCE_DEG,
@@ -270,20 +284,21 @@ def main(argv: list[str] | None = None) -> int:
         head = f"{finger}, K = {k_set:.4f} N/deg ({args.share:g} K_max), D = {DAMPING_N_S_PER_DEG:g} N·s/deg"
         lab = ", calibrated and diagnosed" if args.diagnose else ", calibrated" if args.calibrate else ""
         lab += ", the errors on diagnose's model" if args.diagnose and args.errors_last else ""
-        lab += ", tared free at the reference" if args.tare else ""
+        lab += ", tared free at the reference" if args.tare or args.span else ""
+        lab += ", spanned under a known load" if args.span else ""
         tail = (f"{args.plant} plant{lab}, "
                 f"push K·{args.amplitude_deg:g}° about {args.reference_deg:g}°")
         print(f"\n{head}, {tail}: stiffness error against K (%); damping (N·s/deg)\n")
         said = " diagnose's verdict: effects |" if args.diagnose else ""
-        print("| model error (k, N) | k, N in use | PRBM quasi-static | "
+        print("| model error (k, N) | k, N, r in use | PRBM quasi-static | "
               + " | ".join(f"{f:g} Hz" for f in frequencies) + f" | within 10 % up to |{said}")
         print("| --- | --- | --- |" + " --- |" * len(frequencies) + " --- |" + (" --- |" if said else ""))
         for k_pct, n_pct in errors:
             label = f"k {k_pct:+g} %, N {n_pct:+g} %"
             corner = corner_controller(truth, finger, k_pct, n_pct, mismatch, args.calibrate, seed=1,
                                        diagnosed=args.diagnose, errors_last=args.errors_last,
-                                       tare_n_per_deg=k_set if args.tare else None,
-                                       reference_deg=args.reference_deg)
+                                       tare_n_per_deg=k_set if args.tare or args.span else None,
+                                       reference_deg=args.reference_deg, span=args.span)
             points = sweep(truth, corner.controller, finger, k_set, frequencies, mismatch=mismatch,
                            amplitude_deg=args.amplitude_deg, reference_deg=args.reference_deg)
             curves[label] = points
@@ -291,7 +306,8 @@ def main(argv: list[str] | None = None) -> int:
                      + (" (saturated)" if p.saturated else "") for p in points]
             top = bandwidth_hz(points, k_set)
             ratio = quasi_static_ratio(args.share, corner.stiffness_pct, corner.gain_pct)
-            print(f"| {label} | {corner.stiffness_pct:+.1f} %, {corner.gain_pct:+.1f} % | "
+            print(f"| {label} | {corner.stiffness_pct:+.1f} %, {corner.gain_pct:+.1f} %, "
+                  f"{corner.lever_pct:+.1f} % | "
                   f"{100 * (ratio - 1):+.1f} | " + " | ".join(cells)
                   + f" | {'none' if top == 0 else f'{top:g} Hz'} |"
                   + (f" {corner.said()} |" if args.diagnose else ""), flush=True)

@@ -31,6 +31,7 @@ import numpy as np
 import rtcore
 from hand_service.config.effects import effect_value
 from hand_service.config.profile import Profile
+from hand_service.identification.span import Span, span_lever
 from hand_service.identification.tare import apply_tare, tare_gain
 from hand_service.pinch.mismatch import NONE, Hysteresis, Mismatch, ValveLag
 from rtcore.motion import FingerMotions
@@ -44,6 +45,10 @@ STEP_DEG = 10.0
 TARE_HOLD_S = 4.0  # the free hold before contact: settled after 3 s, averaged over the last
 TARE_MEAN_S = 1.0
 TARE_ROUNDS = 2
+SPAN_LOAD_DEG = 5.0  # the span's load: K_max times this (index: 0.62 N, a 63 g weight)
+SPAN_SWEEP_DEG = 5.0  # the reference's swing about the working angle: ten times the loop's half-width
+SPAN_PERIOD_S = 4.0  # one sweep; the first is settling, the next SPAN_PERIODS are averaged
+SPAN_PERIODS = 2
 
 
 @dataclass
@@ -171,6 +176,27 @@ def free_tare(truth: Profile, controller: Profile, finger: str, stiffness_n_per_
                          loop.estimate_kpa[-ticks:])
         controller = apply_tare(controller, tare)
     return controller
+
+
+def loaded_span(truth: Profile, controller: Profile, finger: str, stiffness_n_per_deg: float,
+                load_n: float, reference_deg: float, seed: int = 1, mismatch: Mismatch = NONE) -> Span:
+    """The estimate's span (hand_service.identification.span) as a lab makes it: impedance
+    mode at this K sweeps its reference ±SPAN_SWEEP_DEG about reference_deg, once free and
+    once with load_n hung on the pad (the probe's constant push, opening the finger); the
+    estimates over the last SPAN_PERIODS whole sweeps give the span. The same seed both
+    times: the sensor's noise is the same draw."""
+    rate_hz = truth.control.rate_hz
+    duration_s = (1 + SPAN_PERIODS) * SPAN_PERIOD_S
+    last = round(SPAN_PERIODS * SPAN_PERIOD_S * rate_hz)
+
+    def sweep(t_s: float) -> float:
+        return reference_deg + SPAN_SWEEP_DEG * float(np.sin(2.0 * np.pi * t_s / SPAN_PERIOD_S))
+
+    estimates = [closed_loop(truth, finger, stiffness_n_per_deg, 0.0, duration_s, sweep, lambda _: None, seed,
+                             controller, push_n=lambda _, f=force: f, mismatch=mismatch).estimate_n[-last:]
+                 for force in (0.0, load_n)]
+    lever_m = controller.finger(finger).model.lever_arm_m
+    return span_lever(finger, lever_m, estimates[0], estimates[1], load_n)
 
 
 def slow_push(profile: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,

@@ -143,3 +143,24 @@ def test_the_table_says_the_controller_was_tared(capsys: pytest.CaptureFixture[s
     assert main(["--quick", "--tare", "--frequency", "0.2"]) == 0
     out = capsys.readouterr().out
     assert "tared free at the reference" in out and "| 0.2 Hz |" in out
+
+
+def test_the_span_takes_k_errors_and_the_moving_contact_out_of_the_rendered_stiffness(truth: Profile) -> None:
+    # the PRBM with only the contact point that moves with the bend: the estimate reads the
+    # pad's force 14 % high at 80° (r (1 + a θ) against r), and k's error stays after the tare
+    plant = dataclasses.replace(NONE, lever_drift_per_rad=PAPER_MISMATCH.lever_drift_per_rad)
+    k_set = gain_limits(truth.finger("index").model)[0]
+    drift_pct = 100.0 * PAPER_MISMATCH.lever_drift_per_rad * math.radians(80.0)
+    for k_pct in (5.0, -5.0):
+        tared = corner_controller(truth, "index", k_pct, -k_pct, plant, calibrate=False, seed=1,
+                                  tare_n_per_deg=k_set)
+        spanned = corner_controller(truth, "index", k_pct, -k_pct, plant, calibrate=False, seed=1,
+                                    tare_n_per_deg=k_set, span=True)
+        assert tared.lever_pct == 0.0
+        # the span's lever: the contact's drift and k's common scale, r (1 + a θ)(1 + e_k)
+        expected_pct = 100.0 * ((1.0 + drift_pct / 100.0) * (1.0 + k_pct / 100.0) - 1.0)
+        assert spanned.lever_pct == pytest.approx(expected_pct, abs=2.0)  # loaded, it sits a little more open
+        before = rendered(truth, tared.controller, "index", k_set, 0.2, mismatch=plant).stiffness_n_per_deg
+        after = rendered(truth, spanned.controller, "index", k_set, 0.2, mismatch=plant).stiffness_n_per_deg
+        assert abs(before / k_set - 1.0) > 0.06  # tared only: -16 % (k +5 %) or -7 % (k -5 %)
+        assert after / k_set == pytest.approx(1.0, abs=0.04)
