@@ -159,6 +159,13 @@ class Effect(ABC):
         with these held at their neutral too."""
         return ()
 
+    def core_starts(self, values: Mapping[str, float], deepest_deg: float) -> list[dict[str, float]]:
+        """Starts beside `values` (a joint fit's, its refining parameters dropped) for the
+        refit of the effect without its refining parameters: the refit from the joint's
+        values alone can end in a poorer local minimum. None by default."""
+        del values, deepest_deg
+        return []
+
     def fit_range(self, scales: FitScales, scale: float, lower: float, upper: float) -> tuple[float, float]:
         """The fit's bounds in a recording (`scale`, `lower`, `upper`: the table's, already
         grown with the finger's stiffness): by default the table's."""

@@ -95,6 +95,16 @@ class Contact(FieldEffect):
         # looks like where the angle follows the pressure: the spring must carry the contact
         return ("damping_nms_per_rad",)
 
+    def core_starts(self, values: Mapping[str, float], deepest_deg: float) -> list[dict[str, float]]:
+        """Hertz's exponent, K set to keep the spring's torque at the deepest angle: without
+        its damper a spring refitted from the joint's shape can slide its onset past the
+        deepest angle reached (a ringing vent release, docs/results.md)."""
+        depth_rad = math.radians(deepest_deg - values["onset_deg"])
+        if depth_rad <= 0.0 or values["exponent"] == HERTZ_EXPONENT:
+            return []
+        stiffness = values[self.param] * depth_rad ** values["exponent"] / depth_rad ** HERTZ_EXPONENT
+        return [{**values, self.param: stiffness, "exponent": HERTZ_EXPONENT}]
+
 
 def _one(name: str, unit: str, neutral: float, lower: float, upper: float,
          scale: float) -> tuple[Parameter, ...]:

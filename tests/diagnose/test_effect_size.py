@@ -102,3 +102,44 @@ def test_without_refining_drops_only_the_contact_damper() -> None:
     params, values = core
     assert [p.member for p in params] == ["", "onset_deg", "exponent"]
     assert values == [20.0, 40.0, 1.5]
+
+
+def damper_traded_jacobian(seed: int = 1) -> np.ndarray:
+    """The angle sees the spring's torque and the damper almost only together: in the joint
+    fit the spring's torque is not pinned (the damper takes any share of it)."""
+    rng = np.random.default_rng(seed)
+    samples = 400
+    along = rng.normal(size=samples)
+    jacobian = np.outer(along, torque_gradient(VALUES, DEEPEST_DEG))
+    jacobian[:, 3] = 1e3 * along * (1.0 + 1e-4 * rng.normal(size=samples))
+    jacobian[:, :3] += 1e-5 * rng.normal(size=(samples, 3))
+    return jacobian
+
+
+def test_a_contact_whose_spring_trades_with_its_damper_is_judged_on_the_spring_alone() -> None:
+    """Where the joint fit cannot split the torque between spring and damper, the contact is
+    determined only if its spring, refitted alone, both beats the plain model (carries) and
+    stands clear of 0 there (core_determined)."""
+    fit = contact_fit(damper_traded_jacobian())
+    size = effect_size.derived_size(fit, "contact")
+    assert size is not None and size.value < DETERMINED_Z * size.std  # not pinned in the joint fit
+
+    def candidate(carries: bool, core_determined: bool) -> Candidate:
+        return Candidate("contact", CONTACT[0], 0.5, 0.5, 1.0, fit, 400.0, 7.7, 0.1, 0.0, carries,
+                         core_determined)
+
+    assert not candidate(True, False).determined
+    assert not candidate(False, True).determined  # a spring that does not carry is no evidence
+    assert candidate(True, True).determined
+
+
+def test_the_contact_core_start_keeps_the_spring_torque_at_hertz_exponent() -> None:
+    spec = fx.BY_NAME["contact"]
+    values = {"stiffness_nm_per_radn": 0.16, "onset_deg": 75.7, "exponent": 2.35, "damping_nms_per_rad": 0.0}
+    (start,) = spec.core_starts(values, 99.5)
+    assert start["exponent"] == 1.5 and start["onset_deg"] == 75.7
+    before, after = spec.derived_size(values, 99.5), spec.derived_size(start, 99.5)
+    assert before is not None and after is not None and math.isclose(after.value, before.value)
+    assert spec.core_starts({**values, "exponent": 1.5}, 99.5) == []  # already there
+    assert spec.core_starts({**values, "onset_deg": 100.0}, 99.5) == []  # no spring torque to keep
+    assert fx.BY_NAME["cubic_stiffness"].core_starts(fx.BY_NAME["cubic_stiffness"].full({}), 99.5) == []

@@ -67,6 +67,7 @@ class Candidate:
     rmse_heldout_deg: float  # held out, the sensor's offset and drift taken out (Problem.misfit)
     prior_gain: float = 0.0  # how much closer to the nominal (prior's χ²) the effect lets k, B, N stay
     carries: bool = True  # it beats `base` with its refining parameters at neutral too (effect_size.py)
+    core_determined: bool = False  # and its derived size, so refitted, stands DETERMINED_Z clear
 
     @property
     def index(self) -> int:
@@ -98,10 +99,14 @@ class Candidate:
         alone is no measure: on an over-damped finger k, B and N move together, and an
         effect known to 3 % correlates at 0.997 with their common scale.) An effect whose
         size trades with its shape is judged on what the recording fixes instead (a
-        contact's spring torque at the deepest angle: effect_size.derived_size)."""
+        contact's spring torque at the deepest angle: effect_size.derived_size), in the joint
+        fit or, where the effect carries itself without its refining parameters, in that
+        refit (carries_itself): a damper beside the spring widens the spring's error in the
+        joint fit as it takes a share of the torque, while the spring alone is pinned."""
         derived = effect_size.derived_size(self.fit, self.name)
         if derived is not None:
-            return bool(abs(derived.value) > DETERMINED_Z * derived.std)
+            clear = bool(abs(derived.value) > DETERMINED_Z * derived.std)
+            return clear or (self.carries and self.core_determined)
         neutral = fx.BY_NAME[self.name].neutral
         return bool(abs(self.estimate - neutral) > DETERMINED_Z * self.std)
 
@@ -243,29 +248,51 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     z = stats.heldout_z_innovations(before[held], after[held], sigma)
     if bic > SIGNIFICANT_BIC and BORDERLINE_Z < z <= SIGNIFICANT_Z:
         z = (z + second_split_z(problem, base, joint)) / np.sqrt(2.0)
-    carried = bic <= SIGNIFICANT_BIC or carries_itself(problem, base, joint, screened.name, sigma)
+    core = carries_itself(problem, base, joint, screened.name, sigma) if bic > SIGNIFICANT_BIC else None
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
                      screened.starts[0], joint, bic, z, stats.rmse(problem.misfit(joint.angle_deg)[held]),
-                     prior_gain, carried)
+                     prior_gain, core is None or core.carries, core is not None and core.determined)
 
 
-def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: float) -> bool:
+@dataclass(frozen=True)
+class Core:
+    """An effect refitted without its refining parameters (carries_itself)."""
+
+    carries: bool  # it beats the model without it (ΔBIC and the held-out data)
+    determined: bool  # its derived size stands DETERMINED_Z standard errors clear of 0
+
+
+def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: float) -> Core:
     """Effect `name` without its refining parameters (Effect.refining, held at neutral),
-    refitted from `joint`, still beats `base` as an effect must (ΔBIC and the held-out data,
-    Candidate.predicts): a contact whose spring carries little of its torque, its damper
-    doing the work, is not a contact (a damping that grows with the pressure was named so)."""
+    refitted from `joint` and from the effect's other starts (Effect.core_starts), the one
+    with the most evidence kept, still beats `base` as an effect must (ΔBIC and the held-out
+    data, Candidate.predicts): a contact whose spring carries little of its torque, its
+    damper doing the work, is not a contact (a damping that grows with the pressure was
+    named so). The refit's local minimum must not decide it: from the joint's shape alone a
+    ringing finger's spring slid its onset past the deepest angle (docs/results.md)."""
     core = effect_size.without_refining(joint, name)
     if core is None:
-        return True
+        return Core(True, False)
     spec = fx.BY_NAME[name]
     refining = [Param.shape(name, member) for member in spec.refining]
     held = problem.finger(refining, [spec.parameter(member).neutral for member in spec.refining], base.finger)
     params, start = core
-    alone = fit(problem, params, start, base=held)
+    where = {p.member or spec.param: i for i, p in enumerate(params) if p.label == name}
+    starts = [start]
+    for other in spec.core_starts(spec.full({m: start[i] for m, i in where.items()}),
+                                  effect_size.deepest_deg(joint)):
+        starts.append(list(start))
+        for member, i in where.items():
+            starts[-1][i] = other[member]
     before = problem.innovations(base.angle_deg)
-    bic, prior_gain, after = evidence(problem, base, before, alone)
+    best = max(((evidence(problem, base, before, alone), alone)
+                for alone in (fit(problem, params, s, base=held) for s in starts)), key=lambda e: e[0][0])
+    (bic, prior_gain, after), alone = best
     z = stats.heldout_z_innovations(before[problem.held_mask], after[problem.held_mask], sigma)
-    return bool(bic > SIGNIFICANT_BIC and (z > SIGNIFICANT_Z or (prior_gain > SIGNIFICANT_BIC and z > -1.0)))
+    carries = bool(bic > SIGNIFICANT_BIC
+                   and (z > SIGNIFICANT_Z or (prior_gain > SIGNIFICANT_BIC and z > -1.0)))
+    size = effect_size.derived_size(alone, name)
+    return Core(carries, size is not None and bool(abs(size.value) > DETERMINED_Z * size.std))
 
 
 def beside(problem: Problem, base: Fit, name: str, lazy: bool = False) -> Candidate:

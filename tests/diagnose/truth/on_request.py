@@ -3,7 +3,8 @@ truth's own forms (plant.py: pressure stiffening a power of the pressure, or on 
 an exponential; creep two Maxwell branches at T and 4·T; hysteresis Bouc-Wen's loop with
 β = γ; contact Hunt-Crossley's, with its damping), through `hand-service diagnose --search`:
 
-    python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--classes ...]
+    python -m tests.diagnose.truth.on_request --out on_request.json [--seeds 1] [--first-seed 0]
+        [--classes ...]
         [--effects pressure_stiffening creep hysteresis contact] [--shape-known]
         [--cases-of clean gravity ...] [--skip-own]
 
@@ -212,6 +213,9 @@ def main(argv: list[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", required=True)
     parser.add_argument("--seeds", type=int, default=1)
+    parser.add_argument("--first-seed", type=int, default=0,
+                        help="the effects' seeds run from this one (--seeds of them): more seeds without "
+                             "running the first again")
     parser.add_argument("--classes", nargs="*", default=list(CLASSES))
     parser.add_argument("--magnitudes", nargs="*", default=["concealed"])
     parser.add_argument("--shape-known", action="store_true",
@@ -225,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     with tempfile.TemporaryDirectory(prefix="on-request-") as scratch:
         for effect in [] if args.skip_own else args.effects:
-            for seed in range(args.seeds):
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
                 for cls in args.classes:
                     for magnitude in args.magnitudes:
                         row = run_case(cs.CaseSpec(effect, cls, seed, magnitude), Path(scratch),
