@@ -60,9 +60,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "fitted with its shape, a contact's onset, exponent and damping, "
                              "a loop's travel, creep's time; "
                              "docs/diagnose.md); repeatable")
+    parser.add_argument("--jobs", type=_jobs, default=None, metavar="N",
+                        help="threads the simulations run on (default: one per core, at most 4, or "
+                             "HAND_DIAGNOSE_THREADS; 1: one thread); the same answer on any number")
     parser.add_argument("--quiet", action="store_true",
                         help="no progress on stderr (else a bar on a terminal, a line every few "
                              "seconds elsewhere)")
+
+
+def _jobs(text: str) -> int:
+    if not text.strip().isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: a whole number of threads, 1 or more")
+    return int(text)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -110,7 +119,8 @@ def main(args: argparse.Namespace) -> int:
     with Progress("diagnose", quiet=args.quiet) as progress:
         try:
             result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, rate_hz, progress,
-                              grid.missing, args.input_hold, args.noise_model, also=args.search)
+                              grid.missing, args.input_hold, args.noise_model, also=args.search,
+                              jobs=args.jobs)
         except UserError as refused:
             raise explained(refused, slips) from None
         progress.done()

@@ -19,6 +19,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from hand_service.config.model import FingerModel
+from hand_service.diagnose import workers
 from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.fitting.output_error import (
     FAR_FACTOR,
@@ -104,17 +105,19 @@ def models(nominal_angle_deg: np.ndarray, refit: Fit, final: Fit) -> dict[str, n
 def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
              rate_hz: float, progress: Progress | None = None,
              missing: np.ndarray | None = None, input_hold: str = "zoh",
-             noise_model: str = "ar", also: Sequence[str] = ()) -> Diagnosis:
+             noise_model: str = "ar", also: Sequence[str] = (), jobs: int | None = None) -> Diagnosis:
     """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
     offset (residual/noise.py), so that clean recordings from a lab's sensor come out clean; or
     "white", independent samples. `also`: library effects to search for beyond the ones
-    searched by default (Effect.searched), by the same tests.
+    searched by default (Effect.searched), by the same tests. `jobs`: the threads its
+    simulations run on (diagnose/workers.py; None: HAND_DIAGNOSE_THREADS or the cores, 1:
+    one thread), the same answer bit for bit on any number.
 
-    BLAS runs one thread meanwhile: diagnose's own threads (forward_selection.WORKERS, the
+    BLAS runs one thread meanwhile: diagnose's own threads (the effects' and starts' pools, the
     Jacobian's columns in fitting/output_error.py) keep the cores busy, and OpenBLAS, which
     threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
     and 1 kHz), would only make them wait."""
-    with threadpool_limits(limits=1, user_api="blas"):
+    with threadpool_limits(limits=1, user_api="blas"), workers.using(jobs):
         search = searched(also)
         result = _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
                            noise_model, search)

@@ -6,15 +6,22 @@ bit for bit, whatever their number (each simulation has its own C state and arra
 results are taken in order).
 
 HAND_DIAGNOSE_THREADS=1 in the environment makes diagnose run in one thread; any other
-whole number caps the threads. It is read once, when diagnose is imported."""
+whole number caps the threads. It is read once, when diagnose is imported; `using(jobs)`
+(`hand-service diagnose --jobs N`) sets the number for one diagnosis. The number is the
+process's: two diagnoses running at once in one process share it."""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
+from typing import TypeVar
 
 THREADS_ENV = "HAND_DIAGNOSE_THREADS"
 MOST_THREADS = 4  # beyond this a Jacobian (3 to 6 columns) has nothing left to share
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 def thread_count(environ: Mapping[str, str] | None = None) -> int:
@@ -28,3 +35,40 @@ def thread_count(environ: Mapping[str, str] | None = None) -> int:
     if not asked.isdigit() or int(asked) < 1:
         raise ValueError(f"{THREADS_ENV}={asked!r}: a whole number of threads, 1 or more (1: one thread)")
     return min(MOST_THREADS, int(asked))
+
+
+_threads = thread_count()
+
+
+def threads() -> int:
+    """The threads diagnose's pools use now (1: every pool runs in the calling thread)."""
+    return _threads
+
+
+@contextmanager
+def using(jobs: int | None) -> Iterator[int]:
+    """Diagnose's pools on `jobs` threads (at most MOST_THREADS) within the block; None
+    leaves the number as it is. Yields the number in force."""
+    global _threads
+    if jobs is None:
+        yield _threads
+        return
+    if jobs < 1:
+        raise ValueError(f"jobs={jobs}: a whole number of threads, 1 or more (1: one thread)")
+    saved, _threads = _threads, min(MOST_THREADS, jobs)
+    try:
+        yield _threads
+    finally:
+        _threads = saved
+
+
+def ordered_map(function: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    """[function(item) for item in items], on up to threads() threads at once (each item its
+    own simulations), the results in the items' order whatever finishes first; in the
+    calling thread when one thread is asked or there is one item."""
+    items = list(items)
+    workers = min(_threads, len(items))
+    if workers < 2:
+        return [function(item) for item in items]
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(function, items))

@@ -10,6 +10,7 @@ import math
 import numpy as np
 import pytest
 
+from hand_service.diagnose import workers
 from hand_service.diagnose.fitting.output_error import fit
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN
@@ -52,13 +53,10 @@ def test_a_candidate_is_never_scored_far_worse_than_no_effect() -> None:
 def test_the_effects_fitted_side_by_side_give_the_same_round() -> None:
     problem, refit = _problem()
     rounds = {}
-    for workers in (1, 2):
-        search.WORKERS, saved = workers, search.WORKERS
-        try:
-            rounds[workers] = search.run_round(problem, refit, ["coulomb_friction", "cubic_stiffness",
-                                                                "valve_lag"], None, fit_all=True)
-        finally:
-            search.WORKERS = saved
+    for jobs in (1, 2):
+        with workers.using(jobs):
+            rounds[jobs] = search.run_round(problem, refit, ["coulomb_friction", "cubic_stiffness",
+                                                             "valve_lag"], None, fit_all=True)
     one, two = ([(c.name, c.estimate, c.delta_bic) for c in rounds[w].candidates] for w in (1, 2))
     assert one == two
 

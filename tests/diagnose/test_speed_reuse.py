@@ -16,7 +16,7 @@ import threading
 import numpy as np
 import pytest
 
-from hand_service.diagnose.fitting import output_error as fit_module
+from hand_service.diagnose import workers
 from hand_service.diagnose.fitting.output_error import column_map, fit
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN, Problem
@@ -109,13 +109,10 @@ def test_the_cache_drops_the_least_recently_used_past_its_budget() -> None:
 def test_a_fit_is_the_same_with_its_jacobian_columns_side_by_side() -> None:
     params = [Param.plain(name, v) for name, v in zip(PLAIN, (0.45, 0.003, 0.0119), strict=True)]
     fits = {}
-    for workers in (1, 2):
-        fit_module.COLUMN_WORKERS, saved = workers, fit_module.COLUMN_WORKERS
-        try:
+    for jobs in (1, 2):
+        with workers.using(jobs):
             problem = _problem()  # a fresh cache each time: every simulation runs
-            fits[workers] = fit(problem, [*params, Param.effect("gravity")], [0.45, 0.003, 0.0119, 0.01])
-        finally:
-            fit_module.COLUMN_WORKERS = saved
+            fits[jobs] = fit(problem, [*params, Param.effect("gravity")], [0.45, 0.003, 0.0119, 0.01])
     one, two = fits[1], fits[2]
     assert np.array_equal(one.values, two.values) and np.array_equal(one.jacobian, two.jacobian)
     assert one.rss_deg2 == two.rss_deg2 and np.array_equal(one.angle_deg, two.angle_deg)
@@ -125,7 +122,7 @@ def test_a_fit_is_the_same_with_its_jacobian_columns_side_by_side() -> None:
 
 
 def test_column_map_keeps_the_order_and_uses_other_threads() -> None:
-    if fit_module.COLUMN_WORKERS < 2:
+    if workers.threads() < 2:
         pytest.skip("one core: the columns run one at a time")
     threads: set[int] = set()
     barrier = threading.Barrier(2, timeout=30.0)
@@ -155,7 +152,8 @@ def test_the_environment_sets_diagnose_s_threads() -> None:
 def test_one_thread_asked_runs_every_pool_serially() -> None:
     code = ("from hand_service.diagnose.fitting import output_error as f\n"
             "from hand_service.diagnose.search import forward_selection as s\n"
-            "print(f.COLUMN_WORKERS, s.WORKERS)")
+            "from hand_service.diagnose import workers as w\n"
+            "print(w.threads())")
     env = {**os.environ, THREADS_ENV: "1"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    assert out.stdout.split() == ["1", "1"]
+    assert out.stdout.split() == ["1"]

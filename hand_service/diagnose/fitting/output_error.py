@@ -25,7 +25,7 @@ from hand_service.config import effects as fx
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Prior, Problem
 from hand_service.diagnose.model.simulation_cache import finger_key
-from hand_service.diagnose.workers import thread_count
+from hand_service.diagnose.workers import threads
 from rtcore.sim import SimFinger
 
 DIVERGED_DEG = 1e4  # residual that stands for a simulation that ran away
@@ -113,21 +113,20 @@ def _into_bounds(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndar
     return np.clip(x, lower + 1e-9 * span, upper - 1e-9 * span)
 
 
-COLUMN_WORKERS = thread_count()  # a Jacobian's columns simulated at once (diagnose/workers.py)
 # least_squares takes `workers` from SciPy 1.16 on; before, the columns run one at a time
 _PARALLEL_COLUMNS = "workers" in inspect.signature(least_squares).parameters
-_columns: ThreadPoolExecutor | None = None
+_columns: dict[int, ThreadPoolExecutor] = {}
 _columns_lock = threading.Lock()
 
 
-def _column_pool() -> ThreadPoolExecutor:
-    """One pool for the process: its tasks are single simulations, which submit nothing,
-    so fits running in several threads (search/forward_selection.py) can share it without deadlock."""
-    global _columns
+def _column_pool(workers: int) -> ThreadPoolExecutor:
+    """One pool of `workers` threads for the process (diagnose/workers.py: the number in
+    force): its tasks are single simulations, which submit nothing, so fits running in
+    several threads (search/forward_selection.py) can share it without deadlock."""
     with _columns_lock:
-        if _columns is None:
-            _columns = ThreadPoolExecutor(max_workers=COLUMN_WORKERS, thread_name_prefix="jacobian")
-        return _columns
+        if workers not in _columns:
+            _columns[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="jacobian")
+        return _columns[workers]
 
 
 def column_map(function: Callable[[np.ndarray], np.ndarray],
@@ -135,9 +134,10 @@ def column_map(function: Callable[[np.ndarray], np.ndarray],
     """map() for scipy's finite differences (least_squares' `workers`): the first point in
     the calling thread, the others on the shared pool at the same time; results in order."""
     points = list(points)
-    if COLUMN_WORKERS < 2 or len(points) < 2:
+    workers = threads()
+    if workers < 2 or len(points) < 2:
         return iter([function(x) for x in points])
-    pool = _column_pool()
+    pool = _column_pool(workers)
     later = [pool.submit(function, x) for x in points[1:]]
     first = function(points[0])
     return iter([first, *(f.result() for f in later)])

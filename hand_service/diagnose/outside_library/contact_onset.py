@@ -36,17 +36,17 @@ by more than the raw angle's tie (raw_error.TIE_SHARE: within it, the two follow
 from __future__ import annotations
 
 import dataclasses
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg, signal
 
 from hand_service.diagnose.fitting import raw_error
-from hand_service.diagnose.fitting.output_error import COLUMN_WORKERS, Fit, sensitivity
+from hand_service.diagnose.fitting.output_error import Fit, sensitivity
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.outside_library.rival_fit import Rival, rival_model
 from hand_service.diagnose.residual import noise, stats
+from hand_service.diagnose.workers import ordered_map
 from rtcore.sim import SimFinger
 
 SIGNIFICANT_BIC = 10.0
@@ -304,8 +304,7 @@ def fitted_onset(problem: Problem, final: Fit, smooth: list[str],
         return rival, angle0_deg + float(rival.extra[0]) * span_deg
 
     starts = [float(np.quantile(valid, q)) for q in FITTED_QUANTILES]
-    with ThreadPoolExecutor(max_workers=min(COLUMN_WORKERS, len(starts))) as pool:  # each start its own fit
-        rival, angle_c = min(pool.map(one, starts), key=lambda fitted: fitted[0].rss)
+    rival, angle_c = min(ordered_map(one, starts), key=lambda fitted: fitted[0].rss)  # each start its own fit
     # θc and K against the smooth torques' own parameters: one more against one, none against two
     gain = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), rival.rss, problem.n_fit,
                            2 - len(smooth))

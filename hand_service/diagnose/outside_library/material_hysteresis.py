@@ -29,15 +29,15 @@ material's loop fits better at a travel of a few per cent of the range.
 from __future__ import annotations
 
 import dataclasses
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
-from hand_service.diagnose.fitting.output_error import COLUMN_WORKERS, Fit
+from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.outside_library.rival_fit import fit_rival
 from hand_service.diagnose.residual import stats
+from hand_service.diagnose.workers import ordered_map
 from rtcore.sim import SimFinger
 
 SIGNIFICANT_BIC = 10.0
@@ -104,8 +104,7 @@ def hysteresis_check(problem: Problem, final: Fit, found: list[str]) -> Hysteres
         return rss, travel(x), float(x[0] * torque0_nm)
 
     jobs = [(share * span_deg, True) for share in TRAVEL_SHARES] + [(floor_deg, False)]
-    with ThreadPoolExecutor(max_workers=min(COLUMN_WORKERS, len(jobs))) as pool:  # each start its own fit
-        fits = list(pool.map(lambda job: one(*job), jobs))
+    fits = ordered_map(lambda job: one(*job), jobs)  # each start its own fit
     rss, travel_deg, torque_nm = min(fits[:-1])
     named_rss = problem.fit_rss(problem.innovations(final.angle_deg))
     gain = stats.delta_bic(named_rss, rss, problem.n_fit, 1)  # d: the torque stands for the friction's

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,7 +34,7 @@ from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import effect_size
 from hand_service.diagnose.search.held_out import expected_z, second_split_z
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
-from hand_service.diagnose.workers import thread_count
+from hand_service.diagnose.workers import ordered_map
 
 SIGNIFICANT_BIC = 10.0  # "very strong" on Kass and Raftery's scale
 SIGNIFICANT_Z = 2.0  # one-sided 2 % for a change that only fits noise (whose z is biased low)
@@ -49,7 +48,6 @@ LATER_TOP = 3  # after the first round, only the screen's best three are fitted
 LATER_WHITE_BIC = 0.0  # and of those only what the screen predicts above this on the innovations
 DETERMINED_Z = 3.0  # an effect's estimate must stand this many standard errors from neutral
 PRIOR_EVIDENCE_FACTOR = 10.0  # a refit this many times off the nominal makes its prior evidence
-WORKERS = thread_count()  # effects screened and fitted at once (diagnose/workers.py)
 
 Progress = Callable[[str], None]
 
@@ -215,8 +213,7 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     promising = starts[-1:] if len(screened.starts) > 1 else starts[:1]  # the scan's best point
 
     def fit_from(starts: list[list[float]], problem: Problem) -> Fit:
-        with ThreadPoolExecutor(max_workers=min(WORKERS, len(starts))) as pool:  # each start its own fit
-            fits = list(pool.map(lambda start: fit(problem, params, start, base=base.finger), starts))
+        fits = ordered_map(lambda start: fit(problem, params, start, base=base.finger), starts)  # each a fit
         return min(fits, key=lambda f: f.cost_deg2)  # what the fit minimised: the data and the prior
 
     if not thorough:
@@ -354,25 +351,24 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     (the C simulator runs without the GIL and keeps its state on the stack), and the
     results are taken in the same order whatever finishes first."""
     sigma = problem.innovation_sigma(problem.innovations(base.angle_deg), len(base.params))
-    with ThreadPoolExecutor(max_workers=WORKERS) as pool:
-        if progress:
-            progress(f"screening {', '.join(names)}")
-        # the whole-grid scans first: started last, one of them would leave a core idle at the end
-        longest_first = sorted(names, key=lambda name: name not in WHOLE_GRID)
-        screens = list(pool.map(lambda name: screen(problem, base, name), longest_first))
-        screens.sort(key=lambda s: (-s.predicted_bic, names.index(s.name)))
-        chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
-        if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
-            # later rounds: an effect whose best point of the scan, k, B, N and the accepted
-            # effects readjusted linearly, gains no ΔBIC on the innovations is not fitted (every
-            # simulation there carries the accepted effects: dry friction's cost ten times)
-            chosen = [s for s in chosen if s.predicted_white_bic > LATER_WHITE_BIC]
-        chosen += [s for s in screens if s.name in standing and s not in chosen]
-        if progress and chosen:
-            progress(f"fitting {', '.join(s.name for s in chosen)} with the model")
-        candidates = list(pool.map(lambda item: score(problem, base, item[1], sigma, item[0] < THOROUGH_TOP,
-                                                         lazy=not fit_all),
-                                   enumerate(chosen)))
+    if progress:
+        progress(f"screening {', '.join(names)}")
+    # the whole-grid scans first: started last, one of them would leave a core idle at the end
+    longest_first = sorted(names, key=lambda name: name not in WHOLE_GRID)
+    screens = ordered_map(lambda name: screen(problem, base, name), longest_first)
+    screens.sort(key=lambda s: (-s.predicted_bic, names.index(s.name)))
+    chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
+    if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
+        # later rounds: an effect whose best point of the scan, k, B, N and the accepted
+        # effects readjusted linearly, gains no ΔBIC on the innovations is not fitted (every
+        # simulation there carries the accepted effects: dry friction's cost ten times)
+        chosen = [s for s in chosen if s.predicted_white_bic > LATER_WHITE_BIC]
+    chosen += [s for s in screens if s.name in standing and s not in chosen]
+    if progress and chosen:
+        progress(f"fitting {', '.join(s.name for s in chosen)} with the model")
+    candidates = ordered_map(lambda item: score(problem, base, item[1], sigma, item[0] < THOROUGH_TOP,
+                                                lazy=not fit_all),
+                             enumerate(chosen))
     candidates.sort(key=lambda c: -c.delta_bic)
     return Round(base, candidates)
 

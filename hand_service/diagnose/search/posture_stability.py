@@ -19,6 +19,7 @@ from hand_service.diagnose.fitting.output_error import Fit, fit
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.residual import noise
 from hand_service.diagnose.search.forward_selection import Candidate, Selection
+from hand_service.diagnose.workers import ordered_map
 
 POSTURE_EFFECTS = ("cubic_stiffness", "gravity")  # one parameter for every angle
 STABILITY_Z = 4.0  # the halves disagree beyond this many joint standard errors
@@ -82,11 +83,13 @@ def check(problem: Problem, final: Fit, names: list[str]) -> list[Stability]:
         return []
     residual = problem.misfit(angle)[mask]
     inflation = min(long_run_ratio(residual, problem.rate_hz), MAX_INFLATION)
-    fits = []
-    for half in halves:
+
+    def fit_half(half: np.ndarray) -> Fit:
         part = copy.copy(problem)
         part.fit_mask = half
-        fits.append(fit(part, final.params, final.values))
+        return fit(part, final.params, final.values)
+
+    fits = ordered_map(fit_half, halves)  # each half its own fit, side by side
     failed = []
     for name in targets:
         i = labels.index(name)

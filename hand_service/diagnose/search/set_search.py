@@ -45,6 +45,7 @@ from hand_service.diagnose.search.forward_selection import (
     evidence,
 )
 from hand_service.diagnose.search.screening import screen
+from hand_service.diagnose.workers import ordered_map
 
 SET_TOP = 4  # the first round's strongest effects (the withdrawn one aside) that are paired
 
@@ -171,42 +172,53 @@ def pairs(problem: Problem, selection: Selection, at: int, gone: list[str],
     base = prefix[-1].fit if prefix else selection.rounds[0].base
     taken = {c.name for c in prefix} | set(gone)
     names = [c.name for c in selection.rounds[0].candidates if c.name not in taken]
-    screens = sorted((screen(problem, base, name) for name in names), key=lambda s: -s.predicted_bic)
+    screens = sorted(ordered_map(lambda name: screen(problem, base, name), names),
+                     key=lambda s: -s.predicted_bic)
     after = [c.name for c in selection.accepted[at:] if c.name not in gone]  # picked beside a withdrawn one
     if ranked is not None:
         after = [name for name in ranked if name in names]
     pool = [*after, *[s.name for s in screens if s.name not in after]][:SET_TOP]
-    alone: dict[str, Candidate] = {}
     sets: list[list[Candidate]] = []
     rounds: list[Round] = []
-    for a, b in itertools.combinations(pool, 2):  # the screen's order
-        if progress:
-            why = f"{' and '.join(gone)} withdrawn" if gone else "structure left"
-            progress(f"{why}: fitting {a} and {b} together")
-        for name in (a, b):
-            if name not in alone:
-                alone[name] = add(problem, base, name)
-        b_beside_a = add(problem, alone[a].fit, b)
-        if not b_beside_a.significant:
-            continue
-        a_beside_b = add(problem, alone[b].fit, a)  # each must earn its place beside the other
-        pair = [*prefix, a_beside_b, b_beside_a]
-        passes = not against_base or beats(problem, base, pair)
-        if a_beside_b.significant and holds(problem, pair) and passes:
+    # Every fit of a stage side by side (workers.ordered_map), the sets then taken in the
+    # screen's order: the same sets as one pair at a time, on any number of threads.
+    combos = list(itertools.combinations(pool, 2))  # the screen's order
+    if progress and combos:
+        why = f"{' and '.join(gone)} withdrawn" if gone else "structure left"
+        progress(f"{why}: fitting {', '.join(f'{a} and {b}' for a, b in combos)} together")
+    alone = dict(zip(pool, ordered_map(lambda name: add(problem, base, name), pool if combos else []),
+                     strict=False))
+    b_beside = ordered_map(lambda ab: add(problem, alone[ab[0]].fit, ab[1]), combos)
+    each = [(a, b, b_beside_a) for (a, b), b_beside_a in zip(combos, b_beside, strict=True)
+            if b_beside_a.significant]
+    a_beside = ordered_map(lambda ab: add(problem, alone[ab[1]].fit, ab[0]), each)  # each earns its place
+
+    def pair_passes(pair: list[Candidate]) -> bool:
+        a_beside_b = pair[-2]
+        return (a_beside_b.significant and (not against_base or beats(problem, base, pair))
+                and holds(problem, pair))
+
+    found = [[*prefix, a_beside_b, b_beside_a]
+             for (_, _, b_beside_a), a_beside_b in zip(each, a_beside, strict=True)]
+    for (a, b, b_beside_a), pair, passed in zip(each, found, ordered_map(pair_passes, found), strict=True):
+        if passed:
             sets.append(pair)
-            rounds += [Round(alone[b].fit, [a_beside_b]), Round(alone[a].fit, [b_beside_a])]
+            rounds += [Round(alone[b].fit, [pair[-2]]), Round(alone[a].fit, [b_beside_a])]
     if not sets:
         return None
     best = max(sets, key=total_bic)
     if len(best) < MAX_EFFECTS:
-        for name in pool:
-            if name in {c.name for c in best}:
-                continue
-            if progress:
-                progress(f"adding {name} to {' and '.join(c.name for c in best)}")
-            third = add(problem, best[-1].fit, name)
-            if third.significant and holds(problem, [*best, third]) and (
-                    not against_base or beats(problem, base, [*best, third])):
+        others = [name for name in pool if name not in {c.name for c in best}]
+        if progress and others:
+            progress(f"adding {' or '.join(others)} to {' and '.join(c.name for c in best)}")
+        thirds = ordered_map(lambda name: add(problem, best[-1].fit, name), others)
+
+        def third_passes(third: Candidate) -> bool:
+            return third.significant and holds(problem, [*best, third]) and (
+                not against_base or beats(problem, base, [*best, third]))
+
+        for third, passed in zip(thirds, ordered_map(third_passes, thirds), strict=True):
+            if passed:
                 sets.append([*best, third])
                 rounds.append(Round(best[-1].fit, [third]))
     best = max(sets, key=total_bic)

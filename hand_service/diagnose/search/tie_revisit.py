@@ -26,6 +26,7 @@ from hand_service.diagnose.search.forward_selection import (
     beside,
 )
 from hand_service.diagnose.search.set_members import without
+from hand_service.diagnose.workers import ordered_map
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,7 @@ def revisit(problem: Problem, selection: Selection, progress: Progress | None = 
         progress(f"{carried.name} or {other}? fitting each beside "
                  f"{' and '.join(c.name for c in selection.accepted)}")
     rest = without(problem, selection.final, carried.name)
-    candidates = sorted((beside(problem, rest, name) for name in (carried.name, other)),
+    candidates = sorted(ordered_map(lambda name: beside(problem, rest, name), (carried.name, other)),
                         key=lambda c: -c.delta_bic)
     best, runner = candidates
     margin = best.delta_bic - runner.delta_bic  # both against the same model: the set without either
