@@ -16,6 +16,7 @@ from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN
 from hand_service.diagnose.residual import noise
 from hand_service.diagnose.search import forward_selection as search
+from hand_service.diagnose.search import joint_start
 from tests.diagnose.linear_truth import lab_sensor_noise, quantise, stepped_recording
 
 RATE_HZ = 100.0
@@ -32,9 +33,9 @@ def test_a_joint_fit_keeps_k_b_n_within_its_range_of_the_refit_and_the_nominal()
     problem, refit = _problem()
     nominal = problem.values(refit.params)
     assert refit.value("stiffness_nm_per_rad") == pytest.approx(2.0 * nominal[0], rel=0.05)
-    for p, value, centre in zip(search.joint_range(problem, refit), refit.values, nominal, strict=True):
-        assert math.isclose(p.lower, min(value, centre) / search.JOINT_RANGE)
-        assert math.isclose(p.upper, max(value, centre) * search.JOINT_RANGE)
+    for p, value, centre in zip(joint_start.joint_range(problem, refit), refit.values, nominal, strict=True):
+        assert math.isclose(p.lower, min(value, centre) / joint_start.JOINT_RANGE)
+        assert math.isclose(p.upper, max(value, centre) * joint_start.JOINT_RANGE)
         assert p.lower < min(value, centre) and max(value, centre) < p.upper  # both starts inside
 
 
