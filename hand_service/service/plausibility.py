@@ -92,7 +92,7 @@ class ModelCheck:
         self.floor_rad = self.static_rad + NOISE_SIGMAS * self.noise_rad + self.margin_rad
         # a trend judged only where the sensor has left the model by more than its noise makes
         level_deg = (DRIFT_NOISE_SIGMAS * self.noise_rad + self.margin_rad) / DEG
-        natural_rad_per_s = np.sqrt(self.stiffness / np.array([m.inertia_kgm2 for m in models]))
+        natural_rad_per_s = np.array([m.natural_freq_rad_per_s for m in models])
         self.trend = SensorTrend(n, dt, float(safety["sensor_drift_max_deg_per_s"]), self.persist_samples,
                                  level_deg, natural_rad_per_s, self._slow_noise_deg(safety))
         self.dead_samples = np.array([round(effect_value(m.effects, "dead_time") * rate_hz)

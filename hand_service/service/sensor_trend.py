@@ -18,29 +18,30 @@ damping (a parameter error, to first order, is such a combination; plausibility.
 c1 is the innovation's trend in deg/s with what the state explains taken out.
 
 Both sides are low-passed first, by two first-order stages whose corner is
-FILTER_CORNER_SHARE of each finger's natural frequency. The prediction is driven by the
-measured pressure, and the finger's dynamics turn that sensor's noise into a ringing at
-the natural frequency that is in θ and, with the opposite sign, in the innovation. Fitted
+FILTER_CORNER_SHARE of each finger's natural frequency, and no lower than
+FILTER_CORNER_MIN_RAD_PER_S (the filter delays a drift by two time constants; a finger that
+rings slowly rings within the trend's own band, where no filter can part them). The
+prediction is driven by the measured pressure, and the finger's dynamics turn that
+sensor's noise into a ringing at the natural frequency that is in θ and, with the opposite
+sign, in the innovation. Fitted
 raw, a·θ with a ≈ −1 cancels the ringing and, on a finger that moves slowly meanwhile,
 leaves c1 ≈ −a·θ': a lightly damped finger's move read as a drift. A linear relation holds
 the same between the filtered signals (t delayed, which c0 absorbs), and the ringing is gone
 from both. The noise the trend meets is the innovation's at low frequency, which the
-filter passes whole: its white-equivalent level (the flex sensor's, and the pressure
-sensor's through N/k) stands for it in the standard error, and the filtered residual adds
-what it holds beyond that noise's filtered share (a misfit of the state's terms).
+filter passes whole: its white-equivalent level stands for it in the standard error, the
+larger of the stated one (the flex sensor's, and the pressure sensor's through N/k) and
+the innovation's own, measured from its sample-to-sample differences (a sensor noisier
+than the profile says); the filtered residual adds what it holds beyond that noise's
+filtered share (a misfit of the state's terms, slow, which the filter passes whole too).
 
 It is judged three ways before a fault:
-- TREND_SIGMAS standard errors short of itself (a wave to 60° on the simulated hand, a
-  model that is exact: c1 of 3.6 deg/s from noise alone, its standard error 1.6);
+- TREND_SIGMAS standard errors short of itself;
 - only where time is apart from the state over the fit: the trend's variance inflation
   under INFLATION_MAX. In a steady ramp θ runs along t, and a drift and a gain error are
-  the same line (a ramp to 73° on a gain 5 % off: c1 of +33 deg/s, inflation 2 100); only
-  the level check can judge there;
-- only where the innovation, smoothed over LEVEL_WINDOW_S, is further from zero than the
-  noise makes it (three of its standard deviations, with safety.model_margin_deg): the
-  prediction is driven by the measured pressure, whose noise the finger's dynamics turn
-  into an innovation correlated over tenths of a second, which the standard error takes
-  for white (a 5° move and back on an exact model: −4.2 deg/s, standard error 0.47).
+  the same line; only the level check can judge there;
+- only where the raw innovation, smoothed over LEVEL_WINDOW_S, is further from zero than
+  the noise makes it (three of its standard deviations, with safety.model_margin_deg): the
+  sensor has left the model by more than its noise, whatever the fit's statistics say.
 Beyond safety.sensor_drift_max_deg_per_s, either way, for model_mismatch_ms in a row: a
 fault (`implausible`, the finger named). A finger's fit starts again whenever its prediction
 does (arming, leaving force mode, a gap in the samples: the restarted prediction moves
@@ -69,7 +70,8 @@ LEVEL_WINDOW_S = 0.1  # the innovation's smoothing, for the level a drift must h
 INFLATION_MAX = 10.0  # the trend's variance inflation beyond which time and the state are one
 TREND_SIGMAS = 3.0  # the trend judged is this many standard errors short of its estimate
 RIDGE = 1e-6  # of the weights' sum, on the diagonal: a finger at rest makes θ, s_k, s_B constants
-FILTER_CORNER_SHARE = 0.25  # the low-pass's corner, as a share of the finger's natural frequency
+FILTER_CORNER_SHARE = 0.5  # the low-pass's corner, as a share of the finger's natural frequency
+FILTER_CORNER_MIN_RAD_PER_S = 10.0  # and never below this: its delay, 2/corner, at most 0.2 s
 FILTERED = 5  # θ, s_k, s_B, θ'·RATE_S, e: the signals low-passed before the fit
 
 
@@ -81,7 +83,8 @@ class SensorTrend:
                  window_s: float = TREND_WINDOW_S) -> None:
         self.period_s = period_s
         # the low-pass: per finger, its pole and the white-noise gain of two stages
-        corner_rad_per_s = FILTER_CORNER_SHARE * np.asarray(natural_rad_per_s, dtype=float)
+        corner_rad_per_s = np.maximum(FILTER_CORNER_SHARE * np.asarray(natural_rad_per_s, dtype=float),
+                                      FILTER_CORNER_MIN_RAD_PER_S)
         self.pole = np.exp(-period_s * corner_rad_per_s)
         b = self.pole
         self._gain = (1 - b)[:, None]  # a stage's step toward the sample, one period on
@@ -89,7 +92,10 @@ class SensorTrend:
         self.stages = np.zeros((2, n_fingers, FILTERED))
         self._signals = np.zeros((n_fingers, FILTERED))
         self.fresh = np.ones(n_fingers, dtype=bool)  # the low-pass starts from the next sample
-        self.slow_noise_var = np.asarray(slow_noise_deg, dtype=float) ** 2
+        self.slow_noise_var = np.asarray(slow_noise_deg, dtype=float) ** 2  # stated
+        self._last_deg = np.zeros(n_fingers)  # the raw innovation before, for its differences
+        self.difference_square = np.zeros(n_fingers)  # Σ w·Δe²/2: the white noise's variance, weighted
+        self.difference_weight = np.zeros(n_fingers)
         self.level_deg = np.asarray(level_deg, dtype=float)
         self.level_forget = math.exp(-period_s / LEVEL_WINDOW_S)
         self.smoothed_deg = np.zeros(n_fingers)  # the innovation, exponentially smoothed
@@ -124,6 +130,8 @@ class SensorTrend:
         self.smoothed_deg[fingers] = 0.0
         self.samples[fingers] = 0
         self.fresh[fingers] = True
+        self.difference_square[fingers] = 0.0
+        self.difference_weight[fingers] = 0.0
         self.run[fingers] = 0
         self.trend_deg_per_s[fingers] = 0.0
 
@@ -139,6 +147,8 @@ class SensorTrend:
         sums *= forget
         cross *= forget
         self.square *= forget
+        self.difference_square *= forget
+        self.difference_weight *= forget
         self.weight2 *= self.forget2 ** steps
 
     def sample(self, steps: int, innovation_deg: np.ndarray, sensitive_rad: np.ndarray,
@@ -149,6 +159,12 @@ class SensorTrend:
         self.skip(steps)
         sums, cross = self.sums, self.cross
         x = self._x
+        differenced = checked & ~self.fresh
+        step_deg = innovation_deg - self._last_deg
+        self.difference_square += np.where(differenced, 0.5 * step_deg * step_deg, 0.0)
+        self.difference_weight += differenced
+        self._last_deg[:] = innovation_deg
+        raw_deg = innovation_deg
         innovation_deg = self._low_pass(steps, innovation_deg, sensitive_rad, rate_rad_s)
         x[:, 2:] = self.stages[1, :, :4]
         self.samples += checked
@@ -158,7 +174,7 @@ class SensorTrend:
         self.square += weight * innovation_deg ** 2
         self.weight2 += weight
         blend = self.level_forget ** steps
-        self.smoothed_deg = np.where(checked, blend * self.smoothed_deg + (1 - blend) * innovation_deg,
+        self.smoothed_deg = np.where(checked, blend * self.smoothed_deg + (1 - blend) * raw_deg,
                                      self.smoothed_deg)
         judged = checked & (self.samples >= self.warmup_samples)
         if not judged.any():
@@ -210,6 +226,8 @@ class SensorTrend:
         residual = np.maximum(self.square - np.einsum("ij,ij->i", coef, self.cross), 0.0) / weight
         effective = weight ** 2 / weight2  # samples, as many as the weights are worth
         unbiased = residual * effective / np.maximum(effective - TERMS, 1.0)
-        unbiased = self.slow_noise_var + np.maximum(unbiased - self.noise_gain * self.slow_noise_var, 0.0)
+        measured = self.difference_square / np.maximum(self.difference_weight, 1e-12)
+        noise_var = np.maximum(self.slow_noise_var, measured)
+        unbiased = noise_var + np.maximum(unbiased - self.noise_gain * noise_var, 0.0)
         variance = unbiased * (weight2 / weight) * inverse[:, 1, 1]
         return np.sqrt(np.maximum(variance, 0.0))
