@@ -170,10 +170,13 @@ def error_change(errors: RawErrors) -> str:
 def sentence(name: str, context: Context, std: float, delta_bic: float, z_heldout: float,
              errors: RawErrors, prior_gain: float = 0.0,
              shape: dict[str, tuple[float, float]] | None = None,
-             derived: tuple[str, float, float, str] | None = None) -> str:
+             derived: tuple[str, float, float, str] | None = None,
+             alone: tuple[float, float, str] | None = None) -> str:
     """`errors`: "before" and "after" the effect, against the raw angle (raw_error.py);
     `shape`: its shape parameters fitted beside its size, (value, std) each; `derived`: what
-    the recording fixes where the size trades with the shape (what, value, std, unit)."""
+    the recording fixes where the size trades with the shape (what, value, std, unit);
+    `alone`: that quantity refitted with the refining parameters held (value, std, how),
+    where it is determined there and not beside them."""
     spec = fx.BY_NAME[name]
     physics = SENTENCES[name](context) if name in SENTENCES else spec.physics
     units = {p.name: "" if p.unit == "1" else p.unit for p in spec.parameters}  # "1": a pure number
@@ -182,6 +185,8 @@ def sentence(name: str, context: Context, std: float, delta_bic: float, z_heldou
     if derived is not None:
         what, value, spread, unit = derived
         fitted += f"; {what} = {estimate(value, spread, unit)}"
+        if alone is not None:
+            fitted += f" ({estimate(alone[0], alone[1], unit)} {alone[2]})"
     text = (f"{physics}. Estimate {spec.param} = {estimate(context.value, std, spec.unit)}{fitted}; "
             f"the information criterion favours it by ΔBIC = {delta_bic:.0f}")
     if z_heldout > 2.0:

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from hand_service.config import effects as fx
 from hand_service.diagnose.fitting import raw_error
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.report.evidence import Context, sentence
 from hand_service.diagnose.report.verdict import FoundEffect
 from hand_service.diagnose.search import effect_size
-from hand_service.diagnose.search.forward_selection import Candidate, Selection
+from hand_service.diagnose.search.forward_selection import DETERMINED_Z, Candidate, Selection
 
 
 def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
@@ -39,8 +40,15 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
     # without and with the effect, against the raw angle, a constant offset each
     errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
     size = effect_size.derived_size(final, c.name)
+    alone = None
+    if size is not None and c.core_determined and c.core_size is not None \
+            and not abs(size.value) > DETERMINED_Z * size.std:
+        # named on the refit without its refining parameters: say so, and what that refit fixes
+        spec = fx.BY_NAME[c.name]
+        held = ", ".join(f"{m} = {spec.parameter(m).neutral:g}" for m in spec.refining)
+        alone = (c.core_size.value, c.core_size.std, f"refitted with {held}")
     text = sentence(c.name, context, std, c.delta_bic, c.z_heldout, errors, c.prior_gain,
                     {member: (value, shape_std[member]) for member, value in shape.items()},
-                    None if size is None else (size.what, size.value, size.std, size.unit))
+                    None if size is None else (size.what, size.value, size.std, size.unit), alone)
     return FoundEffect(c.name, value, std, text, c.delta_bic, c.z_heldout, c.signature_corr, shape, shape_std,
                        size)

@@ -67,6 +67,7 @@ class Candidate:
     prior_gain: float = 0.0  # how much closer to the nominal (prior's χ²) the effect lets k, B, N stay
     carries: bool = True  # it beats `base` with its refining parameters at neutral too (effect_size.py)
     core_determined: bool = False  # and its derived size, so refitted, stands DETERMINED_Z clear
+    core_size: effect_size.SizeEstimate | None = None  # that derived size, so refitted
 
     @property
     def index(self) -> int:
@@ -214,7 +215,8 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     core = carries_itself(problem, base, joint, screened.name, sigma) if bic > SIGNIFICANT_BIC else None
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
                      screened.starts[0], joint, bic, z, stats.rmse(problem.misfit(joint.angle_deg)[held]),
-                     prior_gain, core is None or core.carries, core is not None and core.determined)
+                     prior_gain, core is None or core.carries, core is not None and core.determined,
+                     None if core is None else core.size)
 
 
 @dataclass(frozen=True)
@@ -223,6 +225,7 @@ class Core:
 
     carries: bool  # it beats the model without it (ΔBIC and the held-out data)
     determined: bool  # its derived size stands DETERMINED_Z standard errors clear of 0
+    size: effect_size.SizeEstimate | None = None  # that derived size
 
 
 def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: float) -> Core:
@@ -255,7 +258,7 @@ def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: fl
     carries = bool(bic > SIGNIFICANT_BIC
                    and (z > SIGNIFICANT_Z or (prior_gain > SIGNIFICANT_BIC and z > -1.0)))
     size = effect_size.derived_size(alone, name)
-    return Core(carries, size is not None and bool(abs(size.value) > DETERMINED_Z * size.std))
+    return Core(carries, size is not None and bool(abs(size.value) > DETERMINED_Z * size.std), size)
 
 
 def beside(problem: Problem, base: Fit, name: str, lazy: bool = False) -> Candidate:
