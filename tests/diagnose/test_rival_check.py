@@ -39,7 +39,7 @@ def test_a_worse_rival_stands_only_where_both_follow_to_the_noise() -> None:
     assert not _rival(worse, noise_deg=0.30 / TIE_NOISE).stands  # the rival past the noise's tie
     at_noise = _rival(worse, noise_deg=0.30)
     assert at_noise.stands and not at_noise.better
-    assert "cannot choose between them" in at_noise.sentence()
+    assert "fits to the noise too" in at_noise.sentence() and "if less closely" in at_noise.sentence()
     assert not _rival(0.42, named_raw_deg=0.40, noise_deg=0.30).stands  # the named model past it too
 
 

@@ -85,9 +85,9 @@ class Rival:
             how = f"follows the recorded angle as well as {model} (within {100.0 * TIE_SHARE:.0f} %)"
             tail = "the recording cannot tell them apart"
         else:
-            how = (f"follows the recorded angle to the sensor's noise ({self.noise_deg:.3g} deg, within "
-                   f"{TIE_NOISE:g} times it) as {model} does")
-            tail = "the raw angle alone cannot choose between them"
+            how = (f"follows the recorded angle to the sensor's noise ({self.noise_deg:.3g} deg; within "
+                   f"{TIE_NOISE:g} times it) as {model} does, if less closely")
+            tail = "a rival the default search does not try fits to the noise too"
         values = ", ".join(f"{k} {v:.3g}" for k, v in self.estimate.items())
         return (f"{self.name} ({values}), searched only on request, fitted in place of {said}, {how}: raw "
                 f"RMS error {self.rival_raw_deg:.3g} against {self.named_raw_deg:.3g} deg, each simulated "
