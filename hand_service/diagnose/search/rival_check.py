@@ -16,10 +16,9 @@ simulated from the recorded command alone and scored on the raw angle, each with
 constant offset and no drift (fitting/raw_error.py). A rival that gains on the plain model
 as an effect must (Candidate.significant: it would be named had it been searched) and
 follows the raw angle as well as the named model (within raw_error.TIE_SHARE of its RMS
-error, or both within raw_error.TIE_NOISE times the noise), or better, stands: the recording cannot
-tell the named effects from it, and the grade is `dominant`, the rival said in
-`structure_left` and the JSON's `rival`. The names stay: the rival was not searched for,
-and the user can ask for it (`--search`).
+error, or both within raw_error.TIE_NOISE times the noise), or better, stands: the grade is
+then `dominant`, the rival said in `structure_left` and the JSON's `rival`. The names stay:
+the rival was not searched for, and the user can ask for it (`--search`).
 """
 
 from __future__ import annotations
