@@ -49,7 +49,14 @@ from hand_service.diagnose.report.verdict import (
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_only, stats
-from hand_service.diagnose.search import posture_stability, rest_order, set_members, set_search, tie_revisit
+from hand_service.diagnose.search import (
+    posture_stability,
+    rest_order,
+    rival_check,
+    set_members,
+    set_search,
+    tie_revisit,
+)
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Progress,
@@ -378,6 +385,12 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             said := noise_only.named_structure(problem, final, valid)):
         left = said  # white innovations, yet structure the noise model took: graded `dominant`
         warnings.append(left)
+    rival = (rival_check.strongest(problem, refit, final, [e.name for e in found],
+                                   rival_check.rivals_to_try(search, model.effects), fitted, scored, sigma)
+             if verdict == "missing_physics" and not left else None)
+    if rival is not None:  # an effect searched only on request follows the raw angle as well
+        left = rival.sentence()
+        warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
-                     time.perf_counter() - started, notes, partial, explained, left, outside, errors)
+                     time.perf_counter() - started, notes, partial, explained, left, outside, errors, rival)

@@ -14,6 +14,7 @@ from hand_service.diagnose.outside_library.checks import Outside
 from hand_service.diagnose.report.verdict import FoundEffect
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search.forward_selection import Candidate, Selection
+from hand_service.diagnose.search.rival_check import Rival
 
 
 @dataclass
@@ -39,11 +40,12 @@ class Diagnosis:
     structure_left: str = ""  # what says the final model still misses something ('' if nothing)
     outside: Outside = field(default_factory=Outside)  # physics outside the library a name stood for
     raw: raw_error.RawErrors | None = None  # every model against the raw angle, no drift
+    rival: Rival | None = None  # an effect searched only on request that follows the raw angle as well
 
     @property
     def grade(self) -> str | None:
-        """For missing_physics: "complete" when the augmented model leaves no structure,
-        "dominant" when named over structure that remains outside the library."""
+        """For missing_physics: "complete" when the augmented model leaves no structure and no
+        rival searched only on request follows the raw angle as well; else "dominant"."""
         if self.verdict != "missing_physics":
             return None
         return "dominant" if self.structure_left else "complete"
@@ -94,6 +96,7 @@ class Diagnosis:
             "explained_share": self.explained_share,
             "structure_left": self.structure_left,
             **self.outside.to_json(),
+            "rival": None if self.rival is None else self.rival.to_json(),
             "notes": self.notes,
             "seconds": self.seconds,
         }
