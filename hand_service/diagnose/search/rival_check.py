@@ -24,7 +24,6 @@ the rival was not searched for, and the user can ask for it (`--search`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +33,7 @@ from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.fitting.raw_error import TIE_NOISE, TIE_SHARE, at_noise, raw_rms_deg
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search.forward_selection import Candidate, beside
+from hand_service.diagnose.workers import ordered_map
 
 # The effects searched only on request that can stand in for a searched one over a whole
 # recording: static or slow (a contact and a material's hysteresis have their own checks,
@@ -121,8 +121,7 @@ def strongest(problem: Problem, refit: Fit, final: Fit, named: Sequence[str], ri
     if not rivals:
         return None
     named_raw = raw_rms_deg(problem, final.angle_deg, fitting, scored)
-    with ThreadPoolExecutor(max_workers=len(rivals)) as pool:
-        fitted = list(pool.map(lambda name: beside(problem, refit, name), rivals))
+    fitted = ordered_map(lambda name: beside(problem, refit, name), rivals)
     standing = []
     for candidate in fitted:
         angle = candidate.fit.angle_deg
