@@ -5,8 +5,8 @@
 #include "rtcore_step.h"
 
 /* Impedance mode's lead on the springs' rate takes at most this share of the finger's
- * spring k (measured: more, and the slow push against a wall chatters at K_max/10 and
- * 0.3 K_max on the thumb, the angle's noise through the lead starting it; docs/results.md) */
+ * spring k (measured: at half of k the slow push against a wall chatters at K_max/10 on
+ * the thumb, the angle's noise through the lead starting it; docs/results.md) */
 #define IMPEDANCE_LEAD_MAX_SHARE 0.25
 
 /* Keep value as the held reference when it is usable; report 1 when it is not. */
