@@ -45,7 +45,7 @@ void rtcore_creep_reference_update(const rtcore_finger_config *c, rtcore_finger_
 void rtcore_hysteresis_reference_update(const rtcore_finger_config *c, rtcore_finger_state *s, int32_t entered);
 void rtcore_hysteresis_angle_update(const rtcore_finger_config *c, rtcore_finger_state *s);
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
-                                    double force_ref_n, double hysteresis_z);
+                                    double force_ref_n, double hysteresis_z, double torque_rate_nm_per_s);
 double rtcore_force_normal_n(const rtcore_finger_config *c, double chamber_pressure_kpa,
                              double angle_rad, double velocity_rad_per_s,
                              double accel_rad_per_s2, double hysteresis_z);

@@ -345,15 +345,20 @@ double rtcore_position_feedforward_kpa(const rtcore_finger_config *c, const rtco
 }
 
 /* Force feedforward (paper Eq. 4): N p = tau(th, 0) + H z + r F_n, since J^T F = r F_n;
- * z the loop's state from the filtered angle (rtcore_hysteresis_angle_update). */
+ * z the loop's state from the filtered angle (rtcore_hysteresis_angle_update). torque_rate
+ * is that torque's rate (N m/s) where the caller knows it (impedance mode: the spring's
+ * and the virtual spring's along the filtered angle; 0 for a held force): the lead
+ * (valve lag + dead time) * rate / N puts the pressure where the valve will take it. */
 double rtcore_force_feedforward_kpa(const rtcore_finger_config *c, double angle_rad,
-                                    double force_ref_n, double hysteresis_z)
+                                    double force_ref_n, double hysteresis_z, double torque_rate_nm_per_s)
 {
     const rtcore_prbm *m = &c->prbm;
     const double torque = rtcore_model_torque_nm(m, angle_rad, 0.0) + hysteresis_torque_nm(&m->effects, hysteresis_z)
                           + m->lever_arm_m * force_ref_n;
     const double gain = m->pressure_gain_nm_per_kpa * rtcore_stiffened_gain_share(m, angle_rad);
-    return rtcore_deadzone_invert_kpa(&m->effects, torque / gain);
+    return rtcore_deadzone_invert_kpa(&m->effects, torque / gain)
+           + (rtcore_valve_tau_s(&m->effects, torque_rate_nm_per_s) + m->effects.dead_time_s)
+                 * torque_rate_nm_per_s / gain;
 }
 
 /* Signed normal force at the force point (paper Eq. 5 with (J^T)+ = J / r^2):

@@ -4,6 +4,11 @@
 #include "rtcore_internal.h"
 #include "rtcore_step.h"
 
+/* Impedance mode's lead on the springs' rate takes at most this share of the finger's
+ * spring k (measured: at half of k the slow push against a wall chatters at K_max/10 on
+ * the thumb, the angle's noise through the lead starting it; docs/results.md) */
+#define IMPEDANCE_LEAD_MAX_SHARE 0.25
+
 /* Keep value as the held reference when it is usable; report 1 when it is not. */
 static uint32_t hold_reference(double *held, double value)
 {
@@ -185,10 +190,25 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
                     : s->impedance_stiffness_n_per_deg * (s->angle_ref_deg - s->angle_filt_deg)
                           + s->impedance_damping_n_s_per_deg
                                 * (s->velocity_ref_deg_per_s - s->velocity_deg_per_s);
-            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n, loop_z);
+            double torque_rate_nm_per_s = 0.0;
+            if (mode == RTCORE_MODE_IMPEDANCE) {
+                /* the valve lags the feedforward's spring k th and virtual spring
+                 * r K (th_ref - th); the force PI's integrator turns the lag's error into a
+                 * stiffness error (k / (r K) - 1) times the lag's share, large at a small K.
+                 * The lead takes the rate of the spring's part beyond 2 r K (nothing at
+                 * K_max: the lag's damping stays there), at most IMPEDANCE_LEAD_MAX_SHARE of
+                 * k, and the reference's rate (docs/replicate.md) */
+                const double virtual_nm_per_deg = c->prbm.lever_arm_m * s->impedance_stiffness_n_per_deg;
+                const double spring_nm_per_deg = rtcore_model_stiffness_nm_per_rad(&c->prbm, angle_rad) * RTCORE_RAD_PER_DEG;
+                const double led_nm_per_deg =
+                    fmin(fmax(spring_nm_per_deg - 2.0 * virtual_nm_per_deg, 0.0), IMPEDANCE_LEAD_MAX_SHARE * spring_nm_per_deg);
+                torque_rate_nm_per_s =
+                    led_nm_per_deg * s->velocity_deg_per_s + virtual_nm_per_deg * s->velocity_ref_deg_per_s;
+            }
+            s->derivative_deg_per_s = 0.0;
+            feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n, loop_z, torque_rate_nm_per_s);
             error = force_ref_n - force_n;
             proportional_kpa = c->force_kp_kpa_per_n * error;
-            s->derivative_deg_per_s = 0.0;
             integral_gain = c->force_ki_kpa_per_n_s;
         }
         if (changed) {

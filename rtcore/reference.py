@@ -35,6 +35,7 @@ POSITION_REFERENCES = ("angle_ref_deg", "velocity_ref_deg_per_s", "accel_ref_deg
                        "jerk_ref_deg_per_s3")
 REFERENCES = (*POSITION_REFERENCES, "force_ref_n", "pressure_ref_kpa")
 IMPEDANCE_GAINS = ("impedance_stiffness_n_per_deg", "impedance_damping_n_s_per_deg")
+IMPEDANCE_LEAD_MAX_SHARE = 0.25  # the C step's: impedance's lead at most this share of k
 
 
 def usable(x: float) -> bool:
@@ -124,13 +125,15 @@ def position_feedforward(c: FingerConfig, s: FingerState) -> float:
     return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate / gain
 
 
-def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float, hysteresis_z: float) -> float:
-    """N p = tau(th, 0) + H z + r F_n."""
+def force_feedforward(c: FingerConfig, angle_rad: float, force_ref_n: float, hysteresis_z: float,
+                      torque_rate_nm_per_s: float = 0.0) -> float:
+    """N p = tau(th, 0) + H z + r F_n, with the lead (valve lag + dead time) on the torque's rate."""
     m = c.prbm
     torque = (model_torque(m, angle_rad, 0.0) + hysteresis_torque(m.effects, hysteresis_z)
               + m.lever_arm_m * force_ref_n)
     gain = m.pressure_gain_nm_per_kpa * stiffened_gain_share(m, angle_rad)
-    return deadzone_invert(m.effects, torque / gain)
+    lead_s = valve_tau(m.effects, torque_rate_nm_per_s) + m.effects.dead_time_s
+    return deadzone_invert(m.effects, torque / gain) + lead_s * torque_rate_nm_per_s / gain
 
 
 def force_normal(c: FingerConfig, chamber_kpa: float, angle_rad: float, velocity: float,
@@ -349,10 +352,18 @@ class ReferenceHand:
                 force_ref_n = s.force_ref_n if mode == cfg.MODE_FORCE else (
                     s.impedance_stiffness_n_per_deg * (s.angle_ref_deg - s.angle_filt_deg)
                     + s.impedance_damping_n_s_per_deg * (s.velocity_ref_deg_per_s - s.velocity_deg_per_s))
-                feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n, loop_z)
+                torque_rate = 0.0
+                if mode == cfg.MODE_IMPEDANCE:
+                    # the lead on the spring's part beyond 2 r K, at most
+                    # IMPEDANCE_LEAD_MAX_SHARE of k (as the C step)
+                    virtual = c.prbm.lever_arm_m * s.impedance_stiffness_n_per_deg
+                    spring = model_stiffness(c.prbm, angle_rad) * RAD_PER_DEG
+                    led = min(max(spring - 2.0 * virtual, 0.0), IMPEDANCE_LEAD_MAX_SHARE * spring)
+                    torque_rate = led * s.velocity_deg_per_s + virtual * s.velocity_ref_deg_per_s
+                s.derivative_deg_per_s = 0.0
+                feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n, loop_z, torque_rate)
                 error = force_ref_n - force_n
                 proportional_kpa = c.force_kp_kpa_per_n * error
-                s.derivative_deg_per_s = 0.0
                 integral_gain = c.force_ki_kpa_per_n_s
             if changed:
                 # bumpless: continue the command between active modes; out of VENT, start empty
