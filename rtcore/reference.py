@@ -354,8 +354,7 @@ class ReferenceHand:
                     + s.impedance_damping_n_s_per_deg * (s.velocity_ref_deg_per_s - s.velocity_deg_per_s))
                 torque_rate = 0.0
                 if mode == cfg.MODE_IMPEDANCE:
-                    # the lead on the spring's part beyond 2 r K, at most
-                    # IMPEDANCE_LEAD_MAX_SHARE of k (as the C step)
+                    # the lead on the spring's part beyond 2 r K, at most IMPEDANCE_LEAD_MAX_SHARE of k
                     virtual = c.prbm.lever_arm_m * s.impedance_stiffness_n_per_deg
                     spring = model_stiffness(c.prbm, angle_rad) * RAD_PER_DEG
                     led = min(max(spring - 2.0 * virtual, 0.0), IMPEDANCE_LEAD_MAX_SHARE * spring)
