@@ -125,8 +125,9 @@ def test_a_contact_whose_spring_trades_with_its_damper_is_judged_on_the_spring_a
     assert size is not None and size.value < DETERMINED_Z * size.std  # not pinned in the joint fit
 
     def candidate(carries: bool, core_determined: bool) -> Candidate:
-        return Candidate("contact", CONTACT[0], 0.5, 0.5, 1.0, fit, 400.0, 7.7, 0.1, 0.0, carries,
-                         core_determined)
+        spread = abs(size.value) / (2 * DETERMINED_Z if core_determined else 1)  # clear of 0, or not
+        core = effect_size.SizeEstimate(size.value, spread, size.unit, size.what)
+        return Candidate("contact", CONTACT[0], 0.5, 0.5, 1.0, fit, 400.0, 7.7, 0.1, 0.0, carries, core)
 
     assert not candidate(True, False).determined
     assert not candidate(False, True).determined  # a spring that does not carry is no evidence

@@ -11,7 +11,7 @@ from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.report.evidence import Context, sentence
 from hand_service.diagnose.report.verdict import FoundEffect
 from hand_service.diagnose.search import effect_size
-from hand_service.diagnose.search.forward_selection import DETERMINED_Z, Candidate, Selection
+from hand_service.diagnose.search.forward_selection import Candidate, Selection, clear_of_zero
 
 
 def velocity_deg_per_s(angle_deg: np.ndarray, rate_hz: float) -> np.ndarray:
@@ -41,8 +41,7 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
     errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
     size = effect_size.derived_size(final, c.name)
     alone = None
-    if size is not None and c.core_determined and c.core_size is not None \
-            and not abs(size.value) > DETERMINED_Z * size.std:
+    if size is not None and c.core_determined and not clear_of_zero(size):
         # named on the refit without its refining parameters: say so, and what that refit fixes
         spec = fx.BY_NAME[c.name]
         held = ", ".join(f"{m} = {spec.parameter(m).neutral:g}" for m in spec.refining)

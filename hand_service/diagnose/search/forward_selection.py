@@ -53,6 +53,11 @@ PRIOR_EVIDENCE_FACTOR = 10.0  # a refit this many times off the nominal makes it
 Progress = Callable[[str], None]
 
 
+def clear_of_zero(size: effect_size.SizeEstimate | None) -> bool:
+    """A derived size stands DETERMINED_Z of its standard errors clear of 0."""
+    return size is not None and bool(abs(size.value) > DETERMINED_Z * size.std)
+
+
 @dataclass
 class Candidate:
     name: str
@@ -66,8 +71,7 @@ class Candidate:
     rmse_heldout_deg: float  # held out, the sensor's offset and drift taken out (Problem.misfit)
     prior_gain: float = 0.0  # how much closer to the nominal (prior's χ²) the effect lets k, B, N stay
     carries: bool = True  # it beats `base` with its refining parameters at neutral too (effect_size.py)
-    core_determined: bool = False  # and its derived size, so refitted, stands DETERMINED_Z clear
-    core_size: effect_size.SizeEstimate | None = None  # that derived size, so refitted
+    core_size: effect_size.SizeEstimate | None = None  # its derived size, so refitted
 
     @property
     def index(self) -> int:
@@ -92,6 +96,11 @@ class Candidate:
         return any(abs(self.estimate - b) < 1e-6 * span and b != neutral for b in (p.lower, p.upper))
 
     @property
+    def core_determined(self) -> bool:
+        """The derived size refitted without the refining parameters stands DETERMINED_Z clear."""
+        return clear_of_zero(self.core_size)
+
+    @property
     def determined(self) -> bool:
         """The estimate stands clear of "no effect" by DETERMINED_Z of its own standard
         errors in the joint fit (with k, B, N free and their prior): what the recording
@@ -105,8 +114,7 @@ class Candidate:
         joint fit as it takes a share of the torque, while the spring alone is pinned."""
         derived = effect_size.derived_size(self.fit, self.name)
         if derived is not None:
-            clear = bool(abs(derived.value) > DETERMINED_Z * derived.std)
-            return clear or (self.carries and self.core_determined)
+            return clear_of_zero(derived) or (self.carries and self.core_determined)
         neutral = fx.BY_NAME[self.name].neutral
         return bool(abs(self.estimate - neutral) > DETERMINED_Z * self.std)
 
@@ -215,8 +223,7 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     core = carries_itself(problem, base, joint, screened.name, sigma) if bic > SIGNIFICANT_BIC else None
     return Candidate(screened.name, screened.param, screened.signature_corr, screened.separability,
                      screened.starts[0], joint, bic, z, stats.rmse(problem.misfit(joint.angle_deg)[held]),
-                     prior_gain, core is None or core.carries, core is not None and core.determined,
-                     None if core is None else core.size)
+                     prior_gain, core is None or core.carries, None if core is None else core.size)
 
 
 @dataclass(frozen=True)
@@ -224,8 +231,7 @@ class Core:
     """An effect refitted without its refining parameters (carries_itself)."""
 
     carries: bool  # it beats the model without it (ΔBIC and the held-out data)
-    determined: bool  # its derived size stands DETERMINED_Z standard errors clear of 0
-    size: effect_size.SizeEstimate | None = None  # that derived size
+    size: effect_size.SizeEstimate | None = None  # its derived size, so refitted
 
 
 def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: float) -> Core:
@@ -238,7 +244,7 @@ def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: fl
     ringing finger's spring slid its onset past the deepest angle (docs/results.md)."""
     core = effect_size.without_refining(joint, name)
     if core is None:
-        return Core(True, False)
+        return Core(True)
     spec = fx.BY_NAME[name]
     refining = [Param.shape(name, member) for member in spec.refining]
     held = problem.finger(refining, [spec.parameter(member).neutral for member in spec.refining], base.finger)
@@ -258,7 +264,7 @@ def carries_itself(problem: Problem, base: Fit, joint: Fit, name: str, sigma: fl
     carries = bool(bic > SIGNIFICANT_BIC
                    and (z > SIGNIFICANT_Z or (prior_gain > SIGNIFICANT_BIC and z > -1.0)))
     size = effect_size.derived_size(alone, name)
-    return Core(carries, size is not None and bool(abs(size.value) > DETERMINED_Z * size.std), size)
+    return Core(carries, size)
 
 
 def beside(problem: Problem, base: Fit, name: str, lazy: bool = False) -> Candidate:
