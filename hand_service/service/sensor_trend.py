@@ -23,9 +23,9 @@ FILTER_CORNER_MIN_RAD_PER_S (the filter delays a drift by two time constants; a 
 rings slowly rings within the trend's own band, where no filter can part them). The
 prediction is driven by the measured pressure, and the finger's dynamics turn that
 sensor's noise into a ringing at the natural frequency that is in θ and, with the opposite
-sign, in the innovation. Fitted
-raw, a·θ with a ≈ −1 cancels the ringing and, on a finger that moves slowly meanwhile,
-leaves c1 ≈ −a·θ': a lightly damped finger's move read as a drift. A linear relation holds
+sign, in the innovation. Fitted raw, a·θ with a ≈ −1 cancels the ringing and, on a finger
+that moves slowly meanwhile, leaves c1 ≈ −a·θ': a lightly damped finger's move read as a
+drift. A linear relation holds
 the same between the filtered signals (t delayed, which c0 absorbs), and the ringing is gone
 from both. The noise the trend meets is the innovation's at low frequency, which the
 filter passes whole: its white-equivalent level stands for it in the standard error, the
@@ -164,17 +164,16 @@ class SensorTrend:
         self.difference_square += np.where(differenced, 0.5 * step_deg * step_deg, 0.0)
         self.difference_weight += differenced
         self._last_deg[:] = innovation_deg
-        raw_deg = innovation_deg
-        innovation_deg = self._low_pass(steps, innovation_deg, sensitive_rad, rate_rad_s)
+        filtered_deg = self._low_pass(steps, innovation_deg, sensitive_rad, rate_rad_s)
         x[:, 2:] = self.stages[1, :, :4]
         self.samples += checked
         weight = (checked & (self.samples > self.settle_samples)).astype(float)
         sums += weight[:, None, None] * x[:, :, None] * x[:, None, :]
-        cross += weight[:, None] * x * innovation_deg[:, None]
-        self.square += weight * innovation_deg ** 2
+        cross += weight[:, None] * x * filtered_deg[:, None]
+        self.square += weight * filtered_deg ** 2
         self.weight2 += weight
         blend = self.level_forget ** steps
-        self.smoothed_deg = np.where(checked, blend * self.smoothed_deg + (1 - blend) * raw_deg,
+        self.smoothed_deg = np.where(checked, blend * self.smoothed_deg + (1 - blend) * innovation_deg,
                                      self.smoothed_deg)
         judged = checked & (self.samples >= self.warmup_samples)
         if not judged.any():
