@@ -1,9 +1,16 @@
-"""How many threads diagnose's own pools use: the Jacobian's columns
-(fitting/output_error.py), the effects screened and fitted at once and an effect's starts
-(search/forward_selection.py, outside_library/). The simulator runs without Python's lock,
-so on a machine with several cores these threads share the work; every result is the same,
-bit for bit, whatever their number (each simulation has its own C state and arrays, and the
-results are taken in order).
+"""How many threads diagnose's work runs on, and the one pool they share: the Jacobian's
+columns (fitting/output_error.py), the effects screened and fitted at once and an effect's
+starts (search/forward_selection.py, outside_library/). The simulator runs without Python's
+lock, so on a machine with several cores these threads share the work; every result is the
+same, bit for bit, whatever their number (each simulation has its own C state and arrays,
+and the results are taken in order).
+
+Maps nest (a round's effects, each effect's starts, each start's Jacobian columns), and all
+of them go through one process-wide pool of threads() − 1 threads, the calling thread
+being the last: a map runs its first item in the calling thread and takes back every item
+no pool thread has started yet, so at most threads() threads run diagnose's work at once
+however deep the nesting. A thread only ever waits for items already running, each a
+descendant of its own, so nested maps cannot deadlock on the bounded pool.
 
 HAND_DIAGNOSE_THREADS=1 in the environment makes diagnose run in one thread; any other
 whole number caps the threads. It is read once, when diagnose is imported; `using(jobs)`
@@ -13,8 +20,9 @@ process's: two diagnoses running at once in one process share it."""
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import TypeVar
 
@@ -62,13 +70,48 @@ def using(jobs: int | None) -> Iterator[int]:
         _threads = saved
 
 
+_pool: ThreadPoolExecutor | None = None  # threads() − 1 threads, made when first asked
+_pool_size = 0
+_pool_lock = threading.Lock()
+
+
+def _shared_pool(size: int) -> ThreadPoolExecutor:
+    """The process's pool of `size` threads; one of another size is shut down (its running
+    items finish first) and replaced."""
+    global _pool, _pool_size
+    with _pool_lock:
+        if _pool is None or _pool_size != size:
+            if _pool is not None:
+                _pool.shutdown(wait=False)
+            _pool, _pool_size = ThreadPoolExecutor(max_workers=size, thread_name_prefix="diagnose"), size
+        return _pool
+
+
+def shutdown() -> None:
+    """Stop the shared pool's threads (after their running items); the next map makes a new one."""
+    global _pool, _pool_size
+    with _pool_lock:
+        if _pool is not None:
+            _pool.shutdown(wait=True)
+        _pool, _pool_size = None, 0
+
+
 def ordered_map(function: Callable[[T], R], items: Iterable[T]) -> list[R]:
     """[function(item) for item in items], on up to threads() threads at once (each item its
-    own simulations), the results in the items' order whatever finishes first; in the
-    calling thread when one thread is asked or there is one item."""
+    own simulations), the results in the items' order whatever finishes first. The first
+    item runs in the calling thread, the others are offered to the shared pool, and the
+    calling thread then runs, in order, every one no pool thread has started (the module's
+    docstring); all in the calling thread when one thread is asked or there is one item."""
     items = list(items)
-    workers = min(_threads, len(items))
-    if workers < 2:
+    if _threads < 2 or len(items) < 2:
         return [function(item) for item in items]
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(function, items))
+    pool = _shared_pool(_threads - 1)
+    offered: list[Future[R]] = [pool.submit(function, item) for item in items[1:]]
+    try:
+        results = [function(items[0])]
+        for item, future in zip(items[1:], offered, strict=True):
+            results.append(function(item) if future.cancel() else future.result())
+    finally:  # an item that raised: the others not started are not run
+        for future in offered:
+            future.cancel()
+    return results
