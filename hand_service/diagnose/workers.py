@@ -7,10 +7,8 @@ and the results are taken in order).
 
 Maps nest (a round's effects, each effect's starts, each start's Jacobian columns), and all
 of them go through one process-wide pool of threads() − 1 threads, the calling thread
-being the last: a map runs its first item in the calling thread and takes back every item
-no pool thread has started yet, so at most threads() threads run diagnose's work at once
-however deep the nesting. A thread only ever waits for items already running, each a
-descendant of its own, so nested maps cannot deadlock on the bounded pool.
+being the last (helping_pool.py: a caller that waits runs queued items meanwhile), so at
+most threads() threads run diagnose's work at once however deep the nesting.
 
 HAND_DIAGNOSE_THREADS=1 in the environment makes diagnose run in one thread; any other
 whole number caps the threads. It is read once, when diagnose is imported; `using(jobs)`
@@ -22,9 +20,10 @@ from __future__ import annotations
 import os
 import threading
 from collections.abc import Callable, Iterable, Iterator, Mapping
-from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from typing import TypeVar
+
+from hand_service.diagnose.helping_pool import HelpingPool
 
 THREADS_ENV = "HAND_DIAGNOSE_THREADS"
 MOST_THREADS = 4  # beyond this a Jacobian (3 to 6 columns) has nothing left to share
@@ -70,48 +69,37 @@ def using(jobs: int | None) -> Iterator[int]:
         _threads = saved
 
 
-_pool: ThreadPoolExecutor | None = None  # threads() − 1 threads, made when first asked
-_pool_size = 0
+_pool: HelpingPool | None = None  # threads() − 1 threads, made when first asked
 _pool_lock = threading.Lock()
 
 
-def _shared_pool(size: int) -> ThreadPoolExecutor:
+def _shared_pool(size: int) -> HelpingPool:
     """The process's pool of `size` threads; one of another size is shut down (its running
     items finish first) and replaced."""
-    global _pool, _pool_size
+    global _pool
     with _pool_lock:
-        if _pool is None or _pool_size != size:
+        if _pool is None or _pool.size != size:
             if _pool is not None:
-                _pool.shutdown(wait=False)
-            _pool, _pool_size = ThreadPoolExecutor(max_workers=size, thread_name_prefix="diagnose"), size
+                _pool.shutdown()
+            _pool = HelpingPool(size, "diagnose")
         return _pool
 
 
 def shutdown() -> None:
     """Stop the shared pool's threads (after their running items); the next map makes a new one."""
-    global _pool, _pool_size
+    global _pool
     with _pool_lock:
         if _pool is not None:
-            _pool.shutdown(wait=True)
-        _pool, _pool_size = None, 0
+            _pool.shutdown()
+        _pool = None
 
 
 def ordered_map(function: Callable[[T], R], items: Iterable[T]) -> list[R]:
     """[function(item) for item in items], on up to threads() threads at once (each item its
-    own simulations), the results in the items' order whatever finishes first. The first
-    item runs in the calling thread, the others are offered to the shared pool, and the
-    calling thread then runs, in order, every one no pool thread has started (the module's
-    docstring); all in the calling thread when one thread is asked or there is one item."""
+    own simulations), the results in the items' order whatever finishes first: the first
+    item in the calling thread, the others offered to the shared pool (helping_pool.py);
+    all in the calling thread when one thread is asked or there is one item."""
     items = list(items)
     if _threads < 2 or len(items) < 2:
         return [function(item) for item in items]
-    pool = _shared_pool(_threads - 1)
-    offered: list[Future[R]] = [pool.submit(function, item) for item in items[1:]]
-    try:
-        results = [function(items[0])]
-        for item, future in zip(items[1:], offered, strict=True):
-            results.append(function(item) if future.cancel() else future.result())
-    finally:  # an item that raised: the others not started are not run
-        for future in offered:
-            future.cancel()
-    return results
+    return _shared_pool(_threads - 1).map(function, items)

@@ -109,6 +109,31 @@ def test_nested_maps_never_run_more_items_than_the_threads() -> None:
     assert not [t for t in threading.enumerate() if t.name.startswith("diagnose") and t.is_alive()]
 
 
+def test_a_caller_waiting_for_a_running_item_runs_the_queued_ones() -> None:
+    """The caller's own item done, it waits for the pool's, whose nested items it runs
+    meanwhile: no core idles while an item is queued."""
+    import threading
+    import time
+
+    leaves_ran_on: set[int] = set()
+
+    def leaf(x: int) -> int:
+        leaves_ran_on.add(threading.get_ident())
+        time.sleep(0.01)
+        return x
+
+    def item(x: int) -> list[int]:
+        if x == 0:
+            time.sleep(0.05)  # the pool's thread takes item 1 meanwhile
+            return []
+        return workers.ordered_map(leaf, range(8))
+
+    with workers.using(2):
+        assert workers.ordered_map(item, range(2)) == [[], list(range(8))]
+    assert threading.get_ident() in leaves_ran_on and len(leaves_ran_on) == 2
+    workers.shutdown()
+
+
 def test_a_map_whose_item_raises_raises_and_runs_nothing_more() -> None:
     done: list[int] = []
 
