@@ -109,10 +109,11 @@ class HelpingPool:
                         item.state = _DONE
         return results
 
-    def shutdown(self) -> None:
-        """Stop the threads once the queue is empty (their running items finish first)."""
+    def shutdown(self, wait: bool = True) -> None:
+        """Stop the threads once the queue is empty (their running items finish first);
+        `wait`: until they have."""
         with self._changed:
             self._stopping = True
             self._changed.notify_all()
-        for thread in self._threads:
+        for thread in self._threads if wait else ():
             thread.join()

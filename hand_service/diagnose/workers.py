@@ -74,13 +74,14 @@ _pool_lock = threading.Lock()
 
 
 def _shared_pool(size: int) -> HelpingPool:
-    """The process's pool of `size` threads; one of another size is shut down (its running
-    items finish first) and replaced."""
+    """The process's pool of `size` threads; one of another size is replaced, its threads
+    left to finish what is queued and stop (not awaited here: its items' callers may be
+    waiting for this lock)."""
     global _pool
     with _pool_lock:
         if _pool is None or _pool.size != size:
             if _pool is not None:
-                _pool.shutdown()
+                _pool.shutdown(wait=False)
             _pool = HelpingPool(size, "diagnose")
         return _pool
 

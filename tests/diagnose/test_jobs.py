@@ -134,6 +134,16 @@ def test_a_caller_waiting_for_a_running_item_runs_the_queued_ones() -> None:
     workers.shutdown()
 
 
+def test_another_number_of_threads_replaces_the_pool() -> None:
+    def nested(x: int) -> list[int]:
+        return workers.ordered_map(lambda y: x * y, range(5))
+
+    for jobs in (2, 3, 2):
+        with workers.using(jobs):
+            assert workers.ordered_map(nested, range(4)) == [[x * y for y in range(5)] for x in range(4)]
+    workers.shutdown()
+
+
 def test_a_map_whose_item_raises_raises_and_runs_nothing_more() -> None:
     done: list[int] = []
 
