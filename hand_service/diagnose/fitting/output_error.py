@@ -13,9 +13,7 @@ Jacobian and every fit are the same, bit for bit, as one column at a time.
 from __future__ import annotations
 
 import inspect
-import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +23,7 @@ from hand_service.config import effects as fx
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Prior, Problem
 from hand_service.diagnose.model.simulation_cache import finger_key
-from hand_service.diagnose.workers import threads
+from hand_service.diagnose.workers import ordered_map
 from rtcore.sim import SimFinger
 
 DIVERGED_DEG = 1e4  # residual that stands for a simulation that ran away
@@ -115,32 +113,14 @@ def _into_bounds(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndar
 
 # least_squares takes `workers` from SciPy 1.16 on; before, the columns run one at a time
 _PARALLEL_COLUMNS = "workers" in inspect.signature(least_squares).parameters
-_columns: dict[int, ThreadPoolExecutor] = {}
-_columns_lock = threading.Lock()
-
-
-def _column_pool(workers: int) -> ThreadPoolExecutor:
-    """One pool of `workers` threads for the process (diagnose/workers.py: the number in
-    force): its tasks are single simulations, which submit nothing, so fits running in
-    several threads (search/forward_selection.py) can share it without deadlock."""
-    with _columns_lock:
-        if workers not in _columns:
-            _columns[workers] = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="jacobian")
-        return _columns[workers]
 
 
 def column_map(function: Callable[[np.ndarray], np.ndarray],
                points: Iterable[np.ndarray]) -> Iterator[np.ndarray]:
-    """map() for scipy's finite differences (least_squares' `workers`): the first point in
-    the calling thread, the others on the shared pool at the same time; results in order."""
-    points = list(points)
-    workers = threads()
-    if workers < 2 or len(points) < 2:
-        return iter([function(x) for x in points])
-    pool = _column_pool(workers)
-    later = [pool.submit(function, x) for x in points[1:]]
-    first = function(points[0])
-    return iter([first, *(f.result() for f in later)])
+    """map() for scipy's finite differences (least_squares' `workers`): the points on
+    diagnose's shared threads (workers.ordered_map: the first in the calling thread, none
+    beyond the threads in force, however many fits run at once); results in order."""
+    return iter(ordered_map(function, points))
 
 
 def parallel_columns() -> dict:

@@ -39,6 +39,11 @@ from hand_service.diagnose.workers import ordered_map
 # recording: static or slow (a contact and a material's hysteresis have their own checks,
 # outside_library/; a vent lag only refines a lag already named).
 RIVALS = ("pressure_stiffening", "creep")
+# Each rival is fitted from its screen's most promising start first, and from its other
+# starts only where that fit gains anything (ΔBIC above 0; forward_selection.score's
+# `lazy`): a rival stands only on a gain above SIGNIFICANT_BIC. On the battery slice's rival
+# checks no rival's standing changed so (docs/results.md §12.49).
+LAZY_STARTS = True
 
 
 @dataclass(frozen=True)
@@ -116,12 +121,12 @@ def estimate_of(candidate: Candidate) -> dict[str, float]:
 def strongest(problem: Problem, refit: Fit, final: Fit, named: Sequence[str], rivals: Sequence[str],
               fitting: np.ndarray, scored: np.ndarray, noise_deg: float) -> Rival | None:
     """The rival that stands with the lowest raw error, or None. Each rival is fitted from the
-    plain refit (`beside`), side by side; `final` is the model with the `named` effects;
+    plain refit (`beside`, LAZY_STARTS), side by side; `final` is the model with the `named` effects;
     `noise_deg` the sensor's noise the fits estimate."""
     if not rivals:
         return None
     named_raw = raw_rms_deg(problem, final.angle_deg, fitting, scored)
-    fitted = ordered_map(lambda name: beside(problem, refit, name), rivals)
+    fitted = ordered_map(lambda name: beside(problem, refit, name, lazy=LAZY_STARTS), rivals)
     standing = []
     for candidate in fitted:
         angle = candidate.fit.angle_deg
