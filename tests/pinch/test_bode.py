@@ -128,13 +128,14 @@ def test_the_loops_in_phase_share_is_the_plants_first_harmonic(width_deg: float,
 
 
 def test_a_push_inside_the_loops_play_meets_the_whole_finger(truth: Profile) -> None:
-    k_set = 0.3 * gain_limits(truth.finger("index").model)[0]
+    k_set = gain_limits(truth.finger("index").model)[0]  # K_max: the force PI's own integral gain
     plants = {h: dataclasses.replace(PAPER_MISMATCH, lever_drift_per_rad=0.0, hysteresis_deg=h)
               for h in (0.5, 0.0)}
-    got = {h: rendered(truth, truth, "index", k_set, 0.2, mismatch=plant).stiffness_n_per_deg / k_set
-           for h, plant in plants.items()}
-    # K·2° moves the finger 0.25°, inside the 0.5° play: the loop adds all of k_F = 2 K_max
-    assert got[0.5] - got[0.0] == pytest.approx(2.0 * loop_in_phase_share(0.5, 0.25) / 0.3, rel=0.15)
+    got = {h: rendered(truth, truth, "index", k_set, 0.2, mismatch=plant,
+                       amplitude_deg=0.75).stiffness_n_per_deg / k_set for h, plant in plants.items()}
+    # K·0.75° moves the finger K·0.75/(K + 2 K_max) = 0.25°, inside the 0.5° play: the loop adds
+    # all of k_F = 2 K_max
+    assert got[0.5] - got[0.0] == pytest.approx(2.0 * loop_in_phase_share(0.5, 0.25), rel=0.15)
 
 
 def test_the_table_says_the_controller_was_tared(capsys: pytest.CaptureFixture[str]) -> None:
