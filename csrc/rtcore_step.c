@@ -191,6 +191,7 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
                           + s->impedance_damping_n_s_per_deg
                                 * (s->velocity_ref_deg_per_s - s->velocity_deg_per_s);
             double torque_rate_nm_per_s = 0.0;
+            double integral_share = 1.0;
             if (mode == RTCORE_MODE_IMPEDANCE) {
                 /* the valve lags the feedforward's spring k th and virtual spring
                  * r K (th_ref - th); the force PI's integrator turns the lag's error into a
@@ -204,12 +205,22 @@ static uint32_t step_finger(rtcore_hand *hand, int32_t i, const rtcore_inputs *i
                     fmin(fmax(spring_nm_per_deg - 2.0 * virtual_nm_per_deg, 0.0), IMPEDANCE_LEAD_MAX_SHARE * spring_nm_per_deg);
                 torque_rate_nm_per_s =
                     led_nm_per_deg * s->velocity_deg_per_s + virtual_nm_per_deg * s->velocity_ref_deg_per_s;
+                /* the integrator turns the lag's velocity error, (V - 1)(k - r K) th, into a
+                 * stiffness error of T ki' (k / (r K) - 1) / (1 + kp')^2 of K above its corner
+                 * ki' / (1 + kp') (ki' = N ki / r, T the lag): a dip in the band at a small K.
+                 * Below K_max (r K < k / 2) the integral gain falls as (2 r K / k)^3, a power
+                 * measured: 1 holds that error at K_max's but leaves the dip at 0.2 Hz; at a
+                 * stiff wall the gain only lowers (docs/replicate.md) */
+                if (spring_nm_per_deg > 2.0 * virtual_nm_per_deg) {
+                    const double below = 2.0 * virtual_nm_per_deg / spring_nm_per_deg;
+                    integral_share = below * below * below;
+                }
             }
             s->derivative_deg_per_s = 0.0;
             feedforward_kpa = rtcore_force_feedforward_kpa(c, angle_rad, force_ref_n, loop_z, torque_rate_nm_per_s);
             error = force_ref_n - force_n;
             proportional_kpa = c->force_kp_kpa_per_n * error;
-            integral_gain = c->force_ki_kpa_per_n_s;
+            integral_gain = c->force_ki_kpa_per_n_s * integral_share;
         }
         if (changed) {
             /* bumpless: between active modes the integrator takes up the difference so

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from rtcore import config as cfg
 from rtcore.arrays import Inputs, Outputs, allocate
 from rtcore.config import ConfigError, FingerConfig, HandConfig
+from rtcore.reference_filter import Biquad, butter_sections, first_order_alpha
 from rtcore.reference_model import (
     RAD_PER_DEG,
     STIFFENED_GAIN_FLOOR,
@@ -40,56 +41,6 @@ IMPEDANCE_LEAD_MAX_SHARE = 0.25  # the C step's: impedance's lead at most this s
 
 def usable(x: float) -> bool:
     return math.isfinite(x) and abs(x) <= SANE_LIMIT
-
-
-# --- filters -------------------------------------------------------------------------
-
-@dataclass
-class Biquad:
-    """One second-order section, direct form II transposed, a0 = 1."""
-
-    b0: float
-    b1: float
-    b2: float
-    a1: float
-    a2: float
-    z1: float = 0.0
-    z2: float = 0.0
-
-    @classmethod
-    def lowpass(cls, tan_half: float, q: float) -> Biquad:
-        k2 = tan_half * tan_half
-        a0 = 1.0 + tan_half / q + k2
-        return cls(k2 / a0, 2.0 * k2 / a0, k2 / a0, 2.0 * (k2 - 1.0) / a0,
-                   (1.0 - tan_half / q + k2) / a0)
-
-    @property
-    def dc_gain(self) -> float:
-        return (self.b0 + self.b1 + self.b2) / (1.0 + self.a1 + self.a2)
-
-    def prime(self, x: float) -> None:
-        y = self.dc_gain * x
-        self.z2 = self.b2 * x - self.a2 * y
-        self.z1 = self.b1 * x - self.a1 * y + self.z2
-
-    def run(self, x: float) -> float:
-        y = self.b0 * x + self.z1
-        self.z1 = self.b1 * x - self.a1 * y + self.z2
-        self.z2 = self.b2 * x - self.a2 * y
-        return y
-
-
-def butter_sections(order: int, cutoff_hz: float, sample_rate_hz: float) -> list[Biquad]:
-    """Butterworth low-pass by the bilinear transform with the cutoff prewarped."""
-    tan_half = math.tan(math.pi * cutoff_hz / sample_rate_hz)
-    return [
-        Biquad.lowpass(tan_half, 1.0 / (2.0 * math.sin(math.pi * float(2 * k + 1) / float(2 * order))))
-        for k in range(order // 2)
-    ]
-
-
-def first_order_alpha(cutoff_hz: float, dt_s: float) -> float:
-    return math.exp(-2.0 * math.pi * cutoff_hz * dt_s)
 
 
 # --- the PRBM with its effects: rtcore/reference_model.py ------------------------------
@@ -352,18 +303,22 @@ class ReferenceHand:
                 force_ref_n = s.force_ref_n if mode == cfg.MODE_FORCE else (
                     s.impedance_stiffness_n_per_deg * (s.angle_ref_deg - s.angle_filt_deg)
                     + s.impedance_damping_n_s_per_deg * (s.velocity_ref_deg_per_s - s.velocity_deg_per_s))
-                torque_rate = 0.0
+                torque_rate, integral_share = 0.0, 1.0
                 if mode == cfg.MODE_IMPEDANCE:
                     # the lead on the spring's part beyond 2 r K, at most IMPEDANCE_LEAD_MAX_SHARE of k
                     virtual = c.prbm.lever_arm_m * s.impedance_stiffness_n_per_deg
                     spring = model_stiffness(c.prbm, angle_rad) * RAD_PER_DEG
                     led = min(max(spring - 2.0 * virtual, 0.0), IMPEDANCE_LEAD_MAX_SHARE * spring)
                     torque_rate = led * s.velocity_deg_per_s + virtual * s.velocity_ref_deg_per_s
+                    # below K_max the integral gain falls as (2 r K / k)^3 (the C step's reason)
+                    if spring > 2.0 * virtual:
+                        below = 2.0 * virtual / spring
+                        integral_share = below * below * below
                 s.derivative_deg_per_s = 0.0
                 feedforward_kpa = force_feedforward(c, angle_rad, force_ref_n, loop_z, torque_rate)
                 error = force_ref_n - force_n
                 proportional_kpa = c.force_kp_kpa_per_n * error
-                integral_gain = c.force_ki_kpa_per_n_s
+                integral_gain = c.force_ki_kpa_per_n_s * integral_share
             if changed:
                 # bumpless: continue the command between active modes; out of VENT, start empty
                 s.integrator_kpa = 0.0 if previous_mode == cfg.MODE_VENT else clamp_symmetric(

@@ -90,7 +90,7 @@ class Loop:
 
 def closed_loop(truth: Profile, finger: str, stiffness_n_per_deg: float, damping_n_s_per_deg: float,
                 duration_s: float, reference_deg: Callable[[float], float],
-                wall_deg: Callable[[float], float | None], seed: int = 1,
+                wall_deg: Callable[[float], float | None], seed: int | tuple[int, int] = 1,
                 controller: Profile | None = None, push_n: Callable[[float], float] | None = None,
                 mismatch: Mismatch = NONE) -> Loop:
     """The truth's finger under the C step in impedance mode, the controller's model from
@@ -183,8 +183,9 @@ def loaded_span(truth: Profile, controller: Profile, finger: str, stiffness_n_pe
     """The estimate's span (hand_service.identification.span) as a lab makes it: impedance
     mode at this K sweeps its reference ±SPAN_SWEEP_DEG about reference_deg, once free and
     once with load_n hung on the pad (the probe's constant push, opening the finger); the
-    estimates over the last SPAN_PERIODS whole sweeps give the span. The same seed both
-    times: the sensor's noise is the same draw."""
+    estimates over the last SPAN_PERIODS whole sweeps give the span. The loaded sweep's
+    noise is a draw of its own (the seed with 1 beside it), as two recordings' are: one
+    shared draw would cancel in the difference and flatter the span's precision."""
     rate_hz = truth.control.rate_hz
     duration_s = (1 + SPAN_PERIODS) * SPAN_PERIOD_S
     last = round(SPAN_PERIODS * SPAN_PERIOD_S * rate_hz)
@@ -192,9 +193,9 @@ def loaded_span(truth: Profile, controller: Profile, finger: str, stiffness_n_pe
     def sweep(t_s: float) -> float:
         return reference_deg + SPAN_SWEEP_DEG * float(np.sin(2.0 * np.pi * t_s / SPAN_PERIOD_S))
 
-    estimates = [closed_loop(truth, finger, stiffness_n_per_deg, 0.0, duration_s, sweep, lambda _: None, seed,
+    estimates = [closed_loop(truth, finger, stiffness_n_per_deg, 0.0, duration_s, sweep, lambda _: None, draw,
                              controller, push_n=lambda _, f=force: f, mismatch=mismatch).estimate_n[-last:]
-                 for force in (0.0, load_n)]
+                 for force, draw in ((0.0, seed), (load_n, (seed, 1)))]
     lever_m = controller.finger(finger).model.lever_arm_m
     return span_lever(finger, lever_m, estimates[0], estimates[1], load_n)
 

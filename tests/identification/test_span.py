@@ -53,33 +53,52 @@ def test_the_span_refuses_what_it_cannot_read() -> None:
         span_lever("index", 0.05, np.array([]), loaded, 0.5)
 
 
-def _sweep_file(path: Path, load_n: float, contact_lever_m: float) -> Path:
+SWEEP_SAMPLES = 800
+ANGLE_NOISE_DEG = 0.3
+PRESSURE_NOISE_KPA = 0.5
+
+
+def _sweep_file(path: Path, load_n: float, contact_lever_m: float, seed: int) -> Path:
     """A recorded sweep of the true index, 75° to 85° and back twice, static (N p = k θ + r' F)
-    with the load acting at contact_lever_m, 0.3° angle and 0.5 kPa pressure noise."""
+    with the load acting at contact_lever_m, ANGLE_NOISE_DEG and PRESSURE_NOISE_KPA of
+    noise, its own draw (seed)."""
     true = load_profile(None).finger("index").model
-    rng = np.random.default_rng(5)
-    t_s = np.arange(800) / 100.0
+    rng = np.random.default_rng(seed)
+    t_s = np.arange(SWEEP_SAMPLES) / 100.0
     angle_deg = 80.0 + 5.0 * np.sin(2.0 * np.pi * t_s / 4.0)
     chamber_kpa = ((true.stiffness_nm_per_rad * np.radians(angle_deg) + contact_lever_m * load_n)
                    / true.pressure_gain_nm_per_kpa)
-    noisy_deg = angle_deg + 0.3 * rng.standard_normal(t_s.size)
+    noisy_deg = angle_deg + ANGLE_NOISE_DEG * rng.standard_normal(t_s.size)
     columns = {"t": t_s, "pressure_kpa": chamber_kpa, "angle_deg": noisy_deg,
-               "pressure_meas_kpa": chamber_kpa + 0.5 * rng.standard_normal(t_s.size)}
+               "pressure_meas_kpa": chamber_kpa + PRESSURE_NOISE_KPA * rng.standard_normal(t_s.size)}
     return Trial("span", "index", columns, {"finger": "index"}).write(path)
+
+
+def _scale_sd(load_n: float) -> float:
+    """The span's standard deviation from the sweeps' noise: a sample's estimate errs by
+    (N·dp, k·dθ)/r in quadrature, and the span is the difference of two means over
+    SWEEP_SAMPLES samples of independent draws, over the load."""
+    true = load_profile(None).finger("index").model
+    sample_n = float(np.hypot(true.pressure_gain_nm_per_kpa * PRESSURE_NOISE_KPA,
+                              true.stiffness_nm_per_rad * np.radians(ANGLE_NOISE_DEG))) / true.lever_arm_m
+    return sample_n * float(np.sqrt(2.0 / SWEEP_SAMPLES)) / load_n
 
 
 def test_calibrate_span_writes_the_lever_back(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     r_m = load_profile(None).finger("index").model.lever_arm_m
-    free = _sweep_file(tmp_path / "free.csv", 0.0, 1.14 * r_m)
-    loaded = _sweep_file(tmp_path / "loaded.csv", 0.6, 1.14 * r_m)
+    free = _sweep_file(tmp_path / "free.csv", 0.0, 1.14 * r_m, seed=5)
+    loaded = _sweep_file(tmp_path / "loaded.csv", 0.6, 1.14 * r_m, seed=6)
+    tolerance = 4.0 * _scale_sd(0.6)  # 0.044 here: four standard deviations
     mine = tmp_path / "mine.yaml"
     mine.write_text(DEFAULT_PROFILE.read_text())
     out = tmp_path / "span.json"
     assert main(["calibrate", "span", str(free), str(loaded), "--load-n", "0.6", "--model", str(mine),
                  "--finger", "index", "--json", str(out), "--update-profile", str(mine)]) == 0
     data = json.loads(out.read_text())
-    assert data["scale"] == pytest.approx(1.14, rel=0.01)  # the same noise draw in both sweeps
-    assert load_profile(mine).finger("index").model.lever_arm_m == pytest.approx(1.14 * r_m, rel=0.01)
+    assert data["scale"] == pytest.approx(1.14, abs=tolerance)
+    assert data["scale"] != pytest.approx(1.14, abs=1e-6)  # the draws differ: noise is left in the span
+    spanned_m = load_profile(mine).finger("index").model.lever_arm_m
+    assert spanned_m == pytest.approx(data["scale"] * r_m, rel=1e-6)
     assert "| read per N of load |" in capsys.readouterr().out
     assert main(["calibrate", "span", str(free), str(loaded), "--load-n", "0.001", "--model", str(mine),
                  "--finger", "index"]) == 2

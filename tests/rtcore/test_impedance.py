@@ -157,29 +157,3 @@ def test_with_the_lab_measured_model_the_compliance_holds_over_a_tenfold_range()
             push = slow_push(truth, f.name, share * k_max, 0.0, controller=controller)
             assert abs(push.error_ratio) < 0.10, (f.name, share, push.error_ratio)
 
-
-def test_the_lead_takes_its_share_of_the_valve_lags_droop() -> None:
-    """At 0.3 K_max the valve's lag on the feedforward's springs makes the rendered stiffness
-    droop with frequency by (k / (r K) − 1) times the lag's error; the step's lead takes the
-    share led / (k − r K) of the lag, led = min(k − 2 r K, IMPEDANCE_LEAD_MAX_SHARE·k), so
-    the droop at 0.5 Hz is (1 − that share) of a controller with no lag in its model (the
-    linear model's ratio, to 0.1; docs/replicate.md)."""
-    import dataclasses
-
-    from hand_service.pinch.bode import rendered
-    from rtcore.reference import IMPEDANCE_LEAD_MAX_SHARE
-
-    truth = load_profile(None)
-    unled = dataclasses.replace(truth, fingers=[
-        dataclasses.replace(f, model=f.model.with_changes(effects={})) for f in truth.fingers])
-    share = 0.3
-    k_max, _ = gain_limits(truth.finger("index").model)
-    stiffness = share * k_max
-    led = rendered(truth, truth, "index", stiffness, 0.5, amplitude_deg=15.0)
-    lagging = rendered(truth, unled, "index", stiffness, 0.5, amplitude_deg=15.0)
-    droop_led = 1.0 - led.stiffness_n_per_deg / stiffness
-    droop_lagging = 1.0 - lagging.stiffness_n_per_deg / stiffness
-    virtual_share = share / 2.0  # r K / k at this share of K_max = 0.5 k / r
-    lead_share = min(1.0 - 2.0 * virtual_share, IMPEDANCE_LEAD_MAX_SHARE) / (1.0 - virtual_share)
-    assert droop_lagging > 0.15  # the droop the lead is for is there
-    assert droop_led / droop_lagging == pytest.approx(1.0 - lead_share, abs=0.1)
