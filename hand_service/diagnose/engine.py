@@ -50,6 +50,7 @@ from hand_service.diagnose.report.verdict import (
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_only, stats
 from hand_service.diagnose.search import (
+    loop_rival,
     posture_stability,
     rest_order,
     rival_check,
@@ -388,7 +389,11 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     rival = (rival_check.strongest(problem, refit, final, [e.name for e in found],
                                    rival_check.rivals_to_try(search, model.effects), fitted, scored, sigma)
              if verdict == "missing_physics" and not left else None)
-    if rival is not None:  # an effect searched only on request follows the raw angle as well
+    if verdict == "missing_physics" and not left:  # and a loop outside the library: the closer stands
+        names = [e.name for e in found]
+        loop = loop_rival.loop_in_place(problem, refit, final, names, fitted, scored, sigma)
+        rival = min((r for r in (rival, loop) if r is not None), key=lambda r: r.rival_raw_deg, default=None)
+    if rival is not None:  # a rival the search did not try follows the raw angle as well
         left = rival.sentence()
         warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
