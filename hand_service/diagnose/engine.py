@@ -386,13 +386,11 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             said := noise_only.named_structure(problem, final, valid)):
         left = said  # white innovations, yet structure the noise model took: graded `dominant`
         warnings.append(left)
-    rival = (rival_check.strongest(problem, refit, final, [e.name for e in found],
-                                   rival_check.rivals_to_try(search, model.effects), fitted, scored, sigma)
-             if verdict == "missing_physics" and not left else None)
-    if verdict == "missing_physics" and not left:  # and a loop outside the library: the closer stands
-        names = [e.name for e in found]
-        loop = loop_rival.loop_in_place(problem, refit, final, names, fitted, scored, sigma)
-        rival = min((r for r in (rival, loop) if r is not None), key=lambda r: r.rival_raw_deg, default=None)
+    rival, names = None, [e.name for e in found]
+    if verdict == "missing_physics" and not left:  # an on-request effect or a loop: the closer stands
+        tried = rival_check.rivals_to_try(search, model.effects)
+        on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma)
+        rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma)
     if rival is not None:  # a rival the search did not try follows the raw angle as well
         left = rival.sentence()
         warnings.append(left)

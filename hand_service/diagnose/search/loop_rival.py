@@ -80,3 +80,11 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
                   loss_difference(named_err, raw_misfit_deg(problem, loop.angle_deg, fitting, scored)),
                   outside=True)
     return rival if rival.stands else None
+
+
+def closer(library: Rival | None, problem: Problem, refit: Fit, final: Fit, named: Sequence[str],
+           fitting: np.ndarray, scored: np.ndarray, noise_deg: float) -> Rival | None:
+    """Of the library's rival that stands (`library`, rival_check.strongest) and the loop in
+    place of the `named` effects, the one that stands closer to the raw angle, or None."""
+    loop = loop_in_place(problem, refit, final, named, fitting, scored, noise_deg)
+    return min((r for r in (library, loop) if r is not None), key=lambda r: r.rival_raw_deg, default=None)
