@@ -7,16 +7,18 @@ reversal. Over a recording whose command jumps between levels, where the finger 
 rest from either side, a static map that bends (gravity's sine, a cubic spring) can take
 what the loop does, follow the recorded angle to its noise, and be graded `complete`
 (docs/results.md §12.36, §12.42). material_hysteresis.py puts a loop in dry friction's
-place only; here, where the verdict would be `complete` and no library rival stands
-(rival_check.py), the simulator's loop (Dahl's form, material_hysteresis.loop_finger) is
-fitted in place of all the named effects, k, B, N, its torque and its travel refitted by
-output error (rival_fit.rival_model), and judged as a library rival is: it must gain on the
+place only; here, where the verdict would be `complete`, beside the library's rivals
+(rival_check.py; of those that stand, the closer is said), the simulator's loop (Dahl's
+form, material_hysteresis.loop_finger) is fitted in place of all the named effects, k, B, N,
+its torque and its travel refitted by output error (rival_fit.rival_model), and judged as a
+library rival is: it must gain on the
 plain model by more than SIGNIFICANT_BIC on the innovations (its two parameters charged),
-hold a loop's memory (the same loop with its travel held at material_hysteresis's floor,
-where it turns over as friction does, loses to it by more than SIGNIFICANT_BIC: a loop that
-is a library friction is no physics outside the library), and the raw angle must not find
-it worse than the named model (raw_difference.py). Then the grade is `dominant`, and the
-loop is said.
+lose to the named model there by no more (the search's margin for a tie: a loop that trails
+the named model by more would not be named had it been searched), hold a loop's memory (the
+same loop with its travel held at material_hysteresis's floor, where it turns over as
+friction does, loses to it by more than SIGNIFICANT_BIC: a loop that is a library friction
+is no physics outside the library), and the raw angle must not find it worse than the named
+model (raw_difference.py). Then the grade is `dominant`, and the loop is said.
 """
 
 from __future__ import annotations
@@ -72,9 +74,14 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
     plain_rss = problem.fit_rss(problem.innovations(refit.angle_deg))
     gain = stats.delta_bic(plain_rss, loop.rss, problem.n_fit, 2)
     memory = stats.delta_bic(friction.rss, loop.rss, problem.n_fit, 1)
+    # against the named model on the innovations: as a round weighs a tie, its parameters charged
+    named_params = sum(p.is_effect for p in final.params)
+    tie = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), loop.rss, problem.n_fit,
+                          2 - named_params) > -SIGNIFICANT_BIC
     named_err = raw_misfit_deg(problem, final.angle_deg, fitting, scored)
     estimate = {"torque_nm": float(loop.extra[0] * torque0_nm), "travel_deg": travel_deg}
-    rival = Rival(NAME, tuple(named), estimate, gain, gain > SIGNIFICANT_BIC and memory > SIGNIFICANT_BIC,
+    significant = gain > SIGNIFICANT_BIC and memory > SIGNIFICANT_BIC and tie
+    rival = Rival(NAME, tuple(named), estimate, gain, significant,
                   raw_rms_deg(problem, loop.angle_deg, fitting, scored),
                   raw_rms_deg(problem, final.angle_deg, fitting, scored), noise_deg,
                   loss_difference(named_err, raw_misfit_deg(problem, loop.angle_deg, fitting, scored)),
