@@ -50,6 +50,7 @@ from hand_service.diagnose.report.verdict import (
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_only, stats
 from hand_service.diagnose.search import (
+    loop_rival,
     posture_stability,
     rest_order,
     rival_check,
@@ -385,10 +386,12 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             said := noise_only.named_structure(problem, final, valid)):
         left = said  # white innovations, yet structure the noise model took: graded `dominant`
         warnings.append(left)
-    rival = (rival_check.strongest(problem, refit, final, [e.name for e in found],
-                                   rival_check.rivals_to_try(search, model.effects), fitted, scored, sigma)
-             if verdict == "missing_physics" and not left else None)
-    if rival is not None:  # an effect searched only on request follows the raw angle as well
+    rival, names = None, [e.name for e in found]
+    if verdict == "missing_physics" and not left:  # an on-request effect or a loop: the closer stands
+        tried = rival_check.rivals_to_try(search, model.effects)
+        on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma)
+        rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma)
+    if rival is not None:  # a rival the search did not try follows the raw angle as well
         left = rival.sentence()
         warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,

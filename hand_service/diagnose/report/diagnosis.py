@@ -40,12 +40,12 @@ class Diagnosis:
     structure_left: str = ""  # what says the final model still misses something ('' if nothing)
     outside: Outside = field(default_factory=Outside)  # physics outside the library a name stood for
     raw: raw_error.RawErrors | None = None  # every model against the raw angle, no drift
-    rival: Rival | None = None  # an effect searched only on request that follows the raw angle as well
+    rival: Rival | None = None  # a rival the search did not try that follows the raw angle as well
 
     @property
     def grade(self) -> str | None:
         """For missing_physics: "complete" when the augmented model leaves no structure and no
-        rival searched only on request follows the raw angle as well; else "dominant"."""
+        rival the search did not try follows the raw angle as well; else "dominant"."""
         if self.verdict != "missing_physics":
             return None
         return "dominant" if self.structure_left else "complete"

@@ -15,8 +15,10 @@ named effects, from the plain refit, as a first round fits a candidate
 simulated from the recorded command alone and scored on the raw angle, each with one
 constant offset and no drift (fitting/raw_error.py). A rival that gains on the plain model
 as an effect must (Candidate.significant: it would be named had it been searched) and
-follows the raw angle as well as the named model (within raw_error.TIE_SHARE of its RMS
-error, or both within raw_error.TIE_NOISE times the noise), or better, stands: the grade is
+follows the raw angle as well as the named model (a test on their squared raw errors'
+difference cannot find it worse: fitting/raw_difference.py), or better, or within the raw
+angle's tie even where the test finds it worse (within raw_error.TIE_SHARE of its RMS error,
+or both within raw_error.TIE_NOISE times the noise: Rival.tied), stands: the grade is
 then `dominant`, the rival said in `structure_left` and the JSON's `rival`. The names stay:
 the rival was not searched for, and the user can ask for it (`--search`).
 """
@@ -30,7 +32,8 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit
-from hand_service.diagnose.fitting.raw_error import TIE_NOISE, TIE_SHARE, at_noise, raw_rms_deg
+from hand_service.diagnose.fitting.raw_difference import LEVEL, LossDifference, loss_difference
+from hand_service.diagnose.fitting.raw_error import TIE_NOISE, TIE_SHARE, at_noise, offset_of, raw_rms_deg
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search.forward_selection import Candidate, beside
 from hand_service.diagnose.workers import ordered_map
@@ -48,7 +51,8 @@ LAZY_STARTS = True
 
 @dataclass(frozen=True)
 class Rival:
-    """A rival fitted in place of the named effects, and both on the raw angle (deg)."""
+    """A rival fitted in place of the named effects, and both on the raw angle (deg): their
+    RMS errors and the test of their squared errors' difference (raw_difference.py)."""
 
     name: str
     named: tuple[str, ...]
@@ -58,51 +62,74 @@ class Rival:
     rival_raw_deg: float
     named_raw_deg: float
     noise_deg: float  # the sensor's noise as the fits estimate it
+    difference: LossDifference  # the rival's squared raw error less the named model's
+    outside: bool = False  # physics outside the library (outside_library/loop_rival.py), not on request
 
     @property
     def better(self) -> bool:
-        """The rival follows the raw angle better by more than the raw angle's tie."""
-        return self.rival_raw_deg < (1.0 - TIE_SHARE) * self.named_raw_deg
+        """The rival follows the raw angle better, beyond the recording's fluctuation."""
+        return self.difference.b_better
+
+    @property
+    def worse(self) -> bool:
+        """The named model follows the raw angle better, beyond the recording's fluctuation."""
+        return self.difference.b_worse
+
+    @property
+    def tied(self) -> bool:
+        """Worse, by the test, yet as close as the raw angle's tie: within TIE_SHARE of the
+        named model's raw error, or both at the sensor's noise (raw_error.at_noise). Two
+        stand-ins for physics of neither form can differ reliably by a per cent or two; the
+        named one is then no more the physics than the rival."""
+        return self.within_share or (at_noise(self.named_raw_deg, self.noise_deg)
+                                     and at_noise(self.rival_raw_deg, self.noise_deg))
 
     @property
     def within_share(self) -> bool:
         return self.rival_raw_deg <= (1.0 + TIE_SHARE) * self.named_raw_deg
 
     @property
-    def both_at_noise(self) -> bool:
-        """Both follow the raw angle to the sensor's noise (raw_error.at_noise)."""
-        return at_noise(self.named_raw_deg, self.noise_deg) and at_noise(self.rival_raw_deg, self.noise_deg)
-
-    @property
     def stands(self) -> bool:
-        """A rival that would be named had it been searched, as good on the raw angle as the
-        named model (within TIE_SHARE, or both at the noise), or better."""
-        return (self.significant and bool(np.isfinite(self.rival_raw_deg))
-                and (self.within_share or self.both_at_noise))
+        """A rival that would be named had it been searched, which the raw angle cannot tell
+        from the named model, or which follows it better, or comes within its tie."""
+        return self.significant and bool(np.isfinite(self.rival_raw_deg)) and (not self.worse or self.tied)
 
     def sentence(self) -> str:
         said = ", ".join(self.named)
         model = f"the model with {said}"
+        dm = self.difference
+        test = (f"their squared errors differ by {dm.mean_deg2:.3g} deg² on average, t = {dm.statistic:.2f} "
+                f"over {dm.blocks} stretches of {dm.block_samples} samples against {dm.critical:.2f} at "
+                f"{100.0 * LEVEL:.0f} %")
         if self.better:
             how, tail = f"follows the recorded angle better than {model}", "the recording favours it"
-        elif self.within_share:
-            how = f"follows the recorded angle as well as {model} (within {100.0 * TIE_SHARE:.0f} %)"
-            tail = "the recording cannot tell them apart"
+        elif self.worse:
+            close = (f"within {100.0 * TIE_SHARE:.0f} %" if self.within_share
+                     else f"both within {TIE_NOISE:g} times the sensor's noise, {self.noise_deg:.3g} deg")
+            how = f"follows the recorded angle nearly as {model} does ({close}), if reliably less closely"
+            tail = "two forms of other physics than the named can come that close"
         else:
-            how = (f"follows the recorded angle to the sensor's noise ({self.noise_deg:.3g} deg; within "
-                   f"{TIE_NOISE:g} times it) as {model} does, if less closely")
-            tail = "a rival the default search does not try fits to the noise too"
+            how = f"follows the recorded angle as {model} does, within what the recording can tell apart"
+            tail = "the recording cannot tell them apart"
         values = ", ".join(f"{k} {v:.3g}" for k, v in self.estimate.items())
-        return (f"{self.name} ({values}), searched only on request, fitted in place of {said}, {how}: raw "
+        what = "outside the library" if self.outside else "searched only on request"
+        advice = ("the library has no such effect" if self.outside else
+                  f"diagnose --search {self.name} weighs it as a candidate")
+        return (f"{self.name} ({values}), {what}, fitted in place of {said}, {how}: raw "
                 f"RMS error {self.rival_raw_deg:.3g} against {self.named_raw_deg:.3g} deg, each simulated "
-                f"from the recorded command with a constant offset alone (ΔBIC {self.delta_bic:.0f} over "
-                f"the plain model); {tail}, so the grade is not complete "
-                f"(diagnose --search {self.name} weighs it as a candidate)")
+                f"from the recorded command with a constant offset alone ({test}; ΔBIC "
+                f"{self.delta_bic:.0f} over the plain model); {tail}, so the grade is not complete "
+                f"({advice})")
 
     def to_json(self) -> dict:
+        dm = self.difference
         return {"name": self.name, "in_place_of": list(self.named), "params": dict(self.estimate),
                 "delta_bic": self.delta_bic, "raw_rmse_deg": self.rival_raw_deg,
-                "named_raw_rmse_deg": self.named_raw_deg, "noise_deg": self.noise_deg, "better": self.better}
+                "named_raw_rmse_deg": self.named_raw_deg, "noise_deg": self.noise_deg, "better": self.better,
+                "squared_error_difference_deg2": dm.mean_deg2, "difference_stderr_deg2": dm.stderr_deg2,
+                "difference_t": dm.statistic, "difference_critical_t": dm.critical, "blocks": dm.blocks,
+                "block_samples": dm.block_samples,
+                "outside_library": self.outside}
 
 
 def rivals_to_try(search: Sequence[str], in_model: Iterable[str]) -> list[str]:
@@ -118,21 +145,37 @@ def estimate_of(candidate: Candidate) -> dict[str, float]:
             if p.is_effect and p.label == candidate.name}
 
 
+def raw_misfit_deg(problem: Problem, angle_deg: np.ndarray, fitting: np.ndarray,
+                   scored: np.ndarray) -> np.ndarray:
+    """A model's raw error over `scored` in time order, with its own constant offset fitted on
+    `fitting` (raw_error.offset_of)."""
+    return problem.residual(angle_deg)[scored] - offset_of(problem, angle_deg, fitting)
+
+
+def fitted_rivals(problem: Problem, refit: Fit, final: Fit, named: Sequence[str], rivals: Sequence[str],
+           fitting: np.ndarray, scored: np.ndarray, noise_deg: float) -> list[Rival]:
+    """Each rival fitted from the plain refit (`beside`, LAZY_STARTS), side by side, against `final`, the
+    model with the `named` effects, on the raw angle; `noise_deg` the sensor's noise the fits
+    estimate."""
+    named_raw = raw_rms_deg(problem, final.angle_deg, fitting, scored)
+    named_err = raw_misfit_deg(problem, final.angle_deg, fitting, scored)
+    out = []
+    for candidate in ordered_map(lambda name: beside(problem, refit, name, lazy=LAZY_STARTS), rivals):
+        angle = candidate.fit.angle_deg
+        finite = bool(np.all(np.isfinite(angle)))
+        raw = raw_rms_deg(problem, angle, fitting, scored) if finite else float("inf")
+        difference = (loss_difference(named_err, raw_misfit_deg(problem, angle, fitting, scored)) if finite
+                      else LossDifference(float("inf"), 0.0, 0, 0, int(scored.sum())))
+        out.append(Rival(candidate.name, tuple(named), estimate_of(candidate), float(candidate.delta_bic),
+                         candidate.significant, raw, named_raw, noise_deg, difference))
+    return out
+
+
 def strongest(problem: Problem, refit: Fit, final: Fit, named: Sequence[str], rivals: Sequence[str],
               fitting: np.ndarray, scored: np.ndarray, noise_deg: float) -> Rival | None:
-    """The rival that stands with the lowest raw error, or None. Each rival is fitted from the
-    plain refit (`beside`, LAZY_STARTS), side by side; `final` is the model with the `named` effects;
-    `noise_deg` the sensor's noise the fits estimate."""
+    """The rival that stands (Rival.stands) with the lowest raw error, or None."""
     if not rivals:
         return None
-    named_raw = raw_rms_deg(problem, final.angle_deg, fitting, scored)
-    fitted = ordered_map(lambda name: beside(problem, refit, name, lazy=LAZY_STARTS), rivals)
-    standing = []
-    for candidate in fitted:
-        angle = candidate.fit.angle_deg
-        raw = raw_rms_deg(problem, angle, fitting, scored) if np.all(np.isfinite(angle)) else float("inf")
-        rival = Rival(candidate.name, tuple(named), estimate_of(candidate), float(candidate.delta_bic),
-                      candidate.significant, raw, named_raw, noise_deg)
-        if rival.stands:
-            standing.append(rival)
+    every = fitted_rivals(problem, refit, final, named, rivals, fitting, scored, noise_deg)
+    standing = [r for r in every if r.stands]
     return min(standing, key=lambda r: r.rival_raw_deg, default=None)
