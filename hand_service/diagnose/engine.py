@@ -57,6 +57,7 @@ from hand_service.diagnose.search import (
     set_search,
     tie_revisit,
 )
+from hand_service.diagnose.search.admission import gated
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Progress,
@@ -115,8 +116,8 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
              noise_model: str = "ar", also: Sequence[str] = (), jobs: int | None = None) -> Diagnosis:
     """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
     offset (residual/noise.py), so that clean recordings from a lab's sensor come out clean; or
-    "white", independent samples. `also`: library effects to search for beyond the ones
-    searched by default (Effect.searched), by the same tests. `jobs`: the threads its
+    "white", independent samples. `also`: library effects asked for by name, searched beyond
+    the default ones, by the same tests, and fitted whatever the screen says. `jobs`: the threads its
     simulations run on (diagnose/workers.py; None: HAND_DIAGNOSE_THREADS or the cores, 1:
     one thread), the same answer bit for bit on any number.
 
@@ -127,13 +128,13 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     with threadpool_limits(limits=1, user_api="blas"), workers.using(jobs):
         search = searched(also)
         result = _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                           noise_model, search)
+                           noise_model, search, also)
         at_onset = contact_at_onset(model, result, search)
         if at_onset is None:
             return result
         # the contact searched for from where the residual says a torque switches on
         again = _diagnose(at_onset, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                          noise_model, search)
+                          noise_model, search, also)
         if not again.effects or again.effects[0].name != "contact":
             return result
         onset = at_onset.effects["contact"]
@@ -146,10 +147,11 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
 
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
               rate_hz: float, progress: Progress | None, missing: np.ndarray | None, input_hold: str,
-              noise_model: str, search: list[str]) -> Diagnosis:
+              noise_model: str, search: list[str], asked: Sequence[str] = ()) -> Diagnosis:
     started = time.perf_counter()
     warnings: list[str] = []
-    problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold)
+    problem = replace(build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold),
+                      asked=frozenset(asked))  # fitted whatever their screen (search/admission.py)
     held, fit_mask = problem.held_mask, problem.fit_mask
     fitted, scored_held = fit_mask.copy(), held.copy()  # the raw figures' samples (raw_error.py)
     scored = fitted | scored_held
@@ -386,9 +388,11 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         left = said  # white innovations, yet structure the noise model took: graded `dominant`
         warnings.append(left)
     rival = (rival_check.strongest(problem, refit, final, [e.name for e in found],
-                                   rival_check.rivals_to_try(search, model.effects), fitted, scored, sigma)
+                                   rival_check.rivals_to_try([n for n in search if not gated(problem, n)],
+                                                             [*model.effects, *(e.name for e in found)]),
+                                   fitted, scored, sigma)
              if verdict == "missing_physics" and not left else None)
-    if rival is not None:  # an effect searched only on request follows the raw angle as well
+    if rival is not None:  # an effect searched behind the screen follows the raw angle as well
         left = rival.sentence()
         warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,

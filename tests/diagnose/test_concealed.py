@@ -31,7 +31,8 @@ def run(hidden: dict, excitation: str, seed: int, **kwargs):
 
 
 def test_every_searched_effect_has_a_representative() -> None:
-    assert set(EXCITATION) == {e.name for e in fx.SEARCHED}
+    """(the eight: the four searched behind the screen have their own tests)"""
+    assert set(EXCITATION) == {e.name for e in fx.SEARCHED if not e.admitted_by_screen}
 
 
 IN_MAKE_TEST = ("coulomb_friction", "gravity")  # the rest in make test-thorough (the slice's every effect:

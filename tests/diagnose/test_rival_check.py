@@ -63,18 +63,40 @@ def test_its_sentence_passes_the_sentence_checks() -> None:
         assert failures(f"warning: {rival.sentence()}", facts) == []
 
 
-def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path) -> None:
-    """The independent truth's finger whose chamber pressure stiffens it (the library's
-    `pressure_stiffening`, searched only on request), steps through a ringing finger at
-    500 Hz, 3.2 times the sensor's noise: the default search names `gravity`, which followed
-    the recording to its noise and was graded `complete` (docs/results.md §12.36, §12.40).
-    Fitted in its place, the stiffening follows the raw angle better: the grade is not
-    `complete`, the rival is said, and every sentence passes the checks."""
+def _stiffening_finger(tmp_path: Path) -> tuple[Path, Path]:
+    """The independent truth's finger whose chamber pressure stiffens it, steps through a
+    ringing finger at 500 Hz, 3.2 times the sensor's noise."""
     spec = cs.CaseSpec("pressure_stiffening", "steps", 0, "evident", family="ringing", rate_hz=500.0,
                        strength=0.09442335726225226)
     case = cs.build(spec)
     assert case.visibility > 3.0, case.visibility
-    d = _diagnosed(*cs.write(case, tmp_path))
+    return cs.write(case, tmp_path)
+
+
+def test_a_stiffening_finger_is_named_so_by_default(tmp_path: Path) -> None:
+    """Searched behind the screen (search/admission.py), the stiffening screens ahead of the
+    eight's stand-ins by the naming margin and is named first; named, it is no rival of
+    itself (the rival check fits only what was not named)."""
+    d = _diagnosed(*_stiffening_finger(tmp_path))
+    assert d.verdict == "missing_physics", d.warnings
+    assert d.effects[0].name == "pressure_stiffening", d.warnings
+    assert d.rival is None or d.rival.name not in [e.name for e in d.effects]
+
+
+def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path, monkeypatch) -> None:
+    """The same finger with the eight alone searched (the four behind the screen left out):
+    they name `gravity`, which followed the recording to its noise and was graded `complete`
+    (docs/results.md §12.36, §12.40). Fitted in its place, the stiffening follows the raw
+    angle better: the grade is not `complete`, the rival is said, and every sentence passes
+    the checks."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose import requested
+
+    def eight(also: object) -> list[str]:
+        return [name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen]
+
+    monkeypatch.setattr("hand_service.diagnose.engine.searched", eight)
+    d = _diagnosed(*_stiffening_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert d.grade == "dominant", d.warnings
     assert d.rival is not None and d.rival.name == "pressure_stiffening" and d.rival.better, d.warnings
