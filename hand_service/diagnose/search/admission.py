@@ -26,17 +26,25 @@ else the two are a tie (Selection.ambiguous), said so.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Protocol, TypeVar
 
 import numpy as np
 
 from hand_service.config import effects as fx
+from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.fitting.raw_error import TIE_SHARE, at_noise, raw_rms_deg
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search.screening import Screen
 
-if TYPE_CHECKING:
-    from hand_service.diagnose.search.forward_selection import Candidate
+
+class Fitted(Protocol):
+    """What the loop-or-friction check reads of a candidate (forward_selection.Candidate)."""
+
+    name: str
+    fit: Fit
+
+
+Candidate = TypeVar("Candidate", bound=Fitted)
 
 LOOP = "hysteresis"
 FRICTION = "coulomb_friction"
