@@ -63,8 +63,8 @@ from hand_service.diagnose.search.forward_selection import (
     Progress,
     Selection,
     data_alone_bic,
-    select,
 )
+from hand_service.diagnose.search.late_stand_in import select_screened
 
 
 def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
@@ -213,7 +213,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     lost = raw_error.cannot_follow(problem, refit.angle_deg, fitted, scored)
     # the plain model's adequacy first: no effect is searched for on a model that cannot
     # follow the recording at all
-    selection = Selection(final=refit) if lost else select(problem, refit, missing, progress)
+    selection = Selection(final=refit) if lost else select_screened(problem, refit, missing, progress)
     if (found_set := set_search.search(problem, selection, progress)) is not None:
         warnings.append(found_set.sentence())  # a first pick the posture check withdraws: sets
         selection = found_set.selection

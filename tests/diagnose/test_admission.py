@@ -21,7 +21,8 @@ from hand_service.diagnose.search.admission import (
     gated,
     loop_beats_friction,
 )
-from hand_service.diagnose.search.forward_selection import NAME_MARGIN_BIC
+from hand_service.diagnose.search.forward_selection import NAME_MARGIN_BIC, Selection
+from hand_service.diagnose.search.late_stand_in import late_stand_in
 from hand_service.diagnose.search.screening import Screen
 
 FOUR = ("contact", "hysteresis", "pressure_stiffening", "creep")
@@ -124,3 +125,36 @@ def test_a_loop_that_dry_friction_draws_as_well_is_a_tie_with_it() -> None:
     # no loop named first, or dry friction already in the model: nothing to ask
     assert friction_rival(problem, friction, [friction, loop], remaining, unused) is None
     assert friction_rival(problem, loop, [loop], ["hysteresis"], unused) is None
+
+
+def test_a_stand_in_accepted_late_with_more_evidence_than_the_first_pick_is_asked_again() -> None:
+    """A contact screened out of the first round (its onset at the start's) and accepted
+    beside the cubic spring picked there with ten times its ΔBIC: the selection runs again
+    with the contact fitted from the first round (late_stand_in.py)."""
+    pick = SimpleNamespace(name="cubic_stiffness", delta_bic=296.0)
+    late = SimpleNamespace(name="contact", delta_bic=2907.0)
+    assert late_stand_in(_problem(), Selection(accepted=[pick, late])) == "contact"
+    # less evidence than the first pick, one of the eight, or one fitted from the first round
+    # already (asked for, or given): the selection stands
+    assert late_stand_in(_problem(), Selection(accepted=[pick, SimpleNamespace(name="contact",
+                                                                                delta_bic=200.0)])) is None
+    assert late_stand_in(_problem(), Selection(accepted=[pick, SimpleNamespace(name="gravity",
+                                                                                delta_bic=900.0)])) is None
+    assert late_stand_in(_problem(asked=("contact",)), Selection(accepted=[pick, late])) is None
+    assert late_stand_in(_problem(), Selection(accepted=[late])) is None
+
+
+@pytest.mark.thorough
+def test_a_contact_screened_out_of_the_first_round_is_named_alone(tmp_path) -> None:
+    """The independent truth's contact (Hunt-Crossley, stiff finger, vent release at 1 kHz,
+    3.3 times the noise): behind the screen a cubic spring was picked first and the contact
+    beside it (ΔBIC 296, then 2 907: docs/results.md §12.49); asked again from the first
+    round, the contact is named alone."""
+    from tests.diagnose.test_sentence_checks import _diagnosed
+    from tests.diagnose.truth import cases as cs
+
+    case = cs.build(cs.CaseSpec("contact", "vent_release", 0, "evident", family="stiff", rate_hz=1000.0,
+                                strength=5.0))
+    assert case.visibility > 3.0, case.visibility
+    d = _diagnosed(*cs.write(case, tmp_path))
+    assert [e.name for e in d.effects] == ["contact"], d.warnings
