@@ -84,9 +84,8 @@ def friction_rival(problem: Problem, best: Candidate, candidates: list[Candidate
                    fit_beside: Callable[[str], Candidate]) -> Candidate | None:
     """Where the round's best is the loop: dry friction's candidate when the loop does not
     beat it on the raw angle (a tie), else None. Dry friction is fitted (`fit_beside`) where
-    the round did not fit it. Whether dry friction would be named itself does not enter: a
-    closed loop's steps whose dry friction the eight could not tell from k, B and N
-    (`insufficient_excitation`) had the loop named, the same draw on the raw angle."""
+    the round did not fit it. Whether dry friction would be named itself does not enter:
+    the raw angle alone says whether it draws the loop as well."""
     if best.name != LOOP or FRICTION not in remaining:
         return None
     friction = next((c for c in candidates if c.name == FRICTION), None) or fit_beside(FRICTION)
