@@ -56,8 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "independent samples (see docs/diagnose.md)")
     parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
                         help="search for a library effect by name: one diagnose leaves out by "
-                             "default (valve_vent_lag), or one it searches behind its screen "
-                             "(contact, hysteresis, pressure_stiffening, creep), then fitted "
+                             "default (pressure_stiffening, creep, valve_vent_lag), or one it "
+                             "searches behind its screen (contact, hysteresis), then fitted "
                              "whatever the screen says, with its shape (a contact's onset, "
                              "exponent and damping, a loop's travel, creep's time; "
                              "docs/diagnose.md); repeatable")

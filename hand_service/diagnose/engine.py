@@ -392,7 +392,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                                                              [*model.effects, *(e.name for e in found)]),
                                    fitted, scored, sigma)
              if verdict == "missing_physics" and not left else None)
-    if rival is not None:  # an effect searched behind the screen follows the raw angle as well
+    if rival is not None:  # an effect searched only on request follows the raw angle as well
         left = rival.sentence()
         warnings.append(left)
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,

@@ -43,12 +43,12 @@ def _screen(name: str, white_bic: float) -> Screen:
     return Screen(name, Param.effect(name), 0.5, 0.5, [spec.neutral], white_bic, white_bic)
 
 
-def test_the_four_are_searched_by_default_behind_the_screen() -> None:
+def test_contact_and_hysteresis_are_searched_by_default_behind_the_screen() -> None:
     default = searched(())
-    assert set(FOUR) <= set(default)
-    assert "valve_vent_lag" not in default  # it refines a lag already named: on request still
-    assert [n for n in default if fx.BY_NAME[n].admitted_by_screen] == [
-        n for n in default if n in FOUR]
+    assert {"contact", "hysteresis"} <= set(default)
+    # on request still: a lag's refinement, and the two the rival check fits in place
+    assert not {"valve_vent_lag", "pressure_stiffening", "creep"} & set(default)
+    assert all(fx.BY_NAME[n].admitted_by_screen for n in FOUR)
     assert not any(fx.BY_NAME[n].admitted_by_screen for n in default if n not in FOUR)
 
 
