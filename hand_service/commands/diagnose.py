@@ -55,10 +55,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "chain's noise: a clean recording then comes out clean); white, "
                              "independent samples (see docs/diagnose.md)")
     parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
-                        help="search also for a library effect diagnose leaves out by default "
-                             "(contact, hysteresis, pressure_stiffening, creep, valve_vent_lag: each "
-                             "fitted with its shape, a contact's onset, exponent and damping, "
-                             "a loop's travel, creep's time; "
+                        help="search for a library effect by name: one diagnose leaves out by "
+                             "default (pressure_stiffening, creep, valve_vent_lag), or one it "
+                             "searches behind its screen (contact, hysteresis), then fitted "
+                             "whatever the screen says, with its shape (a contact's onset, "
+                             "exponent and damping, a loop's travel, creep's time; "
                              "docs/diagnose.md); repeatable")
     parser.add_argument("--jobs", type=_jobs, default=None, metavar="N",
                         help="threads the simulations run on (default: one per core, at most 4, or "

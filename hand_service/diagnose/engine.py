@@ -58,13 +58,14 @@ from hand_service.diagnose.search import (
     set_search,
     tie_revisit,
 )
+from hand_service.diagnose.search.admission import gated
 from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Progress,
     Selection,
     data_alone_bic,
-    select,
 )
+from hand_service.diagnose.search.late_stand_in import select_screened
 
 
 def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
@@ -116,8 +117,8 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
              noise_model: str = "ar", also: Sequence[str] = (), jobs: int | None = None) -> Diagnosis:
     """`noise_model`: "ar" (default), the sensor noise correlated in time on a drifting
     offset (residual/noise.py), so that clean recordings from a lab's sensor come out clean; or
-    "white", independent samples. `also`: library effects to search for beyond the ones
-    searched by default (Effect.searched), by the same tests. `jobs`: the threads its
+    "white", independent samples. `also`: library effects asked for by name, searched beyond
+    the default ones, by the same tests, and fitted whatever the screen says. `jobs`: the threads its
     simulations run on (diagnose/workers.py; None: HAND_DIAGNOSE_THREADS or the cores, 1:
     one thread), the same answer bit for bit on any number.
 
@@ -128,13 +129,13 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     with threadpool_limits(limits=1, user_api="blas"), workers.using(jobs):
         search = searched(also)
         result = _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                           noise_model, search)
+                           noise_model, search, also)
         at_onset = contact_at_onset(model, result, search)
         if at_onset is None:
             return result
         # the contact searched for from where the residual says a torque switches on
         again = _diagnose(at_onset, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                          noise_model, search)
+                          noise_model, search, also)
         if not again.effects or again.effects[0].name != "contact":
             return result
         onset = at_onset.effects["contact"]
@@ -147,10 +148,11 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
 
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
               rate_hz: float, progress: Progress | None, missing: np.ndarray | None, input_hold: str,
-              noise_model: str, search: list[str]) -> Diagnosis:
+              noise_model: str, search: list[str], asked: Sequence[str] = ()) -> Diagnosis:
     started = time.perf_counter()
     warnings: list[str] = []
-    problem = build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold)
+    problem = replace(build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold),
+                      asked=frozenset(asked))  # fitted whatever their screen (search/admission.py)
     held, fit_mask = problem.held_mask, problem.fit_mask
     fitted, scored_held = fit_mask.copy(), held.copy()  # the raw figures' samples (raw_error.py)
     scored = fitted | scored_held
@@ -210,9 +212,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         refit_e = problem.innovations(refit.angle_deg)
         refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     lost = raw_error.cannot_follow(problem, refit.angle_deg, fitted, scored)
-    # the plain model's adequacy first: no effect is searched for on a model that cannot
-    # follow the recording at all
-    selection = Selection(final=refit) if lost else select(problem, refit, missing, progress)
+    # the plain model's adequacy first: no effect is searched on one that cannot follow the data
+    selection = Selection(final=refit) if lost else select_screened(problem, refit, missing, progress)
     if (found_set := set_search.search(problem, selection, progress)) is not None:
         warnings.append(found_set.sentence())  # a first pick the posture check withdraws: sets
         selection = found_set.selection
@@ -386,9 +387,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             said := noise_only.named_structure(problem, final, valid)):
         left = said  # white innovations, yet structure the noise model took: graded `dominant`
         warnings.append(left)
-    rival, names = None, [e.name for e in found]
+    rival, names, ungated = None, [e.name for e in found], [s for s in search if not gated(problem, s)]
     if verdict == "missing_physics" and not left:  # an on-request effect or a loop: the closer stands
-        tried = rival_check.rivals_to_try(search, model.effects)
+        tried = rival_check.rivals_to_try(ungated, [*model.effects, *names])
         on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma)
         rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma)
     if rival is not None:  # a rival the search did not try follows the raw angle as well

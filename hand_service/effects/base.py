@@ -72,6 +72,9 @@ class Effect(ABC):
     # `diagnose` searches for it (an effect whose onset or shape it cannot fit yet is
     # simulated and compensated, not searched: docs/effects.md)
     searched: bool = True
+    # fitted only where its screen beats every other searched effect's by the naming margin
+    # (diagnose/search/admission.py): an effect that can stand in for the others' physics
+    admitted_by_screen: bool = False
 
     # --- the primary parameter, as the one-parameter table had it ---------------------
     @property

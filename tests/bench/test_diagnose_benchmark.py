@@ -90,7 +90,8 @@ def test_diagnose_an_over_damped_actuator(benchmark, tmp_path) -> None:
 
 CLASSES = ["steps", "chirp", "prbs", "multisine", "ramp", "slow_sine", "vent_release", "pi_steps"]
 FAMILIES = ["ringing", "overdamped", "stiff"]
-ON_REQUEST = ("contact", "hysteresis", "pressure_stiffening", "creep")  # searched only when asked (issue 41)
+BEHIND_SCREEN = ("contact", "hysteresis", "pressure_stiffening", "creep")  # issue 41's four
+EIGHT_ONLY = ("<the eight alone>",)  # _timed's default search without BEHIND_SCREEN
 
 
 def _eight(tmp_path) -> list:
@@ -101,11 +102,23 @@ def _eight(tmp_path) -> list:
 
 
 def _timed(model, grid, also: tuple[str, ...] = ()) -> tuple[float, float, str]:
-    """One diagnose: wall and CPU seconds (all threads) and the verdict with its names."""
+    """One diagnose: wall and CPU seconds (all threads) and the verdict with its names.
+    `also` EIGHT_ONLY: the default search without the effects searched behind the screen."""
+    import contextlib
     import time
+    from unittest import mock
 
-    started, cpu_started = time.perf_counter(), time.process_time()
-    result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz, also=also)
+    from hand_service.config import effects as fx
+    from hand_service.diagnose import requested
+
+    def eight(asked: tuple[str, ...]) -> list[str]:
+        return [name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen]
+
+    alone = also == EIGHT_ONLY
+    with mock.patch("hand_service.diagnose.engine.searched", eight) if alone else contextlib.nullcontext():
+        started, cpu_started = time.perf_counter(), time.process_time()
+        result = diagnose(model, grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz,
+                          also=() if alone else also)
     named = ",".join(e.name for e in result.effects)
     answer = f"{result.verdict} {named}".strip()
     return time.perf_counter() - started, time.process_time() - cpu_started, answer
@@ -137,35 +150,43 @@ def test_diagnose_median_and_max_over_independent_100_hz_recordings(benchmark, t
 
 
 @pytest.mark.slow
-def test_diagnose_with_the_effects_searched_on_request(benchmark, tmp_path) -> None:
+def test_diagnose_with_the_four_searched_behind_the_screen(benchmark, tmp_path) -> None:
     """Issue 41's speed budget for searching the four effects by default: the median and the
-    largest time over the same eight recordings with them searched (`also`) within 1.5 times
-    those with the default search. Both searches run on each recording in turn, so that a
-    load that changes over the run weighs on both; each recording's CPU time (the figure a
-    busy machine does not inflate), both answers and the ratios are printed."""
+    largest CPU time over the same eight recordings with the default search (the four behind
+    the screen, search/admission.py) within 1.5 times those with the eight alone, and every
+    name the eight give kept (a Dahl loop named for dry friction broke both: docs/results.md
+    §12.30; where the eight name nothing, a new name is printed, judged in docs/results.md).
+    Both searches run on each recording in turn, so that a load that changes over the run
+    weighs on both; each recording's CPU time (the figure a busy machine does not inflate),
+    both answers and the ratios are printed."""
     import numpy as np
 
     inputs = _eight(tmp_path)
-    cpu_s: dict[tuple[str, ...], list[float]] = {(): [], ON_REQUEST: []}
-    wall_s: dict[tuple[str, ...], list[float]] = {(): [], ON_REQUEST: []}
+    cpu_s: dict[tuple[str, ...], list[float]] = {EIGHT_ONLY: [], (): []}
+    wall_s: dict[tuple[str, ...], list[float]] = {EIGHT_ONLY: [], (): []}
+    answers: dict[tuple[str, ...], list[str]] = {EIGHT_ONLY: [], (): []}
 
     def run_all() -> None:
         for excitation, (model, grid) in zip(CLASSES, inputs, strict=True):
-            answers = []
-            for also in cpu_s:
-                wall, cpu, answer = _timed(model, grid, also)
-                wall_s[also].append(wall)
-                cpu_s[also].append(cpu)
-                answers.append(answer)
-            print(f"\n{excitation}: CPU {cpu_s[()][-1]:.2f} s -> {cpu_s[ON_REQUEST][-1]:.2f} s; "
-                  f"{answers[0]} -> {answers[1]}")
+            for search in cpu_s:
+                wall, cpu, answer = _timed(model, grid, search)
+                wall_s[search].append(wall)
+                cpu_s[search].append(cpu)
+                answers[search].append(answer)
+            print(f"\n{excitation}: CPU {cpu_s[EIGHT_ONLY][-1]:.2f} s -> {cpu_s[()][-1]:.2f} s; "
+                  f"{answers[EIGHT_ONLY][-1]} -> {answers[()][-1]}")
 
     benchmark.pedantic(run_all, rounds=1, iterations=1)
+    ratios = {}
     for label, figure in (("median", np.median), ("max", np.max)):
-        before, after = float(figure(cpu_s[()])), float(figure(cpu_s[ON_REQUEST]))
-        benchmark.extra_info[f"{label}_cpu_ratio"] = after / before
+        before, after = float(figure(cpu_s[EIGHT_ONLY])), float(figure(cpu_s[()]))
+        ratios[label] = benchmark.extra_info[f"{label}_cpu_ratio"] = after / before
         print(f"\n{label} CPU per recording: {before:.2f} s -> {after:.2f} s ({after / before:.2f} x; "
-              f"wall {float(figure(wall_s[()])):.2f} -> {float(figure(wall_s[ON_REQUEST])):.2f} s)")
+              f"wall {float(figure(wall_s[EIGHT_ONLY])):.2f} -> {float(figure(wall_s[()])):.2f} s)")
+    named_by_eight = [(a, b) for a, b in zip(answers[EIGHT_ONLY], answers[()], strict=True)
+                      if a.startswith("missing_physics")]
+    assert all(a == b for a, b in named_by_eight), named_by_eight
+    assert ratios["median"] <= 1.5 and ratios["max"] <= 1.5
 
 
 @pytest.mark.slow

@@ -49,11 +49,23 @@ def _diagnose(spec: cs.CaseSpec, tmp_path: Path) -> dict:
     return json.loads(out.read_text())
 
 
-def test_a_hysteresis_loop_on_ramps_is_not_named_a_valve_lag(tmp_path: Path) -> None:
-    """A stiff finger with an evident Bouc-Wen loop (outside the library) under triangles
-    of three rates: a valve lag was named (ΔBIC 15) though it explained 1 % of the
-    mismatch; the loop along the command's path explains the residual better by ΔBIC 67,
-    so nothing is named."""
+def test_a_hysteresis_loop_on_ramps_is_named_a_loop_by_default(tmp_path: Path) -> None:
+    """A stiff finger with an evident Bouc-Wen loop under triangles of three rates: the
+    library's Dahl loop, searched behind the screen, names it."""
+    spec = cs.CaseSpec("hysteresis", "ramp", 0, "evident", "stiff", 100.0, 0.606300988877228)
+    result = _diagnose(spec, tmp_path)
+    assert [e["name"] for e in result["effects"]] == ["hysteresis"], result["warnings"]
+
+
+def test_a_hysteresis_loop_on_ramps_is_not_named_a_valve_lag(tmp_path: Path, monkeypatch) -> None:
+    """The same loop with the eight alone searched: a valve lag was named (ΔBIC 15) though
+    it explained 1 % of the mismatch; the loop along the command's path explains the
+    residual better by ΔBIC 67, so nothing is named."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose import requested
+
+    monkeypatch.setattr("hand_service.diagnose.engine.searched", lambda also: [
+        name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen])
     spec = cs.CaseSpec("hysteresis", "ramp", 0, "evident", "stiff", 100.0, 0.606300988877228)
     result = _diagnose(spec, tmp_path)
     assert result["effects"] == [], [e["name"] for e in result["effects"]]

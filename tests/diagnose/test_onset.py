@@ -52,13 +52,29 @@ def _diagnose(spec: cs.CaseSpec, tmp_path: Path) -> tuple[dict, dict]:
     return json.loads(out.read_text()), json.loads((tmp_path / f"{spec.id}.truth.json").read_text())
 
 
-def test_an_object_touched_at_the_top_of_a_slow_sine_is_located_not_named(tmp_path: Path) -> None:
+OBJECT_AT_78 = cs.CaseSpec("contact", "slow_sine", 0, "concealed", "overdamped", 200.0, 2.6312124569804047)
+
+
+def test_an_object_touched_at_the_top_of_a_slow_sine_is_named_a_contact_there(tmp_path: Path) -> None:
     """An over-damped finger on a slow sine that presses into an object past 78° (Hunt-
-    Crossley, outside the library) for the top 10 % of its samples: a cubic spring fitted
-    it with a white residual and was named (ΔBIC about 100). The onset test puts the
-    torque's start within 1° of the object and leaves the verdict `unexplained`."""
-    spec = cs.CaseSpec("contact", "slow_sine", 0, "concealed", "overdamped", 200.0, 2.6312124569804047)
-    result, truth = _diagnose(spec, tmp_path)
+    Crossley) for the top 10 % of its samples: the default search (contact behind the
+    screen) names a contact, its onset within 1° of the object."""
+    result, truth = _diagnose(OBJECT_AT_78, tmp_path)
+    assert [e["name"] for e in result["effects"]] == ["contact"], result["verdict"]
+    assert abs(result["effects"][0]["params"]["onset_deg"] - truth["truth"]["contact_deg"]) < 1.0
+
+
+def test_an_object_touched_at_the_top_of_a_slow_sine_is_located_not_named(tmp_path: Path,
+                                                                          monkeypatch) -> None:
+    """The same object with the eight alone searched: a cubic spring fitted it with a white
+    residual and was named (ΔBIC about 100). The onset test puts the torque's start within
+    1° of the object and leaves the verdict `unexplained`."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose import requested
+
+    monkeypatch.setattr("hand_service.diagnose.engine.searched", lambda also: [
+        name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen])
+    result, truth = _diagnose(OBJECT_AT_78, tmp_path)
     assert result["verdict"] == "unexplained" and result["effects"] == [], result["verdict"]
     assert [e["name"] for e in result["partial_effects"]] == ["cubic_stiffness"]
     onset = result["onset"]

@@ -27,10 +27,27 @@ def test_a_spring_stiffening_faster_than_the_cube_on_a_one_way_ramp_is_named_a_c
     assert any("gravity does not hold across the recording's postures" in w for w in result["warnings"])
 
 
-def test_a_stiff_object_met_past_45_degrees_is_located_not_named_gravity(tmp_path: Path) -> None:
-    """An object five times as stiff as the finger, met past 45° on steps: gravity fitted it
-    with k at a third of the nominal and was named. Its slope over the range is many times
-    k, so the onset is fitted in full: it wins, within 2° of the object."""
+def test_a_stiff_object_met_past_45_degrees_is_named_a_contact_there(tmp_path: Path) -> None:
+    """An object five times as stiff as the finger, met past 45° on steps: the default search
+    (contact behind the screen, searched again from the residual's onset) names a contact
+    within 2° of the object."""
+    out = tmp_path / "diagnose.json"
+    assert main(["diagnose", str(OUTSIDE / "stiff_contact_steps.csv"), "--model",
+                 str(OUTSIDE / "stiff_contact_steps.yaml"), "--json", str(out), "--quiet"]) == 0
+    result = json.loads(out.read_text())
+    assert [e["name"] for e in result["effects"]] == ["contact"], result["verdict"]
+    assert abs(result["effects"][0]["params"]["onset_deg"] - 45.0) < 2.0
+
+
+def test_a_stiff_object_met_past_45_degrees_is_located_not_named_gravity(tmp_path: Path, monkeypatch) -> None:
+    """The same object with the eight alone searched: gravity fitted it with k at a third of
+    the nominal and was named. Its slope over the range is many times k, so the onset is
+    fitted in full: it wins, within 2° of the object."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose import requested
+
+    monkeypatch.setattr("hand_service.diagnose.engine.searched", lambda also: [
+        name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen])
     out = tmp_path / "diagnose.json"
     assert main(["diagnose", str(OUTSIDE / "stiff_contact_steps.csv"), "--model",
                  str(OUTSIDE / "stiff_contact_steps.yaml"), "--json", str(out), "--quiet"]) == 0

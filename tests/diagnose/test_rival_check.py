@@ -19,10 +19,10 @@ from tests.diagnose.truth import cases as cs
 
 
 def _rival(rival_raw_deg: float, z: float, named_raw_deg: float = 0.30, significant: bool = True,
-           outside: bool = False) -> Rival:
+           loop: bool = False) -> Rival:
     difference = LossDifference(z * 1e-3, 1e-3, 150, 20, 3000)
     return Rival("pressure_stiffening", ("gravity",), {"gain": 0.42}, 120.0, significant, rival_raw_deg,
-                 named_raw_deg, 0.30, difference, outside)
+                 named_raw_deg, 0.30, difference, loop)
 
 
 def _ar1(rho: float, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -114,24 +114,35 @@ def test_a_rival_already_searched_or_in_the_model_is_not_fitted_again() -> None:
 
 def test_its_sentence_passes_the_sentence_checks() -> None:
     facts = Facts(200.0, 0.01, True, 3.0, None, 4000)
-    for rival in (_rival(0.301, 0.3), _rival(0.25, -2.5), _rival(0.33, 1.2), _rival(0.31, 0.5, outside=True)):
+    for rival in (_rival(0.301, 0.3), _rival(0.25, -2.5), _rival(0.33, 1.2), _rival(0.31, 0.5, loop=True)):
         assert failures(rival.sentence(), facts) == [], rival.sentence()
         assert failures(f"warning: {rival.sentence()}", facts) == []
 
 
-def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path) -> None:
-    """The independent truth's finger whose chamber pressure stiffens it (the library's
-    `pressure_stiffening`, searched only on request), steps through a ringing finger at
-    500 Hz, 3.2 times the sensor's noise: the default search names `gravity`, which followed
-    the recording to its noise and was graded `complete` (docs/results.md §12.36, §12.40).
-    Fitted in its place, the stiffening follows the raw angle more closely, if not beyond what
-    a recording of a few long steps can tell: the grade is not `complete`, the rival is said,
-    and every sentence passes the checks."""
+def _stiffening_finger(tmp_path: Path) -> tuple[Path, Path]:
+    """The independent truth's finger whose chamber pressure stiffens it, steps through a
+    ringing finger at 500 Hz, 3.2 times the sensor's noise."""
     spec = cs.CaseSpec("pressure_stiffening", "steps", 0, "evident", family="ringing", rate_hz=500.0,
                        strength=0.09442335726225226)
     case = cs.build(spec)
     assert case.visibility > 3.0, case.visibility
-    d = _diagnosed(*cs.write(case, tmp_path))
+    return cs.write(case, tmp_path)
+
+
+def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path, monkeypatch) -> None:
+    """The eight alone searched (the default's ground, whatever else it searches behind the
+    screen) name `gravity`, which followed the recording to its noise and was graded
+    `complete` (docs/results.md §12.36, §12.40). Fitted in its place, the stiffening follows the raw
+    angle better: the grade is not `complete`, the rival is said, and every sentence passes
+    the checks."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose import requested
+
+    def eight(also: object) -> list[str]:
+        return [name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen]
+
+    monkeypatch.setattr("hand_service.diagnose.engine.searched", eight)
+    d = _diagnosed(*_stiffening_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert d.grade == "dominant", d.warnings
     assert d.rival is not None and d.rival.name == "pressure_stiffening", d.warnings
@@ -148,8 +159,8 @@ def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_comp
     the default search names `gravity` and `cubic_stiffness`, which follow the recording to
     its noise, and no library rival stands (docs/results.md §12.42). The simulator's loop,
     fitted in their place, gains on the plain model, holds a loop's memory, and the raw angle
-    cannot tell it from them: the grade is not `complete`, the loop is said as outside the
-    library, and every sentence passes the checks."""
+    cannot tell it from them: the grade is not `complete`, the loop is said as the library's
+    hysteresis form, and every sentence passes the checks."""
     spec = cs.CaseSpec("hysteresis", "prbs", 1, "evident", family="overdamped", rate_hz=200.0)
     case = cs.build(spec)
     assert case.visibility > 3.0, case.visibility
@@ -157,8 +168,8 @@ def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_comp
     assert d.verdict == "missing_physics", d.warnings
     assert [e.name for e in d.effects] == ["gravity", "cubic_stiffness"], d.warnings
     assert d.grade == "dominant", d.warnings
-    assert d.rival is not None and d.rival.name == "hysteresis_loop" and d.rival.outside, d.warnings
+    assert d.rival is not None and d.rival.name == "hysteresis_loop" and d.rival.loop, d.warnings
     assert not d.rival.worse and d.rival.difference.n > 0
-    assert d.to_json()["rival"]["outside_library"] is True
-    assert "outside the library" in d.structure_left
+    assert d.to_json()["rival"]["loop"] is True
+    assert "Dahl's form, the library's hysteresis" in d.structure_left
     assert _report_failures(d) == []

@@ -97,6 +97,7 @@ class Problem:
     # the model file's effects block: an effect searched for starts its shape (a contact's
     # onset, a loop's travel) at the values it gives, else at Effect.shape_start
     given_effects: dict[str, dict[str, float]] = dataclasses.field(default_factory=dict)
+    asked: frozenset[str] = frozenset()  # `--search`'s effects: fitted whatever their screen (admission.py)
     simulations: SimulationCache = dataclasses.field(default_factory=SimulationCache, repr=False,
                                                      compare=False)
     fits: FitCache = dataclasses.field(default_factory=FitCache, repr=False, compare=False)

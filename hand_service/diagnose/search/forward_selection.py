@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -32,6 +33,7 @@ from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import NO_PRIOR, Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import effect_size
+from hand_service.diagnose.search.admission import admitted, friction_rival
 from hand_service.diagnose.search.held_out import expected_z, second_split_z
 from hand_service.diagnose.search.joint_start import joint_range, nominal_start
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
@@ -332,6 +334,7 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     longest_first = sorted(names, key=lambda name: name not in WHOLE_GRID)
     screens = ordered_map(lambda name: screen(problem, base, name), longest_first)
     screens.sort(key=lambda s: (-s.predicted_bic, names.index(s.name)))
+    screens = admitted(problem, screens, NAME_MARGIN_BIC)  # a stand-in only past the screen
     chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
     if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
         # later rounds: an effect whose best point of the scan, k, B, N and the accepted
@@ -371,18 +374,22 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
             # model, most of them stand in for the first pick.
             standing = [c.name for c in round_.candidates[1:] if c.significant]
         runner = round_.candidates[1] if len(round_.candidates) > 1 else None
-        if runner is not None and runner.significant and best.delta_bic - runner.delta_bic < NAME_MARGIN_BIC:
+        # a loop that dry friction draws as well on the raw angle is a tie with it (admission.py)
+        other = friction_rival(problem, best, round_.candidates, remaining, partial(beside, problem, current))
+        if (other is None and runner is not None and runner.significant
+                and best.delta_bic - runner.delta_bic < NAME_MARGIN_BIC):
             # Both explain the residual about as well: unless the two together do clearly
             # better than the best alone, they are two names for one signature.
             if progress:
                 progress(f"{best.name} or {runner.name}? fitting both together")
-            both = beside(problem, best.fit, runner.name)
-            if not both.significant:
-                selection.ambiguous = (best, runner)
-                selection.carried.append(best)
-                current = best.fit
-                remaining = [name for name in remaining if name not in (best.name, runner.name)]
-                continue
+            if not beside(problem, best.fit, runner.name).significant:
+                other = runner
+        if other is not None:
+            selection.ambiguous = (best, other)
+            selection.carried.append(best)
+            current = best.fit
+            remaining = [name for name in remaining if name not in (best.name, other.name)]
+            continue
         selection.accepted.append(best)
         current = best.fit
         remaining.remove(best.name)

@@ -1,5 +1,6 @@
-"""A loop in the angle as a rival before the grade `complete`: hysteresis, outside the library,
-fitted in place of every named effect.
+"""A loop in the angle as a rival before the grade `complete`: a hysteresis loop in Dahl's form
+(the library's `hysteresis`, which the search's screen may keep out) fitted in place of every
+named effect.
 
 A material whose torque lags the angle by a loop (an elastomer's hysteresis) holds the
 finger off its spring's line by a torque that turns over within some travel after each
@@ -17,7 +18,7 @@ lose to the named model there by no more (the search's margin for a tie: a loop 
 the named model by more would not be named had it been searched), hold a loop's memory (the
 same loop with its travel held at material_hysteresis's floor, where it turns over as
 friction does, loses to it by more than SIGNIFICANT_BIC: a loop that is a library friction
-is no physics outside the library), and the raw angle must not find it worse than the named
+is no other physics than the friction), and the raw angle must not find it worse than the named
 model (raw_difference.py). Then the grade is `dominant`, and the loop is said.
 """
 
@@ -85,7 +86,7 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
                   raw_rms_deg(problem, loop.angle_deg, fitting, scored),
                   raw_rms_deg(problem, final.angle_deg, fitting, scored), noise_deg,
                   loss_difference(named_err, raw_misfit_deg(problem, loop.angle_deg, fitting, scored)),
-                  outside=True)
+                  loop=True)
     return rival if rival.stands else None
 
 

@@ -63,7 +63,7 @@ class Rival:
     named_raw_deg: float
     noise_deg: float  # the sensor's noise as the fits estimate it
     difference: LossDifference  # the rival's squared raw error less the named model's
-    outside: bool = False  # physics outside the library (outside_library/loop_rival.py), not on request
+    loop: bool = False  # a loop fitted in place of every named effect (loop_rival.py), not an on-request effect
 
     @property
     def better(self) -> bool:
@@ -112,9 +112,10 @@ class Rival:
             how = f"follows the recorded angle as {model} does, within what the recording can tell apart"
             tail = "the recording cannot tell them apart"
         values = ", ".join(f"{k} {v:.3g}" for k, v in self.estimate.items())
-        what = "outside the library" if self.outside else "searched only on request"
-        advice = ("the library has no such effect" if self.outside else
-                  f"diagnose --search {self.name} weighs it as a candidate")
+        what = ("a rate-independent loop in Dahl's form, the library's hysteresis" if self.loop
+                else "searched only on request")
+        advice = ("diagnose --search hysteresis weighs the loop as a candidate, past the screen" if self.loop
+                  else f"diagnose --search {self.name} weighs it as a candidate")
         return (f"{self.name} ({values}), {what}, fitted in place of {said}, {how}: raw "
                 f"RMS error {self.rival_raw_deg:.3g} against {self.named_raw_deg:.3g} deg, each simulated "
                 f"from the recorded command with a constant offset alone ({test}; ΔBIC "
@@ -129,7 +130,7 @@ class Rival:
                 "squared_error_difference_deg2": dm.mean_deg2, "difference_stderr_deg2": dm.stderr_deg2,
                 "difference_t": dm.statistic, "difference_critical_t": dm.critical, "blocks": dm.blocks,
                 "block_samples": dm.block_samples,
-                "outside_library": self.outside}
+                "loop": self.loop}
 
 
 def rivals_to_try(search: Sequence[str], in_model: Iterable[str]) -> list[str]:

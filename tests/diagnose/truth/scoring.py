@@ -3,13 +3,15 @@ counts as right."""
 
 from __future__ import annotations
 
+from hand_service.config import effects as fx
 from tests.diagnose.truth.cases import CLEAN, LIBRARY, CaseSpec
 
 
 def score(spec: CaseSpec, observable: bool, result: dict) -> dict:
     """What diagnose said against the truth. Outcome and whether it counts as right:
 
-    - library effect, observable: `top1` (effects[0] is it), else `wrong_name`,
+    - library effect (the eight, or one diagnose searches by default: contact and hysteresis,
+      behind the screen), observable: `top1` (effects[0] is it), else `wrong_name`,
       `unexplained`, `insufficient_excitation` or `missed` (consistent, parameters_only);
     - library effect, unobservable: right unless it names another effect (`wrong_name`) or
       says `unexplained`;
@@ -22,7 +24,7 @@ def score(spec: CaseSpec, observable: bool, result: dict) -> dict:
     verdict = result.get("verdict")
     names = [e.get("name") for e in result.get("effects") or []]
     first = names[0] if names else None
-    if spec.effect in LIBRARY:
+    if spec.effect in LIBRARY or spec.effect in {e.name for e in fx.SEARCHED}:
         if first == spec.effect:
             outcome = "top1"
         elif first is not None:

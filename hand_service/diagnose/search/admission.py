@@ -1,0 +1,96 @@
+"""Which screened effects a round fits: the effects that can stand in for the others' physics
+(Effect.admitted_by_screen: a contact, a material's loop, a pressure-stiffened spring, creep)
+only where the screen sets them apart; and a loop named over dry friction only where it
+follows the raw angle better.
+
+A stand-in fitted beside the library's other effects wins by a few per cent of ΔBIC where
+the truth is neither form (a stiffening chamber for a missing gravity, a Dahl loop for dry
+friction: docs/results.md §12.30, §12.38), and each of its fits costs what the others' do
+(a Dahl loop's, on a ringing recording, four times a round's). So such an effect is fitted
+only where its screen's gain on the innovations (Screen.predicted_white_bic, the readjusted
+scan's best point) beats the best of the other effects' screens by the naming margin (the
+ΔBIC by which a name must beat its runner-up, forward_selection.NAME_MARGIN_BIC): short of
+it, the fit could at best tie with an effect the screen already ranks ahead. An effect the
+model file gives (its shape where the lab's object sits, or where the residual's torque
+switches on: requested.py) or the user asks for by name (`--search`) is fitted whatever its
+screen: the screen sees an effect's size at its shape's start only, and a contact met past
+another onset than that start's can screen below a cubic spring and fit far above it.
+
+Dahl's loop narrows to dry friction as its travel shrinks: a loop that dry friction also
+draws is one physics to the recording. Where the round's best is the loop, it is named only
+when its model, simulated from the recorded command, follows the raw angle better than dry
+friction's by more than the raw angle's tie (raw_error.TIE_SHARE) and not both at the noise;
+else the two are a tie (Selection.ambiguous), said so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol, TypeVar
+
+import numpy as np
+
+from hand_service.config import effects as fx
+from hand_service.diagnose.fitting.output_error import Fit
+from hand_service.diagnose.fitting.raw_error import TIE_SHARE, at_noise, raw_rms_deg
+from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.search.screening import Screen
+
+
+class Fitted(Protocol):
+    """What the loop-or-friction check reads of a candidate (forward_selection.Candidate)."""
+
+    name: str
+    fit: Fit
+
+
+Candidate = TypeVar("Candidate", bound=Fitted)
+
+LOOP = "hysteresis"
+FRICTION = "coulomb_friction"
+
+
+def gated(problem: Problem, name: str) -> bool:
+    """Effect `name` is fitted only past the screen: neither given by the model file nor
+    asked for by name (`--search`, Problem.asked)."""
+    return (fx.BY_NAME[name].admitted_by_screen and name not in problem.given_effects
+            and name not in problem.asked)
+
+
+def admitted(problem: Problem, screens: list[Screen], margin_bic: float) -> list[Screen]:
+    """`screens` without the gated effects whose predicted gain on the innovations does not
+    beat every ungated screen's by `margin_bic` (all of them kept where none is ungated)."""
+    bar = margin_bic + max((s.predicted_white_bic for s in screens if not gated(problem, s.name)),
+                           default=-np.inf)
+    return [s for s in screens if not gated(problem, s.name) or s.predicted_white_bic > bar]
+
+
+def raw_deg(problem: Problem, angle_deg: np.ndarray) -> float:
+    """A fit's RMS error on the raw angle, its own constant offset, over the fitting and
+    held-out samples (raw_error.raw_rms_deg); infinite for a diverged finger."""
+    if not np.all(np.isfinite(angle_deg)):
+        return float("inf")
+    return raw_rms_deg(problem, angle_deg, problem.fit_mask, problem.fit_mask | problem.held_mask)
+
+
+def loop_beats_friction(loop_raw_deg: float, friction_raw_deg: float, noise_deg: float) -> bool:
+    """The loop follows the raw angle better than dry friction by more than the raw angle's
+    tie, and the two are not both at the sensor's noise."""
+    both_at_noise = at_noise(loop_raw_deg, noise_deg) and at_noise(friction_raw_deg, noise_deg)
+    return loop_raw_deg < (1.0 - TIE_SHARE) * friction_raw_deg and not both_at_noise
+
+
+def friction_rival(problem: Problem, best: Candidate, candidates: list[Candidate], remaining: list[str],
+                   fit_beside: Callable[[str], Candidate]) -> Candidate | None:
+    """Where the round's best is the loop: dry friction's candidate when the loop does not
+    beat it on the raw angle (a tie), else None. Dry friction is fitted (`fit_beside`) where
+    the round did not fit it. Whether dry friction would be named itself does not enter:
+    the raw angle alone says whether it draws the loop as well."""
+    if best.name != LOOP or FRICTION not in remaining:
+        return None
+    friction = next((c for c in candidates if c.name == FRICTION), None) or fit_beside(FRICTION)
+    noise_deg = float(best.fit.sigma_deg)
+    if loop_beats_friction(raw_deg(problem, best.fit.angle_deg), raw_deg(problem, friction.fit.angle_deg),
+                           noise_deg):
+        return None
+    return friction
