@@ -129,19 +129,28 @@ def _stiffening_finger(tmp_path: Path) -> tuple[Path, Path]:
     return cs.write(case, tmp_path)
 
 
+def _hysteretic_finger(tmp_path: Path) -> tuple[Path, Path]:
+    spec = cs.CaseSpec("hysteresis", "prbs", 1, "evident", family="overdamped", rate_hz=200.0)
+    case = cs.build(spec)
+    assert case.visibility > 3.0, case.visibility
+    return cs.write(case, tmp_path)
+
+
+def _eight(also: object) -> list[str]:
+    """The library's effects the default search fits whatever the screen says."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose import requested
+
+    return [name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen]
+
+
 def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path, monkeypatch) -> None:
     """The eight alone searched (the default's ground, whatever else it searches behind the
     screen) name `gravity`, which followed the recording to its noise and was graded
     `complete` (docs/results.md §12.36, §12.40). Fitted in its place, the stiffening follows the raw
     angle better: the grade is not `complete`, the rival is said, and every sentence passes
     the checks."""
-    from hand_service.config import effects as fx
-    from hand_service.diagnose import requested
-
-    def eight(also: object) -> list[str]:
-        return [name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen]
-
-    monkeypatch.setattr("hand_service.diagnose.engine.searched", eight)
+    monkeypatch.setattr("hand_service.diagnose.engine.searched", _eight)
     d = _diagnosed(*_stiffening_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert d.grade == "dominant", d.warnings
@@ -153,18 +162,18 @@ def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path
     assert _report_failures(d) == []
 
 
-def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_complete(tmp_path: Path) -> None:
-    """The independent truth's finger whose material holds a loop (Bouc-Wen, outside the
-    library), a PRBS through an over-damped finger at 200 Hz, 4.8 times the sensor's noise:
-    the default search names `gravity` and `cubic_stiffness`, which follow the recording to
+def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_complete(tmp_path: Path,
+                                                                                    monkeypatch) -> None:
+    """The independent truth's finger whose material holds a loop (Bouc-Wen, not the library's
+    Dahl), a PRBS through an over-damped finger at 200 Hz, 4.8 times the sensor's noise: the
+    default search names `hysteresis` (test_default_names_the_loop, below); the eight alone
+    (the default's ground) name `gravity` and `cubic_stiffness`, which follow the recording to
     its noise, and no library rival stands (docs/results.md §12.42). The simulator's loop,
     fitted in their place, gains on the plain model, holds a loop's memory, and the raw angle
     cannot tell it from them: the grade is not `complete`, the loop is said as the library's
     hysteresis form, and every sentence passes the checks."""
-    spec = cs.CaseSpec("hysteresis", "prbs", 1, "evident", family="overdamped", rate_hz=200.0)
-    case = cs.build(spec)
-    assert case.visibility > 3.0, case.visibility
-    d = _diagnosed(*cs.write(case, tmp_path))
+    monkeypatch.setattr("hand_service.diagnose.engine.searched", _eight)
+    d = _diagnosed(*_hysteretic_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert [e.name for e in d.effects] == ["gravity", "cubic_stiffness"], d.warnings
     assert d.grade == "dominant", d.warnings
@@ -172,4 +181,13 @@ def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_comp
     assert not d.rival.worse and d.rival.difference.n > 0
     assert d.to_json()["rival"]["loop"] is True
     assert "Dahl's form, the library's hysteresis" in d.structure_left
+    assert _report_failures(d) == []
+
+
+def test_default_names_the_loop_and_no_loop_rival_beside_it(tmp_path: Path) -> None:
+    """The same finger under the default search: `hysteresis` is named, and no Dahl loop is
+    fitted in its place as a rival (the named model holds one)."""
+    d = _diagnosed(*_hysteretic_finger(tmp_path))
+    assert [e.name for e in d.effects] == ["hysteresis"], d.warnings
+    assert d.rival is None or d.rival.name != "hysteresis_loop", d.warnings
     assert _report_failures(d) == []

@@ -93,6 +93,9 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
 def closer(library: Rival | None, problem: Problem, refit: Fit, final: Fit, named: Sequence[str],
            fitting: np.ndarray, scored: np.ndarray, noise_deg: float) -> Rival | None:
     """Of the library's rival that stands (`library`, rival_check.strongest) and the loop in
-    place of the `named` effects, the one that stands closer to the raw angle, or None."""
+    place of the `named` effects, the one that stands closer to the raw angle, or None. No
+    loop where `hysteresis` is named: the named model holds one already."""
+    if "hysteresis" in named:
+        return library
     loop = loop_in_place(problem, refit, final, named, fitting, scored, noise_deg)
     return min((r for r in (library, loop) if r is not None), key=lambda r: r.rival_raw_deg, default=None)

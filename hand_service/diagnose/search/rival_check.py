@@ -63,7 +63,7 @@ class Rival:
     named_raw_deg: float
     noise_deg: float  # the sensor's noise as the fits estimate it
     difference: LossDifference  # the rival's squared raw error less the named model's
-    loop: bool = False  # a loop fitted in place of every named effect (loop_rival.py), not an on-request effect
+    loop: bool = False  # a loop in place of every named effect (loop_rival.py), not an on-request effect
 
     @property
     def better(self) -> bool:
