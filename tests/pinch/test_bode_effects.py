@@ -36,7 +36,9 @@ def test_the_exact_model_rests_on_its_reference(truth: Profile) -> None:
 def test_a_loop_the_finger_lacks_stays_out_of_impedance_unless_asked(truth: Profile) -> None:
     """A false positive, a loop in the model the PRBM finger lacks, at 0.1 K_max: with
     control.force_estimate_hysteresis off (the default) the free finger rests as without the
-    loop; turned on, the loop's copy is uncancelled positive feedback and the finger swings."""
+    loop; turned on, the loop's copy is uncancelled positive feedback and the finger swings
+    (less since the force loop's integral gain falls with K below K_max: 2.5 times the plain
+    swing at 0.1 K_max, 2.7 at 0.3, 1.7 at K_max; docs/results.md §12.50)."""
     k_set = 0.1 * gain_limits(truth.finger("index").model)[0]
     false_loop = with_effect(truth, "index", "hysteresis", {"torque_nm": 0.005, "travel_deg": 0.5})
     asked = dataclasses.replace(false_loop, control=dataclasses.replace(truth.control,
@@ -44,4 +46,4 @@ def test_a_loop_the_finger_lacks_stays_out_of_impedance_unless_asked(truth: Prof
     plain = at_rest(truth, truth, "index", k_set, NONE)
     assert at_rest(truth, false_loop, "index", k_set, NONE) == plain
     plain_pp_deg = float(plain.split(" | ")[1])
-    assert float(at_rest(truth, asked, "index", k_set, NONE).split(" | ")[1]) > 3.0 * plain_pp_deg
+    assert float(at_rest(truth, asked, "index", k_set, NONE).split(" | ")[1]) > 2.0 * plain_pp_deg
