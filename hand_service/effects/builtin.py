@@ -138,7 +138,7 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
              reference="a membrane's pre-tension", rtcore_field="pressure_deadzone_kpa"),
     # searched on request (diagnose --search): it refines a lag diagnose already has; so are
     # pressure_stiffening and creep, which behind the screen still stood in for a gravity or a
-    # cubic spring beside a valve lag (docs/results.md §12.49): the rival check fits them
+    # cubic spring beside a valve lag (docs/results.md §12.52): the rival check fits them
     FieldEffect("valve_vent_lag", "the chamber vents with a lag of its own (valve_lag's then fills only)",
                 _one("tau_s", "s", 0.0, VALVE_VENT_TAU_S.lower, VALVE_VENT_TAU_S.upper, 0.1),
                 reference="a valve board whose exhaust is narrower than its supply",

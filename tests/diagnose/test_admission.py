@@ -148,7 +148,7 @@ def test_a_stand_in_accepted_late_with_more_evidence_than_the_first_pick_is_aske
 def test_a_contact_screened_out_of_the_first_round_is_named_alone(tmp_path) -> None:
     """The independent truth's contact (Hunt-Crossley, stiff finger, vent release at 1 kHz,
     3.3 times the noise): behind the screen a cubic spring was picked first and the contact
-    beside it (ΔBIC 296, then 2 907: docs/results.md §12.49); asked again from the first
+    beside it (ΔBIC 296, then 2 907: docs/results.md §12.52); asked again from the first
     round, the contact is named alone."""
     from tests.diagnose.test_sentence_checks import _diagnosed
     from tests.diagnose.truth import cases as cs

@@ -4,7 +4,7 @@ evidence than the first pick had: the selection again, with it fitted from the f
 The screen sees an effect's size at its shape's start only (search/admission.py): a
 contact whose onset lies away from that start's can screen below a cubic spring, stay out
 of the first round, and then, beside the spring picked there, gain ten times the spring's
-ΔBIC once its onset is fitted (docs/results.md §12.49). The first pick was chosen against
+ΔBIC once its onset is fitted (docs/results.md §12.52). The first pick was chosen against
 a field that lacked it, so it is not judged beside it: where a screened effect accepted
 after the first round gains more ΔBIC over the model before it than the first pick gained
 over the plain refit, the selection runs again with that effect admitted whatever its
