@@ -11,7 +11,7 @@ INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_
 
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade pip setuptools wheel cffi cantools  # the build requirements (no isolation)
+	$(PY) -m pip install --quiet --upgrade setuptools wheel cffi cantools  # the build requirements (no isolation)
 	$(PY) -m pip install --quiet --no-build-isolation --editable '.[test]'
 	@touch $(STAMP)
 

@@ -9,6 +9,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 from scipy.integrate import solve_ivp
 
 from hand_service.diagnose.outside_library.contact_onset import linear_finger
@@ -117,6 +118,7 @@ def test_a_stiffening_as_steep_as_the_finger_itself_is_still_named_when_fitted_i
     assert [e["name"] for e in result["effects"]][:1] == ["cubic_stiffness"], result["verdict"]
 
 
+@pytest.mark.thorough  # the costliest of the onset's
 def test_an_onset_that_ties_with_the_named_pair_on_the_raw_angle_does_not_unname_it(tmp_path: Path) -> None:
     """A valve lag and gravity on a multisine (the combinations' truth, seed 0): the pair
     follows the raw angle to the noise the fit estimates, yet an object fitted in full in

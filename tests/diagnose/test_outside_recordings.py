@@ -6,6 +6,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
+
 from hand_service.cli import main
 
 OUTSIDE = Path(__file__).resolve().parent / "outside"
@@ -39,6 +41,7 @@ def test_a_stiff_object_met_past_45_degrees_is_named_a_contact_there(tmp_path: P
     assert abs(result["effects"][0]["params"]["onset_deg"] - 45.0) < 2.0
 
 
+@pytest.mark.thorough  # make test keeps the onset located on a slow sine (test_onset.py)
 def test_a_stiff_object_met_past_45_degrees_is_located_not_named_gravity(tmp_path: Path, monkeypatch) -> None:
     """The same object with the eight alone searched: gravity fitted it with k at a third of
     the nominal and was named. Its slope over the range is many times k, so the onset is

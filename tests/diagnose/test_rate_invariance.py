@@ -41,6 +41,7 @@ def verdicts(recording: Path, model: Path, input_hold: str, factor: int,
     return full.verdict, low.verdict
 
 
+@pytest.mark.thorough  # make test keeps the dead time at 500 and 100 Hz
 def test_emps_at_250_and_125_hz() -> None:
     hold = json.loads((REAL / "emps_expected.json").read_text())["input_hold"]
     full, low = verdicts(REAL / "emps.csv", REAL / "emps_model.yaml", hold, 2, block_means=True)

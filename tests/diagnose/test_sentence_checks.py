@@ -106,8 +106,10 @@ def _report_failures(d: Diagnosis) -> list[str]:
     return wrong + evidence_row_failures(d, evidence_rows(d))
 
 
-FIXTURES = [("outside", "sinh_spring_ramp"), ("outside", "stiff_contact_steps"), ("outside", "boucwen_ramp"),
-            ("real", "emps")]
+# the stiff contact (contact fitted by default there: the costliest) in test-thorough
+FIXTURES = [("outside", "sinh_spring_ramp"),
+            pytest.param("outside", "stiff_contact_steps", marks=pytest.mark.thorough),
+            ("outside", "boucwen_ramp"), ("real", "emps")]
 
 
 @pytest.mark.parametrize(("folder", "name"), FIXTURES)
