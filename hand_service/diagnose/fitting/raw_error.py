@@ -76,6 +76,11 @@ def at_noise(raw_deg: float, noise_deg: float) -> bool:
     return raw_deg <= TIE_NOISE * noise_deg
 
 
+def both_at_noise(a_raw_deg: float, b_raw_deg: float, noise_deg: float) -> bool:
+    """Two models' raw RMS errors both at the sensor's noise (at_noise)."""
+    return at_noise(a_raw_deg, noise_deg) and at_noise(b_raw_deg, noise_deg)
+
+
 def raw_errors(problem: Problem, fitting: np.ndarray, held: np.ndarray,
                angles: dict[str, np.ndarray]) -> RawErrors:
     offsets = {name: offset_of(problem, a, fitting) for name, a in angles.items()}

@@ -32,7 +32,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit
-from hand_service.diagnose.fitting.raw_error import TIE_SHARE, at_noise, raw_rms_deg
+from hand_service.diagnose.fitting.raw_error import TIE_SHARE, both_at_noise, raw_rms_deg
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search.screening import Screen
 
@@ -76,8 +76,8 @@ def raw_deg(problem: Problem, angle_deg: np.ndarray) -> float:
 def loop_beats_friction(loop_raw_deg: float, friction_raw_deg: float, noise_deg: float) -> bool:
     """The loop follows the raw angle better than dry friction by more than the raw angle's
     tie, and the two are not both at the sensor's noise."""
-    both_at_noise = at_noise(loop_raw_deg, noise_deg) and at_noise(friction_raw_deg, noise_deg)
-    return loop_raw_deg < (1.0 - TIE_SHARE) * friction_raw_deg and not both_at_noise
+    return (loop_raw_deg < (1.0 - TIE_SHARE) * friction_raw_deg
+            and not both_at_noise(loop_raw_deg, friction_raw_deg, noise_deg))
 
 
 def friction_rival(problem: Problem, best: Candidate, candidates: list[Candidate], remaining: list[str],

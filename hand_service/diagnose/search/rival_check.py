@@ -33,7 +33,13 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.fitting.raw_difference import LEVEL, LossDifference, loss_difference
-from hand_service.diagnose.fitting.raw_error import TIE_NOISE, TIE_SHARE, at_noise, offset_of, raw_rms_deg
+from hand_service.diagnose.fitting.raw_error import (
+    TIE_NOISE,
+    TIE_SHARE,
+    both_at_noise,
+    offset_of,
+    raw_rms_deg,
+)
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search.forward_selection import Candidate, beside
 from hand_service.diagnose.workers import ordered_map
@@ -81,8 +87,7 @@ class Rival:
         named model's raw error, or both at the sensor's noise (raw_error.at_noise). Two
         stand-ins for physics of neither form can differ reliably by a per cent or two; the
         named one is then no more the physics than the rival."""
-        return self.within_share or (at_noise(self.named_raw_deg, self.noise_deg)
-                                     and at_noise(self.rival_raw_deg, self.noise_deg))
+        return self.within_share or both_at_noise(self.named_raw_deg, self.rival_raw_deg, self.noise_deg)
 
     @property
     def within_share(self) -> bool:
