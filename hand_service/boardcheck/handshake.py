@@ -50,7 +50,9 @@ def handshake(session: Session) -> CheckResult:
     if info is None:
         return failed(name, _silence(session, cfg.answer_wait_ms))
     answer_s, version = info
-    status_first = any(isinstance(r.message, Status) for r in got)
+    # the answer's Status comes after the request it answers: a heartbeat from an earlier,
+    # unanswered request's wait (a board still booting) is not it
+    status_first = any(isinstance(r.message, Status) and r.t_s >= asked for r in got)
     values = {"answer_ms": answer_s * 1e3, "protocol_version": version.protocol_version,
               "firmware_version": version.firmware_text, "finger_count": version.finger_count,
               "status_before_version": status_first}
