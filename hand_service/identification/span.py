@@ -21,6 +21,7 @@ in every sample) and runs `hand-service calibrate span FREE.csv LOADED.csv --loa
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +32,10 @@ from hand_service.identification.tare import recorded_estimate_n
 from hand_service.recording import Recording
 
 MIN_LOAD_N = 0.05  # below this the sensor's noise over a few sweeps is a large part of the load
+# A recording's sweeps must be whole to this share of a period: a part sweep's leftover
+# biases the mean estimate by the loop's torque over the leftover's share of the record
+WHOLE_PERIODS_TOLERANCE = 0.05
+SEARCH_POINTS = 201  # the sinusoid's frequency searched on this grid over one spectral bin each side
 SPAN_RANGE = (0.5, 2.0)  # a span outside this is not a scale the model can be off by: refused
 
 
@@ -75,10 +80,49 @@ def span_lever(finger: str, lever_arm_m: float, unloaded_estimate_n: np.ndarray,
     return span
 
 
+def _residual(t_s: np.ndarray, centred: np.ndarray, frequency_hz: float) -> float:
+    """The sum of squares the least-squares sinusoid at this frequency (with an offset) leaves."""
+    omega = 2.0 * np.pi * frequency_hz
+    basis = np.column_stack([np.ones_like(t_s), np.sin(omega * t_s), np.cos(omega * t_s)])
+    fit = np.linalg.lstsq(basis, centred, rcond=None)[0]
+    return float(np.sum((centred - basis @ fit) ** 2))
+
+
+def sweep_periods(t_s: np.ndarray, angle_deg: np.ndarray) -> tuple[float, float]:
+    """How many periods of its sweep a recording holds, and the sweep's period (s): the
+    period of the angle's largest sinusoid (the least-squares fit's, searched over a bin
+    each side of the spectrum's peak), the record's length its samples over the rate."""
+    t = np.asarray(t_s, dtype=float) - float(t_s[0])
+    centred = np.asarray(angle_deg, dtype=float) - float(np.mean(angle_deg))
+    if t.size < 8:
+        return 0.0, math.inf
+    dt_s = float(np.median(np.diff(t)))
+    length_s = t.size * dt_s
+    padded = 8 * t.size
+    spectrum = np.abs(np.fft.rfft(centred, padded))
+    peak_hz = (1 + int(np.argmax(spectrum[1:]))) / (padded * dt_s)
+    bin_hz = 1.0 / length_s
+    grid = np.linspace(max(peak_hz - bin_hz, 0.25 * bin_hz), peak_hz + bin_hz, SEARCH_POINTS)
+    frequency_hz = float(grid[int(np.argmin([_residual(t, centred, f) for f in grid]))])
+    return length_s * frequency_hz, 1.0 / frequency_hz
+
+
+def check_whole_periods(recording: Recording) -> None:
+    """Refuse a recording whose sweeps are not whole (WHOLE_PERIODS_TOLERANCE): its mean
+    estimate would keep a part sweep's share of the loop and the inertia."""
+    periods, period_s = sweep_periods(recording.t_s, recording.angle_deg)
+    if periods < 1.0 - WHOLE_PERIODS_TOLERANCE or abs(periods - round(periods)) > WHOLE_PERIODS_TOLERANCE:
+        raise ValueError(f"{recording.path}: the sweep covers {periods:.2f} periods of {period_s:.3g} s, not "
+                         f"a whole number: record whole sweeps (a part sweep biases the span)")
+
+
 def span_from_recordings(free: Recording, loaded: Recording, load_n: float, model: FingerModel, finger: str,
                          with_loop: bool = False) -> Span:
-    """The span from two recorded sweeps, free and with load_n hung on the pad: the
-    controller's static estimate made again from each (tare.recorded_estimate_n)."""
+    """The span from two recorded sweeps, free and with load_n hung on the pad, each over
+    whole periods (check_whole_periods): the controller's static estimate made again from
+    each (tare.recorded_estimate_n)."""
+    for recording in (free, loaded):
+        check_whole_periods(recording)
     return span_lever(finger, model.prbm("the span").lever_arm_m, recorded_estimate_n(free, model, with_loop),
                       recorded_estimate_n(loaded, model, with_loop), load_n)
 

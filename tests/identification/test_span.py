@@ -10,7 +10,13 @@ import pytest
 
 from hand_service.cli import main
 from hand_service.config.profile import DEFAULT_PROFILE, load_profile
-from hand_service.identification.span import MIN_LOAD_N, apply_span, span_lever
+from hand_service.identification.span import (
+    MIN_LOAD_N,
+    WHOLE_PERIODS_TOLERANCE,
+    apply_span,
+    span_lever,
+    sweep_periods,
+)
 from hand_service.identification.trials import Trial
 
 
@@ -58,13 +64,14 @@ ANGLE_NOISE_DEG = 0.3
 PRESSURE_NOISE_KPA = 0.5
 
 
-def _sweep_file(path: Path, load_n: float, contact_lever_m: float, seed: int) -> Path:
-    """A recorded sweep of the true index, 75° to 85° and back twice, static (N p = k θ + r' F)
-    with the load acting at contact_lever_m, ANGLE_NOISE_DEG and PRESSURE_NOISE_KPA of
-    noise, its own draw (seed)."""
+def _sweep_file(path: Path, load_n: float, contact_lever_m: float, seed: int,
+                samples: int = SWEEP_SAMPLES) -> Path:
+    """A recorded sweep of the true index, 75° to 85° and back twice (over SWEEP_SAMPLES;
+    4 s a sweep at 100 Hz), static (N p = k θ + r' F) with the load acting at
+    contact_lever_m, ANGLE_NOISE_DEG and PRESSURE_NOISE_KPA of noise, its own draw (seed)."""
     true = load_profile(None).finger("index").model
     rng = np.random.default_rng(seed)
-    t_s = np.arange(SWEEP_SAMPLES) / 100.0
+    t_s = np.arange(samples) / 100.0
     angle_deg = 80.0 + 5.0 * np.sin(2.0 * np.pi * t_s / 4.0)
     chamber_kpa = ((true.stiffness_nm_per_rad * np.radians(angle_deg) + contact_lever_m * load_n)
                    / true.pressure_gain_nm_per_kpa)
@@ -102,3 +109,34 @@ def test_calibrate_span_writes_the_lever_back(tmp_path: Path, capsys: pytest.Cap
     assert "| read per N of load |" in capsys.readouterr().out
     assert main(["calibrate", "span", str(free), str(loaded), "--load-n", "0.001", "--model", str(mine),
                  "--finger", "index"]) == 2
+
+
+@pytest.mark.parametrize("periods", [1.0, 2.0, 2.3, 2.5, 3.0])
+def test_the_sweeps_periods_are_counted_through_the_noise(periods: float) -> None:
+    rng = np.random.default_rng(3)
+    t_s = np.arange(round(periods * 400)) / 100.0
+    noise_deg = ANGLE_NOISE_DEG * rng.standard_normal(t_s.size)
+    angle_deg = 80.0 + 5.0 * np.sin(2.0 * np.pi * t_s / 4.0 + 0.7) + noise_deg
+    counted, period_s = sweep_periods(t_s, angle_deg)
+    assert counted == pytest.approx(periods, abs=0.2 * WHOLE_PERIODS_TOLERANCE)
+    assert period_s == pytest.approx(4.0, rel=0.02)
+
+
+def test_less_than_one_sweep_is_counted_as_less() -> None:
+    t_s = np.arange(240) / 100.0  # 0.6 of a 4 s sweep
+    counted, _ = sweep_periods(t_s, 80.0 + 5.0 * np.sin(2.0 * np.pi * t_s / 4.0 + 0.7))
+    assert counted < 1.0 - 2.0 * WHOLE_PERIODS_TOLERANCE
+
+
+def test_calibrate_span_refuses_a_part_sweep(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    r_m = load_profile(None).finger("index").model.lever_arm_m
+    free = _sweep_file(tmp_path / "free.csv", 0.0, r_m, seed=5)
+    # 2.25 sweeps
+    loaded = _sweep_file(tmp_path / "loaded.csv", 0.6, r_m, seed=6, samples=SWEEP_SAMPLES + 100)
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(DEFAULT_PROFILE.read_text())
+    assert main(["calibrate", "span", str(free), str(loaded), "--load-n", "0.6", "--model", str(mine),
+                 "--finger", "index"]) == 2
+    said = capsys.readouterr().err.strip().splitlines()
+    assert len(said) == 1
+    assert "loaded.csv: the sweep covers 2.25 periods of 4 s, not a whole number" in said[0]
