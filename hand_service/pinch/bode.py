@@ -198,6 +198,17 @@ class Corner:
         return "" if d is None else f"{d.diagnosis.verdict}: {d.effects_said()}"
 
 
+def span_stiffness(controller: Profile, finger: str, set_n_per_deg: float | None) -> float:
+    """The K (N/deg) the span is made at: the one the finger will render, else its K_max.
+    After the tare a load L held at K reads s·L + ε·(L/K)/r, ε the estimate's error in the
+    finger's spring about the reference (N·m/deg) and s the lever's scale: the span's
+    reading is s + ε/(r K), so a lever spanned at K renders K there, while one spanned at
+    K_max leaves ε/(r K)·(1 − K/K_max) of K (2/share − 2 times ε/k: 18 ε/k at 0.1 K_max)."""
+    if set_n_per_deg is not None:
+        return set_n_per_deg
+    return gain_limits(controller.finger(finger).model)[0]
+
+
 def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pct: float,
                       mismatch: Mismatch, calibrate: bool, seed: int, diagnosed: bool = False,
                       errors_last: bool = False, tare_n_per_deg: float | None = None,
@@ -210,8 +221,10 @@ def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pc
     diagnose wrote instead (its effects kept), not on the lab's starting model; with
     tare_n_per_deg, last, the estimate's free-motion tare in impedance mode at that K about
     reference_deg (compliance.free_tare), which sets N again; with span, after it, the
-    estimate's span under a known load (compliance.loaded_span, at the controller's own
-    K_max with a load of K_max·SPAN_LOAD_DEG), which sets the lever arm."""
+    estimate's span under a known load (compliance.loaded_span) made at the K it renders
+    (tare_n_per_deg; without it the controller's own K_max) with a load of that K times
+    SPAN_LOAD_DEG, which sets the lever arm: what the model misses of the finger's spring
+    about the reference reads as a share of the load that grows as 1/K (span_stiffness)."""
     controller = truth if errors_last and diagnosed else with_errors(truth, stiffness_pct, gain_pct)
     if calibrate or diagnosed:
         with tempfile.TemporaryDirectory(prefix="pinch-bode-") as scratch:
@@ -224,9 +237,9 @@ def corner_controller(truth: Profile, finger: str, stiffness_pct: float, gain_pc
     if tare_n_per_deg is not None:
         controller = free_tare(truth, controller, finger, tare_n_per_deg, reference_deg, seed, mismatch)
     if span:
-        k_max = gain_limits(controller.finger(finger).model)[0]
-        load_n = k_max * SPAN_LOAD_DEG
-        measured = loaded_span(truth, controller, finger, k_max, load_n, reference_deg, seed, mismatch)
+        k_span = span_stiffness(controller, finger, tare_n_per_deg)
+        measured = loaded_span(truth, controller, finger, k_span, k_span * SPAN_LOAD_DEG, reference_deg, seed,
+                               mismatch)
         controller = apply_span(controller, measured)
     mine, true = controller.finger(finger).model, truth.finger(finger).model
     return Corner(controller, 100.0 * (mine.stiffness_nm_per_rad / true.stiffness_nm_per_rad - 1.0),
@@ -260,8 +273,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="last, tare the force estimate on the free finger at the reference "
                              "(hand_service.identification.tare), as the lab does before contact")
     parser.add_argument("--span", action="store_true",
-                        help="after the tare (implied), the estimate's span under a known load at the pad "
-                             "(hand_service.identification.span), which sets the lever arm")
+                        help="after the tare (implied), the estimate's span under a known load at the pad, "
+                             "made at the set K (hand_service.identification.span), which sets the lever arm")
     parser.add_argument("--amplitude-deg", type=float, default=AMPLITUDE_DEG,
                         help=f"the push's amplitude as K times this angle (default {AMPLITUDE_DEG:g})")
     parser.add_argument("--reference-deg", type=float, default=REFERENCE_DEG,

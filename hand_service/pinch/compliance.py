@@ -44,8 +44,13 @@ ONSET_FORCE_N = 0.25
 STEP_DEG = 10.0
 TARE_HOLD_S = 4.0  # the free hold before contact: settled after 3 s, averaged over the last
 TARE_MEAN_S = 1.0
-TARE_ROUNDS = 2
-SPAN_LOAD_DEG = 5.0  # the span's load: K_max times this (index: 0.62 N, a 63 g weight)
+TARE_ROUNDS = 2  # at least; then until the tare's hold met TARE_REST_SHARE, at most TARE_MAX_ROUNDS
+# An N off by e_N renders K off by 2 e_N / share, and reads F = e_N N p / r on the free hold,
+# where N p = k θ: the hold's mean estimate over K is the rest's offset from the reference, and
+# that offset over the reference angle (both in degrees) is the N error's share of K
+TARE_REST_SHARE = 0.01
+TARE_MAX_ROUNDS = 10
+SPAN_LOAD_DEG = 5.0  # the span's load: the K it is made at times this (index at K_max: 0.62 N, 63 g)
 SPAN_SWEEP_DEG = 5.0  # the reference's swing about the working angle: ten times the loop's half-width
 SPAN_PERIOD_S = 4.0  # one sweep; the first is settling, the next SPAN_PERIODS are averaged
 SPAN_PERIODS = 2
@@ -166,15 +171,20 @@ def free_tare(truth: Profile, controller: Profile, finger: str, stiffness_n_per_
               rounds: int = TARE_ROUNDS) -> Profile:
     """The controller with its force estimate tared (hand_service.identification.tare) on
     the free finger: impedance mode holds the reference with no contact for TARE_HOLD_S, and
-    the estimate over its last TARE_MEAN_S fixes N; rounds times, each from the last's N
-    (the tared finger rests nearer its reference, where the next tare is made)."""
+    the estimate over its last TARE_MEAN_S fixes N; at least rounds times, each from the
+    last's N (the tared finger rests nearer its reference, where the next tare is made), and
+    on until a hold's mean estimate over K, the rest's offset, is within TARE_REST_SHARE of
+    the reference angle (at a small K the rest sits far off and each round gains less)."""
     ticks = round(TARE_MEAN_S * truth.control.rate_hz)
-    for n in range(rounds):
+    for n in range(max(rounds, TARE_MAX_ROUNDS)):
         loop = closed_loop(truth, finger, stiffness_n_per_deg, 0.0, TARE_HOLD_S, lambda _: reference_deg,
                            lambda _: None, seed + n, controller, mismatch=mismatch)
         tare = tare_gain(controller.finger(finger).model, finger, loop.estimate_n[-ticks:],
                          loop.estimate_kpa[-ticks:])
         controller = apply_tare(controller, tare)
+        rest_deg = abs(tare.estimate_n) / stiffness_n_per_deg
+        if n + 1 >= rounds and rest_deg <= TARE_REST_SHARE * abs(reference_deg):
+            break
     return controller
 
 

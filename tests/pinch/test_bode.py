@@ -188,3 +188,41 @@ def test_a_small_k_holds_to_0_2_hz_on_the_mismatched_plant_and_the_wall_stays_st
     push = slow_push(truth, "thumb", k_wall, 0.0003)
     assert abs(push.error_ratio) < 0.10
     assert push.force_n.max() < 2.0 * 65.0 * k_wall  # no chatter: the force stays near K times the depth
+
+
+def test_at_a_small_k_the_tare_goes_on_until_the_free_finger_rests_at_its_reference(truth: Profile) -> None:
+    """At 0.1 K_max on the mismatched plant each round of the tare gains less (the free
+    finger rests far from its reference): two rounds leave N 0.13 % short of where ten put
+    it (2.6 % of K); the tare goes on until a hold's rest is within TARE_REST_SHARE of the
+    reference angle and lands where ten rounds do."""
+    from unittest import mock
+
+    from hand_service.pinch import compliance
+
+    k_set = 0.1 * gain_limits(truth.finger("index").model)[0]
+    broken = with_errors(truth, -5.0, 5.0)
+
+    def gain(rounds: int, most: int) -> float:
+        with mock.patch.object(compliance, "TARE_MAX_ROUNDS", most):
+            tared = compliance.free_tare(truth, broken, "index", k_set, 80.0, mismatch=PAPER_MISMATCH,
+                                         rounds=rounds)
+        return tared.finger("index").model.pressure_gain_nm_per_kpa
+
+    ten = gain(10, 10)
+    assert abs(gain(2, 2) / ten - 1.0) > 0.001
+    assert gain(compliance.TARE_ROUNDS, compliance.TARE_MAX_ROUNDS) == pytest.approx(ten, rel=0.0005)
+
+
+def test_a_tenth_of_k_max_spanned_at_its_k_holds_at_0_1_hz_on_the_mismatched_plant(truth: Profile) -> None:
+    """At 0.1 K_max what the model misses of the finger's spring reads 2/share = 20 times
+    over in the rendered stiffness: spanned at K_max the index renders −15 % at 0.1 Hz under
+    K·30°; spanned at the K it renders (bode.span_stiffness), within 10 %."""
+    from hand_service.pinch.mismatch import PLANTS
+
+    plant = PLANTS["mismatched"]
+    k_set = 0.1 * gain_limits(truth.finger("index").model)[0]
+    corner = corner_controller(truth, "index", 0.0, 0.0, plant, calibrate=False, seed=1, diagnosed=True,
+                               errors_last=True, tare_n_per_deg=k_set, span=True)
+    point = rendered(truth, corner.controller, "index", k_set, 0.1, mismatch=plant, amplitude_deg=30.0)
+    assert not point.saturated
+    assert abs(point.stiffness_n_per_deg / k_set - 1.0) < 0.10
