@@ -43,8 +43,9 @@ SPAN_DOC = """\
 span FREE.csv LOADED.csv --load-n L --model MODEL.yaml [--finger NAME] [--loop]
     The force estimate's span, after the tare: the lever arm r set so that a known load
     (L newtons hung on the pad, opening the finger) reads as itself. The recordings are the
-    finger in impedance mode sweeping its reference a few degrees about the working angle,
-    free and with the load, each over whole sweeps (measured chamber pressure needed); the
+    finger in impedance mode, at the stiffness it will render, sweeping its reference a few
+    degrees about the working angle, free and with the load, each over whole sweeps (a
+    recording that is not, to 0.05 of one, is refused; measured chamber pressure needed); the
     sweep, wider than the silicone's loop, averages its friction out. It takes out what the
     tare leaves: k's error as a scale and a contact point that moves with the bend
     (docs/replicate.md, impedance).

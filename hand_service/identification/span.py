@@ -7,10 +7,11 @@ r_contact / r, the lever the pad's force truly acts on over the model's (a conta
 that moves with the bend: at 80° the pinch's mismatched plant has it 14 % out). Neither a
 free hold nor `calibrate gain` can see s; a known load can. The span is the second point
 of the estimate's two-point calibration, made as a lab makes it with a weight hung from the
-pad: the finger in impedance mode sweeps its reference slowly about the working angle, once
-unloaded and once with the load, and the mean estimates' difference over whole sweeps is
-s·load. The sweep, wider than the silicone's loop, averages that joint friction out (its
-torque has the opposite sign on the closing and the opening leg); the inertia and damping
+pad: the finger in impedance mode, at the K it will render, sweeps its reference slowly
+about the working angle, once unloaded and once with the load, and the mean estimates'
+difference over whole sweeps is s·load. The sweep, wider than the silicone's loop,
+averages that joint friction out (its torque has the opposite sign on the closing and the
+opening leg); the inertia and damping
 average out over whole periods. The model's lever arm becomes r·s, so the estimate
 (a torque over r) reads the load as itself, and the impedance law renders K at the pad.
 On a real hand the lab records the two sweeps (whole periods, the measured chamber pressure
