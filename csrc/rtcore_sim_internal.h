@@ -128,6 +128,34 @@ void rtcore_sim_etdrk4_step(const sim_plant *p, const rtcore_sim_motion *from, r
                             double p_end, double g_start, int32_t touching, double linearized_nms_per_rad,
                             double torque_nm[3]);
 
+/* The drive over a knee's passage that starts t0_s into a held segment: the chamber's
+ * torque (moving toward input_kpa with the lag tau_s from start_kpa, or torque_nm held)
+ * with the segment's external torque. */
+typedef struct {
+    const rtcore_sim_finger *finger;
+    int32_t moving;
+    double start_kpa;
+    double input_kpa;
+    double tau_s;
+    double t0_s;
+    double torque_nm;
+    double external_torque_nm;
+} sim_knee_drive;
+
+/* A knee's passage: the state at `count` nodes, the first the start, the last its end. */
+#define SIM_KNEE_NODES 13
+typedef struct {
+    int32_t count;
+    double time_s[SIM_KNEE_NODES];
+    double angle_rad[SIM_KNEE_NODES];
+    double velocity_rad_per_s[SIM_KNEE_NODES];
+} sim_knee_path;
+
+/* rtcore_sim_knee.c: 1 and the path through dry friction's knee from `s`, ending before
+ * limit_s, where the drive carries the finger through it; 0 where it may not */
+int32_t rtcore_sim_knee_passage(const sim_plant *p, const rtcore_sim_motion *s, int32_t touching,
+                                const sim_knee_drive *d, double limit_s, sim_knee_path *path);
+
 /* rtcore_sim_plant.c: a held valve input over duration_s, cut where the chamber crosses the
  * dead zone's threshold (steps of at most request_cap_s and what the dynamics allow; over a
  * span of samples when span is not NULL) */

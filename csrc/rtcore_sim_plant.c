@@ -33,6 +33,21 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_motion *s, double
     return fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm), floor_s));
 }
 
+/* The finger at the end of a step of elapsed_s (or a knee's passage) from `s`: the loop
+ * and the creep branch moved with it. */
+static void finish_step(const rtcore_sim_finger *f, rtcore_sim_motion *s, double angle_rad, double velocity_rad_per_s,
+                        double elapsed_s)
+{
+    if (f->hysteresis_torque_nm > 0.0) {
+        s->hysteresis_z = rtcore_sim_loop_z(f, s, angle_rad);
+    }
+    if (f->prbm.effects.creep_stiffness_ratio > 0.0) {
+        s->creep_angle_rad = rtcore_sim_creep_angle_rad(&f->prbm.effects, s, angle_rad, elapsed_s);
+    }
+    s->angle_rad = angle_rad;
+    s->velocity_rad_per_s = velocity_rad_per_s;
+}
+
 /* Integrate over duration_s with the valve input held at input_kpa and the external torque
  * at external_torque_nm (both in the drive u), in steps of at most
  * step_cap_s (longer for a settled finger, or one that dry friction holds: up to
@@ -104,6 +119,42 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             /* a span lasts many periods: the reach from the state now, as a step per
              * sample would take it at each sample */
             cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
+        }
+        if (f->prbm.effects.coulomb_torque_nm > 0.0) {
+            /* a drive that carries the finger through the friction's knee: crossed as one
+             * event (rtcore_sim_knee.c), where the steps below would climb its slope a
+             * share at a time */
+            sim_knee_drive drive;
+            sim_knee_path path;
+            drive.finger = f;
+            drive.moving = moving;
+            drive.start_kpa = start_kpa;
+            drive.input_kpa = input_kpa;
+            drive.tau_s = tau_s;
+            drive.t0_s = t_s;
+            drive.torque_nm = torque_start;
+            drive.external_torque_nm = external_torque_nm;
+            if (rtcore_sim_knee_passage(p, s, touching, &drive, fmin(remaining_s * (1.0 - 1e-9), step_cap_s), &path)) {
+                const double angle_rad = path.angle_rad[path.count - 1];
+                const double velocity_rad_per_s = path.velocity_rad_per_s[path.count - 1];
+                const double passed_s = path.time_s[path.count - 1];
+                if (span != 0) {
+                    int32_t i;
+                    for (i = 1; i < path.count; ++i) {
+                        rtcore_sim_span_emit(span, 0, t_s + path.time_s[i - 1],
+                                             path.time_s[i] - path.time_s[i - 1], path.angle_rad[i - 1],
+                                             path.velocity_rad_per_s[i - 1], 0, path.angle_rad[i],
+                                             path.velocity_rad_per_s[i]);
+                    }
+                }
+                finish_step(f, s, angle_rad, velocity_rad_per_s, passed_s);
+                t_s += passed_s;
+                if (moving) {
+                    chamber_now_kpa = rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s);
+                    torque_start = rtcore_sim_pressure_torque_nm(f, chamber_now_kpa) + external_torque_nm;
+                }
+                continue;
+            }
         }
         double g_start = p->nonlinear
                              ? rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
@@ -248,14 +299,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                 rtcore_sim_span_emit(span, &local.linear, t_s, h, s->angle_rad, s->velocity_rad_per_s, torque_nm,
                                      angle_rad, velocity_rad_per_s);
             }
-            if (f->hysteresis_torque_nm > 0.0) {
-                s->hysteresis_z = rtcore_sim_loop_z(f, s, angle_rad);
-            }
-            if (f->prbm.effects.creep_stiffness_ratio > 0.0) {
-                s->creep_angle_rad = rtcore_sim_creep_angle_rad(&f->prbm.effects, s, angle_rad, h);
-            }
-            s->angle_rad = angle_rad;
-            s->velocity_rad_per_s = velocity_rad_per_s;
+            finish_step(f, s, angle_rad, velocity_rad_per_s, h);
             break;
         }
         torque_start = torque_end;

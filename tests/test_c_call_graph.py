@@ -247,6 +247,7 @@ def included(source: Path) -> set[str]:
 
 
 @pytest.mark.parametrize("unit", ["rtcore_sim_motion.c", "rtcore_sim_plant.c", "rtcore_sim_etdrk4.c",
+                                  "rtcore_sim_knee.c",
                                   "rtcore_sim_kink.c", "rtcore_sim_torque.c",
                                   "rtcore_sim_step_size.c", "rtcore_sim_span.c", "rtcore_exact.c"])
 def test_the_finger_dynamics_see_nothing_of_the_hand_above_them(unit: str) -> None:
