@@ -86,6 +86,9 @@ int32_t rtcore_sim_knee_passage(const sim_plant *p, const rtcore_sim_motion *s, 
     side = beyond_nm > 0.0 ? 1.0 : -1.0;
     w_exit = side * KNEE_EDGE * smoothing_rad_per_s;
     n = (int32_t)ceil(fabs(w_exit - w0) / (KNEE_STEP * smoothing_rad_per_s));
+    if (n > SIM_KNEE_NODES - 1) {
+        n = SIM_KNEE_NODES - 1; /* |ω0| a rounding short of the edge: the path's room */
+    }
     dw = (w_exit - w0) / (double)n;
     y[0] = 0.0;
     y[1] = s->angle_rad;
