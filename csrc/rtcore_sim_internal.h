@@ -1,5 +1,5 @@
-/* What the finger's dynamics (csrc/rtcore_sim_plant.c, rtcore_sim_plant.h) share with the
- * units below them, rtcore_sim_step_size.c (the step sizes) and rtcore_sim_span.c (a run of
+/* What the finger's dynamics (csrc/rtcore_sim_motion.c, the API of rtcore_sim_plant.h, over
+ * rtcore_sim_plant.c and its steps, rtcore_sim_etdrk4.c) share with the units below them, rtcore_sim_step_size.c (the step sizes) and rtcore_sim_span.c (a run of
  * samples as one segment), and offer the valve above them (rtcore_sim_advance.c, its own
  * rtcore_sim_advance.h) and the simulated hand (rtcore_sim.c). Not part of the API: nothing
  * here is in the cffi cdef. Names keep the rtcore_sim_ prefix because they have external
@@ -116,6 +116,45 @@ double rtcore_sim_nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motio
                                       double elapsed_s);
 double rtcore_sim_pressure_torque_nm(const rtcore_sim_finger *f, double chamber_kpa);
 void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p);
+
+/* rtcore_sim_etdrk4.c: the plant with the damping B + extra (the part a step integrates
+ * exactly), and one step h of it from `from` to (*angle_rad, *velocity_rad_per_s), the
+ * chamber's torque p_start, p_mid, p_end at t = 0, h/2, h, g_start = g(from) +
+ * linearized·θ'; the step's total torque at its start, middle and end in torque_nm (the
+ * quadratic a span's samples inside the step follow) */
+void rtcore_sim_with_damping(const sim_plant *base, double extra_nms_per_rad, sim_plant *out);
+void rtcore_sim_etdrk4_step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propagator_cache *cache,
+                            double *angle_rad, double *velocity_rad_per_s, double h, double p_start, double p_mid,
+                            double p_end, double g_start, int32_t touching, double linearized_nms_per_rad,
+                            double torque_nm[3]);
+
+/* The drive over a knee's passage that starts t0_s into a held segment: the chamber's
+ * torque (moving toward input_kpa with the lag tau_s from start_kpa, or torque_nm held)
+ * with the segment's external torque. */
+typedef struct {
+    const rtcore_sim_finger *finger;
+    int32_t moving;
+    double start_kpa;
+    double input_kpa;
+    double tau_s;
+    double t0_s;
+    double torque_nm;
+    double external_torque_nm;
+} sim_knee_drive;
+
+/* A knee's passage: the state at `count` nodes, the first the start, the last its end. */
+#define SIM_KNEE_NODES 13
+typedef struct {
+    int32_t count;
+    double time_s[SIM_KNEE_NODES];
+    double angle_rad[SIM_KNEE_NODES];
+    double velocity_rad_per_s[SIM_KNEE_NODES];
+} sim_knee_path;
+
+/* rtcore_sim_knee.c: 1 and the path through dry friction's knee from `s`, ending before
+ * limit_s, where the drive carries the finger through it; 0 where it may not */
+int32_t rtcore_sim_knee_passage(const sim_plant *p, const rtcore_sim_motion *s, int32_t touching,
+                                const sim_knee_drive *d, double limit_s, sim_knee_path *path);
 
 /* rtcore_sim_plant.c: a held valve input over duration_s, cut where the chamber crosses the
  * dead zone's threshold (steps of at most request_cap_s and what the dynamics allow; over a

@@ -1,81 +1,17 @@
-/* The simulated finger's dynamics (rtcore_sim_plant.h): one ETDRK4 step and the integration
- * of a segment under a held valve input (the torques beyond the linear part and the local
- * linear plant: rtcore_sim_torque.c; the step sizes: rtcore_sim_step_size.c; where a kink
- * cuts a step: rtcore_sim_kink.c). */
+/* The simulated finger's dynamics under a held valve input (rtcore_sim_internal.h's
+ * rtcore_sim_integrate_held): the steps a segment takes and the chamber they follow (one
+ * ETDRK4 step: rtcore_sim_etdrk4.c; the torques beyond the linear part and the local linear
+ * plant: rtcore_sim_torque.c; the step sizes: rtcore_sim_step_size.c; where a kink cuts a
+ * step: rtcore_sim_kink.c; one finger alone, the API of rtcore_sim_plant.h:
+ * rtcore_sim_motion.c). */
 #include <math.h>
 
 #include "rtcore_exact.h"
 #include "rtcore_internal.h"
 #include "rtcore_sim_internal.h"
 
-/* ---- dynamics ---------------------------------------------------------------------- */
-
 /* the cuts of a step toward a damped contact's onset (rtcore_sim_before_kink's interpolation repeated) */
 static const int32_t ONSET_REFINEMENTS = 4;
-
-/* The finger is A·θ'' + B·θ' + k·θ = u(t): a linear plant, integrated exactly for any step
- * (e^(L·h), L = [[0, 1], [−k/A, −B/A]], in closed form), driven by the torque
- * u = N·p_eff(t) + g(θ, θ'), where g is every torque beyond k·θ + B·θ' (the effects and
- * the contact). Over a step the chamber's torque is the quadratic through its exact values
- * at the start, middle and end; g is integrated by ETDRK4 (Cox & Matthews 2002), whose
- * last stage is the exact response to a quadratic torque too. The plain linear finger
- * without a valve lag is exact at any step; with effects the step resolves what the
- * explicit g needs (rtcore_sim_parameter_step_s, rtcore_sim_state_step_s), with a lag
- * the chamber's exponential (integrate_segment). */
-
-/* The same plant with the damping B + extra: the linear part a step integrates exactly. */
-static void with_damping(const sim_plant *base, double extra_nms_per_rad, sim_plant *out)
-{
-    *out = *base;
-    if (extra_nms_per_rad == 0.0) {
-        return;
-    }
-    rtcore_exact_plant_init(&out->linear, base->linear.inertia_kgm2, base->linear.damping_nms_per_rad + extra_nms_per_rad,
-                            base->linear.stiffness_nm_per_rad);
-}
-
-/* One step h; the chamber's torque is p_start, p_mid and p_end at t = 0, h/2 and h, and
- * g_start = g(x) + c0·θ'. p is the plant with the damping B + c0, c0 =
- * linearized_nms_per_rad (the friction's and the drag's slopes, rtcore_sim_damping_step_s), which g gives back. Without g: the exact response to that quadratic. With g, ETDRK4 (Cox &
- * Matthews 2002): stages a and b from x and c from a over h/2, each with the total torque
- * held (at x, at a, and 2·(at b) − (at x)), then the exact response to the quadratic
- * through the torque at x, the mean of those at a and b, and at c. */
-static void step(const sim_plant *p, const rtcore_sim_motion *from, rtcore_propagator_cache *cache,
-                 double *angle_rad, double *velocity_rad_per_s, double h, double p_start, double p_mid, double p_end,
-                 double g_start, int32_t touching, double linearized_nms_per_rad, double torque_nm[3])
-{
-    const int32_t slot = rtcore_exact_propagators(&p->linear, cache, h, p->nonlinear);
-    const rtcore_propagator *full = &cache->full[slot];
-    const rtcore_propagator *half = &cache->half[slot];
-    double th_a;
-    double w_a;
-    double th_b;
-    double w_b;
-    double th_c;
-    double w_c;
-    double n_x;
-    double n_a;
-    double n_b;
-    double n_c;
-    if (!p->nonlinear) {
-        torque_nm[0] = p_start;
-        torque_nm[1] = p_mid;
-        torque_nm[2] = p_end;
-        rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, p_start, p_mid, p_end);
-        return;
-    }
-    n_x = p_start + g_start;
-    rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_x, &th_a, &w_a);
-    n_a = p_mid + rtcore_sim_nonlinear_torque_nm(p, from, th_a, w_a, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_a;
-    rtcore_exact_held(half, *angle_rad, *velocity_rad_per_s, n_a, &th_b, &w_b);
-    n_b = p_mid + rtcore_sim_nonlinear_torque_nm(p, from, th_b, w_b, touching, p_mid, 0.5 * h) + linearized_nms_per_rad * w_b;
-    rtcore_exact_held(half, th_a, w_a, 2.0 * n_b - n_x, &th_c, &w_c);
-    n_c = p_end + rtcore_sim_nonlinear_torque_nm(p, from, th_c, w_c, touching, p_end, h) + linearized_nms_per_rad * w_c;
-    torque_nm[0] = n_x;
-    torque_nm[1] = 0.5 * (n_a + n_b);
-    torque_nm[2] = n_c;
-    rtcore_exact_quadratic(full, angle_rad, velocity_rad_per_s, n_x, torque_nm[1], n_c);
-}
 
 /* The step that cubic stiffness's slope allows at the angle the finger may reach under
  * the held input: the present one plus the torque out of balance over k, with the chamber
@@ -95,6 +31,21 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_motion *s, double
         accel_nm = fmax(accel_nm, fmax(fabs(torque_now_nm + g_nm - spring_nm), fabs(torque_last_nm + g_nm - spring_nm)));
     }
     return fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm), floor_s));
+}
+
+/* The finger at the end of a step of elapsed_s (or a knee's passage) from `s`: the loop
+ * and the creep branch moved with it. */
+static void finish_step(const rtcore_sim_finger *f, rtcore_sim_motion *s, double angle_rad, double velocity_rad_per_s,
+                        double elapsed_s)
+{
+    if (f->hysteresis_torque_nm > 0.0) {
+        s->hysteresis_z = rtcore_sim_loop_z(f, s, angle_rad);
+    }
+    if (f->prbm.effects.creep_stiffness_ratio > 0.0) {
+        s->creep_angle_rad = rtcore_sim_creep_angle_rad(&f->prbm.effects, s, angle_rad, elapsed_s);
+    }
+    s->angle_rad = angle_rad;
+    s->velocity_rad_per_s = velocity_rad_per_s;
 }
 
 /* Integrate over duration_s with the valve input held at input_kpa and the external torque
@@ -169,6 +120,42 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
              * sample would take it at each sample */
             cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
         }
+        if (f->prbm.effects.coulomb_torque_nm > 0.0) {
+            /* a drive that carries the finger through the friction's knee: crossed as one
+             * event (rtcore_sim_knee.c), where the steps below would climb its slope a
+             * share at a time */
+            sim_knee_drive drive;
+            sim_knee_path path;
+            drive.finger = f;
+            drive.moving = moving;
+            drive.start_kpa = start_kpa;
+            drive.input_kpa = input_kpa;
+            drive.tau_s = tau_s;
+            drive.t0_s = t_s;
+            drive.torque_nm = torque_start;
+            drive.external_torque_nm = external_torque_nm;
+            if (rtcore_sim_knee_passage(p, s, touching, &drive, fmin(remaining_s * (1.0 - 1e-9), step_cap_s), &path)) {
+                const double angle_rad = path.angle_rad[path.count - 1];
+                const double velocity_rad_per_s = path.velocity_rad_per_s[path.count - 1];
+                const double passed_s = path.time_s[path.count - 1];
+                if (span != 0) {
+                    int32_t i;
+                    for (i = 1; i < path.count; ++i) {
+                        rtcore_sim_span_emit(span, 0, t_s + path.time_s[i - 1],
+                                             path.time_s[i] - path.time_s[i - 1], path.angle_rad[i - 1],
+                                             path.velocity_rad_per_s[i - 1], 0, path.angle_rad[i],
+                                             path.velocity_rad_per_s[i]);
+                    }
+                }
+                finish_step(f, s, angle_rad, velocity_rad_per_s, passed_s);
+                t_s += passed_s;
+                if (moving) {
+                    chamber_now_kpa = rtcore_sim_chamber_at(start_kpa, input_kpa, tau_s, t_s);
+                    torque_start = rtcore_sim_pressure_torque_nm(f, chamber_now_kpa) + external_torque_nm;
+                }
+                continue;
+            }
+        }
         double g_start = p->nonlinear
                              ? rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
                              : 0.0;
@@ -186,7 +173,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             = friction0 + (drag_explicit ? 0.0 : 2.0 * f->prbm.effects.quadratic_damping_nms2_per_rad2 * fabs(s->velocity_rad_per_s))
               + damper0;
         sim_plant local;
-        with_damping(p, slope0, &local);
+        rtcore_sim_with_damping(p, slope0, &local);
         double h = settle_range_rad > 0.0 && cap_s < request_cap_s
                        ? rtcore_sim_settled_step_s(p, s, cap_s, request_cap_s, settle_range_rad,
                                                    torque_start + g_start, fabs(torque_last - torque_start))
@@ -280,8 +267,8 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                 }
                 torque_end = last ? torque_last : rtcore_sim_pressure_torque_nm(f, chamber_end_kpa) + external_torque_nm;
             }
-            step(&local, s, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid, torque_end, g_start,
-                 touching, slope0, torque_nm);
+            rtcore_sim_etdrk4_step(&local, s, cache, &angle_rad, &velocity_rad_per_s, h, torque_start, torque_mid,
+                                   torque_end, g_start, touching, slope0, torque_nm);
             if (p->kinks && (!cut || (refining && cut < ONSET_REFINEMENTS))) {
                 fraction = rtcore_sim_before_kink(p, touching, s->angle_rad, s->velocity_rad_per_s, angle_rad,
                                        velocity_rad_per_s, &surface);
@@ -312,14 +299,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                 rtcore_sim_span_emit(span, &local.linear, t_s, h, s->angle_rad, s->velocity_rad_per_s, torque_nm,
                                      angle_rad, velocity_rad_per_s);
             }
-            if (f->hysteresis_torque_nm > 0.0) {
-                s->hysteresis_z = rtcore_sim_loop_z(f, s, angle_rad);
-            }
-            if (f->prbm.effects.creep_stiffness_ratio > 0.0) {
-                s->creep_angle_rad = rtcore_sim_creep_angle_rad(&f->prbm.effects, s, angle_rad, h);
-            }
-            s->angle_rad = angle_rad;
-            s->velocity_rad_per_s = velocity_rad_per_s;
+            finish_step(f, s, angle_rad, velocity_rad_per_s, h);
             break;
         }
         torque_start = torque_end;
@@ -355,101 +335,4 @@ void rtcore_sim_integrate_held(const sim_plant *p, rtcore_sim_motion *s, rtcore_
         }
     }
     integrate_segment(p, s, cache, input_kpa, external_torque_nm, duration_s, request_cap_s, span);
-}
-
-/* ---- one finger alone (rtcore_sim_plant.h) ------------------------------------------ */
-
-int32_t rtcore_sim_dynamics_valid(const rtcore_sim_finger *f)
-{
-    const rtcore_prbm *m;
-    if (f == 0) {
-        return RTCORE_ERR_NULL;
-    }
-    m = &f->prbm;
-    if (!(isfinite(m->inertia_kgm2) && m->inertia_kgm2 > 0.0) || !(isfinite(m->damping_nms_per_rad)
-        && m->damping_nms_per_rad >= 0.0) || !(isfinite(m->stiffness_nm_per_rad)
-        && m->stiffness_nm_per_rad > 0.0) || !(isfinite(m->pressure_gain_nm_per_kpa)
-        && m->pressure_gain_nm_per_kpa >= 0.0) || !(isfinite(m->lever_arm_m) && m->lever_arm_m >= 0.0)) {
-        return RTCORE_ERR_MODEL;
-    }
-    if (!rtcore_effects_valid(&m->effects)) {
-        return RTCORE_ERR_EFFECTS;
-    }
-    if (!isfinite(f->contact_angle_deg) || !(isfinite(f->contact_stiffness_n_per_m)
-        && f->contact_stiffness_n_per_m >= 0.0) || !(isfinite(f->contact_damping_ns_per_m)
-        && f->contact_damping_ns_per_m >= 0.0)) {
-        return RTCORE_ERR_MODEL;
-    }
-    if (!(isfinite(f->hysteresis_torque_nm) && f->hysteresis_torque_nm >= 0.0)
-        || (f->hysteresis_torque_nm > 0.0
-            && !(isfinite(f->hysteresis_travel_deg) && f->hysteresis_travel_deg > 0.0))) {
-        return RTCORE_ERR_MODEL;
-    }
-    /* a lever arm of 0 is a free finger with no force point: it can meet no object */
-    if ((f->contact_stiffness_n_per_m > 0.0 || f->contact_damping_ns_per_m > 0.0)
-        && !(m->lever_arm_m > 0.0)) {
-        return RTCORE_ERR_MODEL;
-    }
-    return RTCORE_OK;
-}
-
-int32_t rtcore_sim_motion_start(const rtcore_sim_finger *f, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
-                                double angle_deg, double velocity_deg_per_s, double chamber_kpa)
-{
-    sim_plant plant;
-    int32_t err;
-    if (s == 0) {
-        return RTCORE_ERR_NULL;
-    }
-    err = rtcore_sim_dynamics_valid(f);
-    if (err != RTCORE_OK) {
-        return err;
-    }
-    if (!isfinite(angle_deg) || !isfinite(velocity_deg_per_s) || !isfinite(chamber_kpa)) {
-        return RTCORE_ERR_MODEL;
-    }
-    rtcore_sim_plant_for(f, &plant);
-    s->angle_rad = angle_deg * RTCORE_RAD_PER_DEG;
-    s->velocity_rad_per_s = velocity_deg_per_s * RTCORE_RAD_PER_DEG;
-    s->chamber_kpa = chamber_kpa;
-    s->hysteresis_z = 0.0;
-    s->creep_angle_rad = s->angle_rad; /* at rest there: the creep branch relaxed */
-    s->max_step_s = rtcore_sim_parameter_step_s(&plant);
-    if (cache != 0) {
-        cache->count = 0;
-        cache->next = 0;
-    }
-    return RTCORE_OK;
-}
-
-void rtcore_sim_motion_advance(const rtcore_sim_finger *f, rtcore_sim_motion *s, rtcore_propagator_cache *cache,
-                               double input_kpa, double external_torque_nm, double duration_s)
-{
-    rtcore_propagator_cache own;
-    sim_plant plant;
-    if (f == 0 || s == 0 || !isfinite(input_kpa) || !isfinite(external_torque_nm) || !(duration_s > 0.0)
-        || !isfinite(duration_s)) {
-        return;
-    }
-    if (cache == 0) {
-        own.count = 0;
-        own.next = 0;
-        cache = &own;
-    }
-    rtcore_sim_plant_for(f, &plant);
-    rtcore_sim_integrate_held(&plant, s, cache, input_kpa, external_torque_nm, duration_s, duration_s, 0);
-}
-
-void rtcore_sim_motion_advance_many(const rtcore_sim_finger *fingers, rtcore_sim_motion *motions,
-                                    rtcore_propagator_cache *caches, const double *input_kpa,
-                                    const double *external_torque_nm, int32_t count, double duration_s)
-{
-    int32_t i;
-    if (fingers == 0 || motions == 0 || input_kpa == 0 || external_torque_nm == 0) {
-        return;
-    }
-    for (i = 0; i < count; ++i) {
-        rtcore_sim_motion_advance(&fingers[i], &motions[i], caches != 0 ? &caches[i] : 0, input_kpa[i],
-                                  external_torque_nm[i], duration_s);
-    }
 }

@@ -3,7 +3,8 @@
  * finger's equation of motion. The PRBM A·θ'' + B·θ' + k·θ = N·p_eff + g(θ, θ') + τ_ext
  * (docs/physics.md): its linear part integrated exactly whatever the step, the rest of the
  * torque (the effects, the object, the hysteresis loop) by ETDRK4, the chamber following
- * the valve's first-order lag toward a held input (csrc/rtcore_sim_plant.c).
+ * the valve's first-order lag toward a held input (csrc/rtcore_sim_motion.c over
+ * rtcore_sim_plant.c and rtcore_sim_etdrk4.c).
  *
  * The simulated hand (rtcore_sim.h) adds the valve's dead time, its pneumatic mode and the
  * sensors on top. A caller that drives the chamber itself steps a finger here alone: the

@@ -87,7 +87,7 @@ static const rtcore_propagator *propagator_at(sim_span *span, const rtcore_exact
 
 /* After a step of h_s from (angle0, velocity0) at t_s into the segment, under the torque
  * quadratic through torque_nm at 0, h/2 and h, to angle1: the angle at every sample the
- * step reached. */
+ * step reached. linear NULL: the cubic through the ends' angles and velocities. */
 void rtcore_sim_span_emit(sim_span *span, const rtcore_exact_plant *linear, double t_s, double h_s,
                           double angle0_rad, double velocity0_rad_per_s, const double torque_nm[3],
                           double angle1_rad, double velocity1_rad_per_s)
@@ -103,10 +103,11 @@ void rtcore_sim_span_emit(sim_span *span, const rtcore_exact_plant *linear, doub
         }
         if (tau_s >= h_s - tolerance_s) {
             angle_rad = angle1_rad; /* the step ends on it */
-        } else if (tau_s > 0.0 && linear->damping_nms_per_rad != span->damping_nms_per_rad) {
+        } else if (tau_s > 0.0 && (linear == 0 || linear->damping_nms_per_rad != span->damping_nms_per_rad)) {
             /* a step whose exact part took dry friction's slope (B + c0, its own): the cubic
              * through its ends' angles and velocities, the velocity moving little within
-             * such a step (rtcore_sim_damping_step_s bounds it) */
+             * such a step (rtcore_sim_damping_step_s bounds it); so too a piece of the
+             * knee's passage (rtcore_sim_knee.c: its velocity moves by half of ω_s) */
             const double x = tau_s / h_s;
             const double y = 1.0 - x;
             angle_rad = y * y * ((1.0 + 2.0 * x) * angle0_rad + x * h_s * velocity0_rad_per_s)

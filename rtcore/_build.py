@@ -29,10 +29,11 @@ HEADERS = tuple(CSRC / name for name in ("rtcore_step.h", "rtcore_pneumatic.h", 
                                          "rtcore_sim_plant.h", "rtcore_sim.h", "rtcore_clock.h",
                                          "rtcore_ring.h", "rtcore_gate.h", "rtcore_tick.h", "rtcore_can.h"))
 SOURCES = ("rtcore_filter.c", "rtcore_model.c", "rtcore_pid.c", "rtcore_config.c", "rtcore_step.c",
-           "rtcore_sim.c", "rtcore_sim_plant.c", "rtcore_sim_kink.c", "rtcore_sim_torque.c",
-           "rtcore_sim_step_size.c", "rtcore_sim_advance.c", "rtcore_sim_span.c", "rtcore_exact.c",
-           "rtcore_sim_link.c", "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c", "rtcore_ring.c",
-           "rtcore_pneumatic.c", "rtcore_can.c", "rtcore_can_encode.c", "rtcore_can_tick.c")
+           "rtcore_sim.c", "rtcore_sim_motion.c", "rtcore_sim_plant.c", "rtcore_sim_etdrk4.c",
+           "rtcore_sim_knee.c", "rtcore_sim_kink.c", "rtcore_sim_torque.c", "rtcore_sim_step_size.c",
+           "rtcore_sim_advance.c", "rtcore_sim_span.c", "rtcore_exact.c", "rtcore_sim_link.c",
+           "rtcore_gate.c", "rtcore_tick.c", "rtcore_clock.c", "rtcore_ring.c", "rtcore_pneumatic.c",
+           "rtcore_can.c", "rtcore_can_encode.c", "rtcore_can_tick.c")
 DBC = ROOT / "firmware_profiles" / "can-v1.dbc"
 GENERATED = ROOT / "build" / "gen"  # rtcore_can_v1.c and .h, from DBC (generate_can_v1)
 CAN_V1 = "rtcore_can_v1"  # their names and the prefix of every symbol in them (exported: rtcore_)

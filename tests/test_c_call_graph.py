@@ -145,7 +145,8 @@ def test_graph_sees_calls_and_taken_addresses() -> None:
 
 def test_graph_covers_the_known_units() -> None:
     graph = call_graph(c_units())
-    assert "csrc/rtcore_exact.c" in graph["csrc/rtcore_sim_plant.c"]
+    assert "csrc/rtcore_exact.c" in graph["csrc/rtcore_sim_etdrk4.c"]
+    assert "csrc/rtcore_sim_etdrk4.c" in graph["csrc/rtcore_sim_plant.c"]
     assert "board/core/regulator.c" in graph["board/core/measure.c"]
 
 
@@ -245,7 +246,9 @@ def included(source: Path) -> set[str]:
     return seen
 
 
-@pytest.mark.parametrize("unit", ["rtcore_sim_plant.c", "rtcore_sim_kink.c", "rtcore_sim_torque.c",
+@pytest.mark.parametrize("unit", ["rtcore_sim_motion.c", "rtcore_sim_plant.c", "rtcore_sim_etdrk4.c",
+                                  "rtcore_sim_knee.c",
+                                  "rtcore_sim_kink.c", "rtcore_sim_torque.c",
                                   "rtcore_sim_step_size.c", "rtcore_sim_span.c", "rtcore_exact.c"])
 def test_the_finger_dynamics_see_nothing_of_the_hand_above_them(unit: str) -> None:
     """The finger's dynamics (rtcore_sim_plant.h) and the units below them do not depend on
