@@ -198,6 +198,10 @@ def test_a_stand_in_stays_in_its_round_only_where_it_beats_the_eight_on_the_raw_
     assert names([weak, gravity], False, 0.5) == ["gravity"]
     later = _Scored("creep", truth + 1.99 * off, delta_bic=40.0)
     assert names([later], True, 0.5) == [] and names([later], False, 0.5) == ["creep"]
+    # at the noise too: the share decides (the innovations judged the gain real)
+    at_noise = _Scored("creep", truth + 0.8 * off, delta_bic=40.0)
+    at_noise.fit.sigma_deg = 10.0
+    assert names([at_noise, gravity], False, 0.5) == ["creep", "gravity"]
     # a loop is not judged against dry friction here (friction_rival is), and the eight stay
     loop = _Scored("hysteresis", truth + 1.001 * off, delta_bic=300.0)
     friction = _Scored("coulomb_friction", truth + off, delta_bic=200.0)

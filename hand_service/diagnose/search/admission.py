@@ -30,8 +30,9 @@ stays in its round only where it is significant and its model, simulated from th
 command, follows the raw angle better than every significant fit of the eight's in the round
 (the loop beside dry friction excepted: the tie above judges that pair), in a later round
 better than the model before it, and, where it leads the eight's best in ΔBIC, better than
-the eight's best two fitted together, each by more than the raw angle's tie and not both at
-the noise (`kept`): else the eight's explanation, or the model so far, stands. The pair is
+the eight's best two fitted together, each by more than the raw angle's tie share (at the
+noise too: a loop 17 % closer than a cubic spring, both within 1.25 times the noise, was the
+truth's loop): else the eight's explanation, or the model so far, stands (`kept`). The pair is
 one physics the eight draw as two: a weight mounted at an angle is the library's gravity
 and a cubic spring (k takes its linear part); a stiffening chamber drew it in one, closer
 than gravity alone but not than the two (docs/results.md §12.57).
@@ -99,6 +100,13 @@ def loop_beats_friction(loop_raw_deg: float, friction_raw_deg: float, noise_deg:
     return beats_on_raw(loop_raw_deg, friction_raw_deg, noise_deg)
 
 
+def closer_on_raw(own_raw_deg: float, other_raw_deg: float) -> bool:
+    """A model follows the raw angle better than another by more than the raw angle's tie
+    share, whatever the noise: at the noise the innovations have judged its gain real, and
+    what is asked of the raw angle is that the other's explanation does not come as close."""
+    return own_raw_deg < (1.0 - TIE_SHARE) * other_raw_deg
+
+
 class Judged(Fitted, Protocol):
     """What `kept` reads of a round's candidate (forward_selection.Candidate)."""
 
@@ -117,8 +125,8 @@ def paired(stand_in: str, other: str) -> bool:
 def kept(problem: Problem, base: Fit, candidates: list[Scored], later: bool,
          fit_pair: Callable[[Fit, str], Fitted]) -> list[Scored]:
     """A round's `candidates` (strongest first) without the stand-ins the screen let in
-    (gated) that are not significant, or whose model does not beat on the raw angle
-    (beats_on_raw) every significant candidate of the eight's in the round, in a `later`
+    (gated) that are not significant, or whose model does not follow the raw angle closer
+    (closer_on_raw) than every significant candidate of the eight's in the round, in a `later`
     round `base`, and, where it leads the eight's best, their best two together
     (`fit_pair`: the second fitted beside the first's model)."""
     eight = [c for c in candidates if not gated(problem, c.name) and c.significant]
@@ -129,15 +137,15 @@ def kept(problem: Problem, base: Fit, candidates: list[Scored], later: bool,
         if gated(problem, c.name):
             if not c.significant:
                 continue
-            own, noise_deg = raw_deg(problem, c.fit.angle_deg), float(c.fit.sigma_deg)
+            own = raw_deg(problem, c.fit.angle_deg)
             rivals = [e for e in eight if not paired(c.name, e.name)]
             others = [raw_deg(problem, e.fit.angle_deg) for e in rivals]
-            if not all(beats_on_raw(own, other, noise_deg) for other in [*others, *base_raw]):
+            if not all(closer_on_raw(own, other) for other in [*others, *base_raw]):
                 continue
             if len(rivals) >= 2 and c.delta_bic > rivals[0].delta_bic:
                 if not pair_raw:  # one physics the eight draw as two (a mounted weight: gravity and a cubic)
                     pair_raw.append(raw_deg(problem, fit_pair(rivals[0].fit, rivals[1].name).fit.angle_deg))
-                if not beats_on_raw(own, pair_raw[0], noise_deg):
+                if not closer_on_raw(own, pair_raw[0]):
                     continue
         out.append(c)
     return out
