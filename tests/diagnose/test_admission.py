@@ -202,6 +202,12 @@ def test_a_stand_in_stays_in_its_round_only_where_it_beats_the_eight_on_the_raw_
     at_noise = _Scored("creep", truth + 0.8 * off, delta_bic=40.0)
     at_noise.fit.sigma_deg = 10.0
     assert names([at_noise, gravity], False, 0.5) == ["creep", "gravity"]
+    # but a later round's stand-in beside a model so far at the noise is not added
+    beside = _Scored("creep", truth + 0.9 * off, delta_bic=40.0)
+    beside.fit.sigma_deg = 10.0
+    assert names([beside], True, 0.5) == []
+    beside.fit.sigma_deg = 0.01
+    assert names([beside], True, 0.5) == ["creep"]
     # a loop is not judged against dry friction here (friction_rival is), and the eight stay
     loop = _Scored("hysteresis", truth + 1.001 * off, delta_bic=300.0)
     friction = _Scored("coulomb_friction", truth + off, delta_bic=200.0)

@@ -32,7 +32,10 @@ command, follows the raw angle better than every significant fit of the eight's 
 better than the model before it, and, where it leads the eight's best in ΔBIC, better than
 the eight's best two fitted together, each by more than the raw angle's tie share (at the
 noise too: a loop 17 % closer than a cubic spring, both within 1.25 times the noise, was the
-truth's loop): else the eight's explanation, or the model so far, stands (`kept`). The pair is
+truth's loop, and one of the two is named); a later round's stand-in must also follow the raw
+angle closer than the model so far, and not both at the noise (a stiffening 7 % closer than a
+cubic spring and gravity at the noise, on a spring stiffer than the cube, was a third name for
+one physics): else the eight's explanation, or the model so far, stands (`kept`). The pair is
 one physics the eight draw as two: a weight mounted at an angle is the library's gravity
 and a cubic spring (k takes its linear part); a stiffening chamber drew it in one, closer
 than gravity alone but not than the two (docs/results.md §12.57).
@@ -126,9 +129,10 @@ def kept(problem: Problem, base: Fit, candidates: list[Scored], later: bool,
          fit_pair: Callable[[Fit, str], Fitted]) -> list[Scored]:
     """A round's `candidates` (strongest first) without the stand-ins the screen let in
     (gated) that are not significant, or whose model does not follow the raw angle closer
-    (closer_on_raw) than every significant candidate of the eight's in the round, in a `later`
-    round `base`, and, where it leads the eight's best, their best two together
-    (`fit_pair`: the second fitted beside the first's model)."""
+    (closer_on_raw) than every significant candidate of the eight's in the round and, where
+    it leads the eight's best, than their best two together (`fit_pair`: the second fitted
+    beside the first's model), or, in a `later` round, does not beat `base` (beats_on_raw:
+    a model so far at the noise is not added to by a stand-in)."""
     eight = [c for c in candidates if not gated(problem, c.name) and c.significant]
     base_raw = [raw_deg(problem, base.angle_deg)] if later else []
     pair_raw: list[float] = []
@@ -139,9 +143,10 @@ def kept(problem: Problem, base: Fit, candidates: list[Scored], later: bool,
                 continue
             own = raw_deg(problem, c.fit.angle_deg)
             rivals = [e for e in eight if not paired(c.name, e.name)]
-            others = [raw_deg(problem, e.fit.angle_deg) for e in rivals]
-            if not all(closer_on_raw(own, other) for other in [*others, *base_raw]):
+            if not all(closer_on_raw(own, raw_deg(problem, e.fit.angle_deg)) for e in rivals):
                 continue
+            if not all(beats_on_raw(own, before, float(c.fit.sigma_deg)) for before in base_raw):
+                continue  # the model so far at the noise leaves the raw angle nothing to show
             if len(rivals) >= 2 and c.delta_bic > rivals[0].delta_bic:
                 if not pair_raw:  # one physics the eight draw as two (a mounted weight: gravity and a cubic)
                     pair_raw.append(raw_deg(problem, fit_pair(rivals[0].fit, rivals[1].name).fit.angle_deg))
