@@ -1,8 +1,9 @@
-"""A rival before the grade `complete`: the effects searched behind the screen and not fitted
-past it (pressure stiffening, creep), fitted in place of the named ones, judged on the raw angle.
+"""A rival before the grade `complete`: pressure stiffening (searched on request) and creep
+(searched behind the screen) not fitted by the search, fitted in place of the named ones,
+judged on the raw angle.
 
-Behind the screen (search/admission.py) the two are fitted only where their screen and the
-raw angle set them apart from the eight. Elsewhere a finger whose pressure stiffens it, or
+Behind the screen (search/admission.py) they are fitted only where their screen and the raw
+angle set them apart from the eight. Elsewhere a finger whose pressure stiffens it, or
 whose material creeps, is named by the eight's effect that imitates it best (a stiffening
 chamber as gravity or a cubic spring, creep as an asymmetric spring or a valve lag), and
 where the imitation follows the recording to its noise the grade was `complete`
@@ -119,7 +120,7 @@ class Rival:
             tail = "the recording cannot tell them apart"
         values = ", ".join(f"{k} {v:.3g}" for k, v in self.estimate.items())
         what = ("a rate-independent loop in Dahl's form, the library's hysteresis" if self.loop
-                else "not fitted past the search's screen")
+                else "not fitted by the search")
         advice = ("diagnose --search hysteresis weighs the loop as a candidate, past the screen" if self.loop
                   else f"diagnose --search {self.name} weighs it as a candidate")
         return (f"{self.name} ({values}), {what}, fitted in place of {said}, {how}: raw "
