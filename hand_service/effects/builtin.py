@@ -136,9 +136,9 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
     DeadZone("pressure_deadzone", "no torque until the pressure passes a threshold",
              _one("threshold_kpa", "kPa", 0.0, 0.0, 100.0, 5.0),
              reference="a membrane's pre-tension", rtcore_field="pressure_deadzone_kpa"),
-    # searched on request (diagnose --search): it refines a lag diagnose already has; so are
-    # pressure_stiffening and creep, which behind the screen still stood in for a gravity or a
-    # cubic spring beside a valve lag (docs/results.md §12.52): the rival check fits them
+    # searched on request (diagnose --search): it refines a lag diagnose already has; so is
+    # pressure_stiffening, which behind the screen, past the eight on the raw angle, still
+    # stood in for a contact the screen kept out (docs/results.md §12.57): the rival check fits it
     FieldEffect("valve_vent_lag", "the chamber vents with a lag of its own (valve_lag's then fills only)",
                 _one("tau_s", "s", 0.0, VALVE_VENT_TAU_S.lower, VALVE_VENT_TAU_S.upper, 0.1),
                 reference="a valve board whose exhaust is narrower than its supply",
@@ -169,7 +169,7 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
                  Parameter("time_s", "s", 1.0, 0.01, 100.0, 1.0)),
                 reference="Zener's standard linear solid (Zener 1948)",
                 rtcore_field="creep_stiffness_ratio", more_fields=(("time_s", "creep_time_s"),),
-                searched=False, admitted_by_screen=True),
+                admitted_by_screen=True),
     FingerEffect("hysteresis", "a rate-independent loop (Dahl): −H·z, dz/dθ = (sign θ' − z)/θh",
                  (Parameter("torque_nm", "N·m", 0.0, 0.0, 0.5, 0.005),
                   Parameter("travel_deg", "deg", 5.0, 0.1, 90.0, 2.0)),

@@ -19,6 +19,7 @@ from hand_service.diagnose.search.admission import (
     admitted,
     friction_rival,
     gated,
+    kept,
     loop_beats_friction,
 )
 from hand_service.diagnose.search.forward_selection import NAME_MARGIN_BIC, Selection
@@ -43,11 +44,11 @@ def _screen(name: str, white_bic: float) -> Screen:
     return Screen(name, Param.effect(name), 0.5, 0.5, [spec.neutral], white_bic, white_bic)
 
 
-def test_contact_and_hysteresis_are_searched_by_default_behind_the_screen() -> None:
+def test_three_of_the_four_are_searched_by_default_behind_the_screen() -> None:
     default = searched(())
-    assert {"contact", "hysteresis"} <= set(default)
-    # on request still: a lag's refinement, and the two the rival check fits in place
-    assert not {"valve_vent_lag", "pressure_stiffening", "creep"} & set(default)
+    assert {"contact", "hysteresis", "creep"} <= set(default)
+    # on request still: a lag's refinement, and the stiffening that stood in for a contact
+    assert not {"valve_vent_lag", "pressure_stiffening"} & set(default)
     assert all(fx.BY_NAME[n].admitted_by_screen for n in FOUR)
     assert not any(fx.BY_NAME[n].admitted_by_screen for n in default if n not in FOUR)
 
@@ -158,3 +159,57 @@ def test_a_contact_screened_out_of_the_first_round_is_named_alone(tmp_path) -> N
     assert case.visibility > 3.0, case.visibility
     d = _diagnosed(*cs.write(case, tmp_path))
     assert [e.name for e in d.effects] == ["contact"], d.warnings
+
+
+@dataclass
+class _Scored(_Candidate):
+    delta_bic: float = 0.0
+
+
+def test_a_stand_in_stays_in_its_round_only_where_it_beats_the_eight_on_the_raw_angle() -> None:
+    """A stiffening that out-gains gravity on the innovations stays only where its model, simulated
+    from the command, follows the raw angle better than gravity's, than the model before it in a
+    later round, and than the eight's best two together, each past the raw tie."""
+    problem = _problem()
+    truth = problem.measured_deg
+    off = np.random.default_rng(1).normal(0.0, 0.5, truth.size)
+    base = SimpleNamespace(angle_deg=truth + 2.0 * off)
+    gravity = _Scored("gravity", truth + off, delta_bic=750.0)
+    cubic = _Scored("cubic_stiffness", truth + 1.2 * off, delta_bic=660.0)
+    pair_fits: list[str] = []
+
+    def pair(first_fit: SimpleNamespace, name: str, raw_share: float) -> SimpleNamespace:
+        pair_fits.append(name)
+        return SimpleNamespace(fit=SimpleNamespace(angle_deg=truth + raw_share * off))
+
+    def names(candidates: list[_Scored], later: bool, pair_share: float) -> list[str]:
+        return [c.name for c in kept(problem, base, candidates, later,
+                                     lambda f, n: pair(f, n, pair_share))]
+
+    close = _Scored("pressure_stiffening", truth + (1.0 - 0.5 * TIE_SHARE) * off, delta_bic=840.0)
+    assert names([close, gravity, cubic], False, 0.5) == ["gravity", "cubic_stiffness"]
+    better = _Scored("pressure_stiffening", truth + 0.8 * off, delta_bic=840.0)
+    assert names([better, gravity, cubic], False, 0.9) == [
+        "pressure_stiffening", "gravity", "cubic_stiffness"]
+    assert pair_fits == ["cubic_stiffness"]
+    # the eight's best two together follow the raw angle closer: one physics drawn as two
+    assert names([better, gravity, cubic], False, 0.7) == ["gravity", "cubic_stiffness"]
+    # not significant, or not past the model before it in a later round
+    weak = _Scored("pressure_stiffening", truth + 0.8 * off, significant=False, delta_bic=840.0)
+    assert names([weak, gravity], False, 0.5) == ["gravity"]
+    later = _Scored("creep", truth + 1.99 * off, delta_bic=40.0)
+    assert names([later], True, 0.5) == [] and names([later], False, 0.5) == ["creep"]
+    # at the noise too: the share decides (the innovations judged the gain real)
+    at_noise = _Scored("creep", truth + 0.8 * off, delta_bic=40.0)
+    at_noise.fit.sigma_deg = 10.0
+    assert names([at_noise, gravity], False, 0.5) == ["creep", "gravity"]
+    # but a later round's stand-in beside a model so far at the noise is not added
+    beside = _Scored("creep", truth + 0.9 * off, delta_bic=40.0)
+    beside.fit.sigma_deg = 10.0
+    assert names([beside], True, 0.5) == []
+    beside.fit.sigma_deg = 0.01
+    assert names([beside], True, 0.5) == ["creep"]
+    # a loop is not judged against dry friction here (friction_rival is), and the eight stay
+    loop = _Scored("hysteresis", truth + 1.001 * off, delta_bic=300.0)
+    friction = _Scored("coulomb_friction", truth + off, delta_bic=200.0)
+    assert names([loop, friction], False, 0.5) == ["hysteresis", "coulomb_friction"]

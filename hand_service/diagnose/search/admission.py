@@ -1,7 +1,8 @@
 """Which screened effects a round fits: the effects that can stand in for the others' physics
 (Effect.admitted_by_screen: a contact, a material's loop, a pressure-stiffened spring, creep)
-only where the screen sets them apart; and a loop named over dry friction only where it
-follows the raw angle better.
+only where the screen sets them apart and, fitted, they follow the raw angle better than the
+eight's fits of the round; and a loop named over dry friction only where it follows the raw
+angle better.
 
 A stand-in fitted beside the library's other effects wins by a few per cent of ΔBIC where
 the truth is neither form (a stiffening chamber for a missing gravity, a Dahl loop for dry
@@ -21,6 +22,23 @@ draws is one physics to the recording. Where the round's best is the loop, it is
 when its model, simulated from the recorded command, follows the raw angle better than dry
 friction's by more than the raw angle's tie (raw_error.TIE_SHARE) and not both at the noise;
 else the two are a tie (Selection.ambiguous), said so.
+
+Past the screen, a stand-in's win on the innovations is not yet the physics: beside a valve
+lag, a stiffening chamber gained more ΔBIC than the gravity it stood in for while following
+the raw angle no better (docs/results.md §12.52, §12.57). So a stand-in the screen let in
+stays in its round only where it is significant and its model, simulated from the recorded
+command, follows the raw angle better than every significant fit of the eight's in the round
+(the loop beside dry friction excepted: the tie above judges that pair), in a later round
+better than the model before it, and, where it leads the eight's best in ΔBIC, better than
+the eight's best two fitted together, each by more than the raw angle's tie share (at the
+noise too: a loop 17 % closer than a cubic spring, both within 1.25 times the noise, was the
+truth's loop, and one of the two is named); a later round's stand-in must also follow the raw
+angle closer than the model so far, and not both at the noise (a stiffening 7 % closer than a
+cubic spring and gravity at the noise, on a spring stiffer than the cube, was a third name for
+one physics): else the eight's explanation, or the model so far, stands (`kept`). The pair is
+one physics the eight draw as two: a weight mounted at an angle is the library's gravity
+and a cubic spring (k takes its linear part); a stiffening chamber drew it in one, closer
+than gravity alone but not than the two (docs/results.md §12.57).
 """
 
 from __future__ import annotations
@@ -73,11 +91,69 @@ def raw_deg(problem: Problem, angle_deg: np.ndarray) -> float:
     return raw_rms_deg(problem, angle_deg, problem.fit_mask, problem.fit_mask | problem.held_mask)
 
 
+def beats_on_raw(own_raw_deg: float, other_raw_deg: float, noise_deg: float) -> bool:
+    """A model follows the raw angle better than another by more than the raw angle's tie,
+    and the two are not both at the sensor's noise."""
+    return (own_raw_deg < (1.0 - TIE_SHARE) * other_raw_deg
+            and not both_at_noise(own_raw_deg, other_raw_deg, noise_deg))
+
+
 def loop_beats_friction(loop_raw_deg: float, friction_raw_deg: float, noise_deg: float) -> bool:
-    """The loop follows the raw angle better than dry friction by more than the raw angle's
-    tie, and the two are not both at the sensor's noise."""
-    return (loop_raw_deg < (1.0 - TIE_SHARE) * friction_raw_deg
-            and not both_at_noise(loop_raw_deg, friction_raw_deg, noise_deg))
+    """The loop follows the raw angle better than dry friction (beats_on_raw)."""
+    return beats_on_raw(loop_raw_deg, friction_raw_deg, noise_deg)
+
+
+def closer_on_raw(own_raw_deg: float, other_raw_deg: float) -> bool:
+    """A model follows the raw angle better than another by more than the raw angle's tie
+    share, whatever the noise: at the noise the innovations have judged its gain real, and
+    what is asked of the raw angle is that the other's explanation does not come as close."""
+    return own_raw_deg < (1.0 - TIE_SHARE) * other_raw_deg
+
+
+class Judged(Fitted, Protocol):
+    """What `kept` reads of a round's candidate (forward_selection.Candidate)."""
+
+    @property
+    def significant(self) -> bool: ...
+
+
+Scored = TypeVar("Scored", bound=Judged)
+
+
+def paired(stand_in: str, other: str) -> bool:
+    """The stand-in and one of the eight judged by their own rule (the loop and dry friction)."""
+    return stand_in == LOOP and other == FRICTION
+
+
+def kept(problem: Problem, base: Fit, candidates: list[Scored], later: bool,
+         fit_pair: Callable[[Fit, str], Fitted]) -> list[Scored]:
+    """A round's `candidates` (strongest first) without the stand-ins the screen let in
+    (gated) that are not significant, or whose model does not follow the raw angle closer
+    (closer_on_raw) than every significant candidate of the eight's in the round and, where
+    it leads the eight's best, than their best two together (`fit_pair`: the second fitted
+    beside the first's model), or, in a `later` round, does not beat `base` (beats_on_raw:
+    a model so far at the noise is not added to by a stand-in)."""
+    eight = [c for c in candidates if not gated(problem, c.name) and c.significant]
+    base_raw = [raw_deg(problem, base.angle_deg)] if later else []
+    pair_raw: list[float] = []
+    out = []
+    for c in candidates:
+        if gated(problem, c.name):
+            if not c.significant:
+                continue
+            own = raw_deg(problem, c.fit.angle_deg)
+            rivals = [e for e in eight if not paired(c.name, e.name)]
+            if not all(closer_on_raw(own, raw_deg(problem, e.fit.angle_deg)) for e in rivals):
+                continue
+            if not all(beats_on_raw(own, before, float(c.fit.sigma_deg)) for before in base_raw):
+                continue  # the model so far at the noise leaves the raw angle nothing to show
+            if len(rivals) >= 2 and c.delta_bic > rivals[0].delta_bic:
+                if not pair_raw:  # one physics the eight draw as two (a mounted weight: gravity and a cubic)
+                    pair_raw.append(raw_deg(problem, fit_pair(rivals[0].fit, rivals[1].name).fit.angle_deg))
+                if not closer_on_raw(own, pair_raw[0]):
+                    continue
+        out.append(c)
+    return out
 
 
 def friction_rival(problem: Problem, best: Candidate, candidates: list[Candidate], remaining: list[str],

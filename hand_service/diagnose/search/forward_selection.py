@@ -33,7 +33,7 @@ from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import NO_PRIOR, Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import effect_size
-from hand_service.diagnose.search.admission import admitted, friction_rival, gated
+from hand_service.diagnose.search.admission import admitted, friction_rival, kept
 from hand_service.diagnose.search.held_out import expected_z, second_split_z
 from hand_service.diagnose.search.joint_start import joint_range, nominal_start
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
@@ -348,8 +348,9 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
                                                 lazy=not fit_all),
                              enumerate(chosen))
     candidates.sort(key=lambda c: -c.delta_bic)
-    # a stand-in the screen let in whose fit is not significant is as if kept out (admission.py)
-    return Round(base, [c for c in candidates if c.significant or not gated(problem, c.name)])
+    # a stand-in the screen let in that is not significant, or does not beat the eight's fits
+    # (and a later round's model so far) on the raw angle, is as if kept out (admission.py)
+    return Round(base, kept(problem, base, candidates, later=not fit_all, fit_pair=partial(beside, problem)))
 
 
 def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None) -> Selection:

@@ -1,15 +1,17 @@
-"""A rival before the grade `complete`: the effects searched only on request, fitted in place
-of the named ones, judged on the raw angle.
+"""A rival before the grade `complete`: pressure stiffening (searched on request) and creep
+(searched behind the screen) not fitted by the search, fitted in place of the named ones,
+judged on the raw angle.
 
-The default search tries the library's searched effects only. A finger whose pressure
-stiffens it, or whose material creeps, is then named by the searched effect that imitates
-it best (a stiffening chamber as gravity or a cubic spring, creep as an asymmetric spring or
-a valve lag), and where the imitation follows the recording to its noise the grade was
-`complete` (docs/results.md §12.36, §12.38). Searching those effects by default moves the
-wrong names rather than removing them (a stiffening stood in for a missing gravity).
+Behind the screen (search/admission.py) they are fitted only where their screen and the raw
+angle set them apart from the eight. Elsewhere a finger whose pressure stiffens it, or
+whose material creeps, is named by the eight's effect that imitates it best (a stiffening
+chamber as gravity or a cubic spring, creep as an asymmetric spring or a valve lag), and
+where the imitation follows the recording to its noise the grade was `complete`
+(docs/results.md §12.36, §12.38). Fitting them ungated moves the wrong names rather than
+removing them (a stiffening stood in for a missing gravity).
 
 So, where the verdict would be `missing_physics` graded `complete`, each rival (RIVALS,
-those of them not searched and not in the model) is screened and fitted in place of the
+those of them not searched past the screen and not in the model) is fitted in place of the
 named effects, from the plain refit, as a first round fits a candidate
 (forward_selection.beside), on the innovations like the named model; both are then
 simulated from the recorded command alone and scored on the raw angle, each with one
@@ -44,7 +46,7 @@ from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search.forward_selection import Candidate, beside
 from hand_service.diagnose.workers import ordered_map
 
-# The effects searched only on request that can stand in for a searched one over a whole
+# The effects searched behind the screen that can stand in for one of the eight over a whole
 # recording: static or slow (a contact and a material's hysteresis have their own checks,
 # outside_library/; a vent lag only refines a lag already named).
 RIVALS = ("pressure_stiffening", "creep")
@@ -118,7 +120,7 @@ class Rival:
             tail = "the recording cannot tell them apart"
         values = ", ".join(f"{k} {v:.3g}" for k, v in self.estimate.items())
         what = ("a rate-independent loop in Dahl's form, the library's hysteresis" if self.loop
-                else "searched only on request")
+                else "not fitted by the search")
         advice = ("diagnose --search hysteresis weighs the loop as a candidate, past the screen" if self.loop
                   else f"diagnose --search {self.name} weighs it as a candidate")
         return (f"{self.name} ({values}), {what}, fitted in place of {said}, {how}: raw "
