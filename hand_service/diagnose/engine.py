@@ -51,6 +51,7 @@ from hand_service.diagnose.requested import contact_at_onset, searched, shape_on
 from hand_service.diagnose.residual import noise, noise_only, stats
 from hand_service.diagnose.search import (
     loop_rival,
+    other_first,
     posture_stability,
     rest_order,
     rival_check,
@@ -220,6 +221,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if (tie := tie_revisit.revisit(problem, selection, progress)) is not None:
         warnings.append(tie.sentence())  # a first-round tie told apart beside the effects found since
         selection = tie.selection
+    if not lost and (other := other_first.search(problem, refit, selection, missing, progress)) is not None:
+        warnings.append(other.sentence())  # another first pick's path explains more (its set kept)
+        selection = other.selection
     if noise_model == "ar" and not lost and (rest := rest_order.search(
             problem, refit, selection, missing, problem.with_skipped(fit_mask | held), (fitted, scored_held),
             progress)) is not None:

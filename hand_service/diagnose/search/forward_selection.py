@@ -352,11 +352,13 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     return Round(base, [c for c in candidates if c.significant or not gated(problem, c.name)])
 
 
-def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None) -> Selection:
-    """Forward selection over the effects `names`, from the refitted plain model."""
-    selection = Selection()
-    current = refit
-    remaining = list(names)
+def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None,
+           first: Candidate | None = None) -> Selection:
+    """Forward selection over the effects `names`, from the refitted plain model (`first`: that
+    first-round candidate taken as the first pick, other_first.py)."""
+    selection = Selection() if first is None else Selection([Round(refit, [first])], [first])
+    current = refit if first is None else first.fit
+    remaining = [name for name in names if first is None or name != first.name]
     standing: list[str] = []
     while remaining and len(selection.accepted) < MAX_EFFECTS and len(selection.rounds) <= MAX_EFFECTS:
         round_ = run_round(problem, current, remaining, progress, fit_all=not selection.rounds,
