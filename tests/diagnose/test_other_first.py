@@ -62,16 +62,25 @@ def test_a_path_from_another_first_pick_that_explains_more_replaces_the_first(mo
                                           "valve_lag": (["valve_lag", "cubic_stiffness"], 1150.0)}, 1104.0)
     selection = first_path(["cubic_stiffness"], ROUND1)
     found = other_first.search(None, "refit", selection, list(ROUND1))
-    assert started == ["gravity", "valve_lag"]  # what gained in the fit and is not on the path
+    assert started == ["gravity"]  # the strongest that gained in the fit, off the path
     assert found is not None
     assert [c.name for c in found.selection.accepted] == ["gravity", "pressure_deadzone"]
     assert found.selection.rounds[0] is selection.rounds[0]  # the evidence table stays the first round's
     assert "picked cubic_stiffness; started from gravity" in found.sentence()
 
 
+def test_further_paths_are_tried_in_the_first_round_order_and_the_best_kept(monkeypatch):
+    monkeypatch.setattr(other_first, "OTHER_TOP", 2)
+    started = use_stand_ins(monkeypatch, {"gravity": (["gravity", "pressure_deadzone"], 1200.0),
+                                          "valve_lag": (["valve_lag", "cubic_stiffness"], 1300.0)}, 1104.0)
+    found = other_first.search(None, "refit", first_path(["cubic_stiffness"], ROUND1), list(ROUND1))
+    assert started == ["gravity", "valve_lag"]
+    assert found is not None
+    assert [c.name for c in found.selection.accepted] == ["valve_lag", "cubic_stiffness"]
+
+
 def test_a_path_within_the_naming_margin_does_not_replace_the_first(monkeypatch):
-    use_stand_ins(monkeypatch, {"gravity": (["gravity", "cubic_stiffness"], 1110.0),
-                                "valve_lag": (["valve_lag", "cubic_stiffness"], 1100.0)}, 1104.0)
+    use_stand_ins(monkeypatch, {"gravity": (["gravity", "cubic_stiffness"], 1110.0)}, 1104.0)
     assert other_first.search(None, "refit", first_path(["cubic_stiffness"], ROUND1), list(ROUND1)) is None
 
 

@@ -9,9 +9,10 @@ predict the held-out data and the search stopped, while gravity and the dead zon
 gain ΔBIC 1 769. Or nothing passes alone (a dead zone gained ΔBIC 128 in the fit and did not
 predict), while beside it a cubic spring does and the two together gain 313.
 
-So each first-round effect that gained in the fit (ΔBIC over SIGNIFICANT_BIC) and is not on
-the path already, OTHER_TOP of them, strongest first, is taken as the first pick and the
-forward selection runs on from it, by its own rules. A path's set is compared with the
+So the strongest first-round effect that gained in the fit (ΔBIC over SIGNIFICANT_BIC) and is
+not on the path already (OTHER_TOP of them) is taken as the first pick and the forward
+selection runs on from it, by its own rules. On the truth's combinations every set found so
+came from that first one, and each further path costs as much again. A path's set is compared with the
 first path's by the ΔBIC of its final fit over the plain refit (every member, a tie's
 carried one included, each paying its penalty), and replaces it only where it gains more by
 the naming margin (NAME_MARGIN_BIC) and
@@ -46,7 +47,7 @@ from hand_service.diagnose.search.forward_selection import (
 )
 from hand_service.diagnose.search.set_members import without
 
-OTHER_TOP = 2  # the first round's other effects that gained in the fit, strongest first, tried first
+OTHER_TOP = 1  # the first round's other effects that gained in the fit, strongest first, tried first
 
 
 @dataclass(frozen=True)
