@@ -53,10 +53,9 @@ from hand_service.diagnose.search import (
     loop_rival,
     posture_stability,
     rest_order,
+    revisions,
     rival_check,
     set_members,
-    set_search,
-    tie_revisit,
 )
 from hand_service.diagnose.search.admission import gated
 from hand_service.diagnose.search.forward_selection import (
@@ -214,12 +213,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     lost = raw_error.cannot_follow(problem, refit.angle_deg, fitted, scored)
     # the plain model's adequacy first: no effect is searched on one that cannot follow the data
     selection = Selection(final=refit) if lost else select_screened(problem, refit, missing, progress)
-    if (found_set := set_search.search(problem, selection, progress)) is not None:
-        warnings.append(found_set.sentence())  # a first pick the posture check withdraws: sets
-        selection = found_set.selection
-    if (tie := tie_revisit.revisit(problem, selection, progress)) is not None:
-        warnings.append(tie.sentence())  # a first-round tie told apart beside the effects found since
-        selection = tie.selection
+    selection, revised = revisions.revise(problem, refit, selection, missing, lost, progress)
+    warnings += revised  # sets past a withdrawn pick, a first-round tie told apart, another path
     if noise_model == "ar" and not lost and (rest := rest_order.search(
             problem, refit, selection, missing, problem.with_skipped(fit_mask | held), (fitted, scored_held),
             progress)) is not None:

@@ -353,11 +353,12 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     return Round(base, kept(problem, base, candidates, later=not fit_all, fit_pair=partial(beside, problem)))
 
 
-def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None) -> Selection:
-    """Forward selection over the effects `names`, from the refitted plain model."""
-    selection = Selection()
-    current = refit
-    remaining = list(names)
+def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None,
+           first: Candidate | None = None) -> Selection:
+    """Forward selection over `names` from the plain refit (or from `first`, other_first.py)."""
+    selection = Selection() if first is None else Selection([Round(refit, [first])], [first])
+    current = refit if first is None else first.fit
+    remaining = [name for name in names if first is None or name != first.name]
     standing: list[str] = []
     while remaining and len(selection.accepted) < MAX_EFFECTS and len(selection.rounds) <= MAX_EFFECTS:
         round_ = run_round(problem, current, remaining, progress, fit_all=not selection.rounds,

@@ -1,7 +1,7 @@
 """Cases with two or three library effects missing at once, from the truth's own case builder.
 
     python -m tests.diagnose.truth.combinations --out combos.json [--size 2] [--seeds 2]
-        [--classes steps ramp ...] [--pairs N]
+        [--first-seed 0] [--classes steps ramp ...] [--limit N]
 
 Each effect's strength is the one its single-effect case calibrates to `evident` (3 to 5
 times the sensor noise, cases.build) on the same excitation class, seed, family and rate;
@@ -85,10 +85,11 @@ def build(effects: tuple[str, ...], excitation: str, seed: int) -> cs.Case | Non
                    "+".join(effects))
 
 
-def combos(size: int, seeds: int, classes: tuple[str, ...]) -> list[tuple[tuple[str, ...], str, int]]:
+def combos(size: int, seeds: int, classes: tuple[str, ...],
+           first_seed: int = 0) -> list[tuple[tuple[str, ...], str, int]]:
     groups = list(itertools.combinations(cs.LIBRARY, size))
     out = []
-    for seed in range(seeds):
+    for seed in range(first_seed, first_seed + seeds):
         for i, group in enumerate(groups):
             out.append((group, classes[(i + seed) % len(classes)], seed))
     return out
@@ -118,12 +119,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, type=Path)
     ap.add_argument("--size", type=int, default=2, choices=(2, 3))
     ap.add_argument("--seeds", type=int, default=1)
+    ap.add_argument("--first-seed", type=int, default=0, help="the first seed run (--seeds counts from it)")
     ap.add_argument("--classes", nargs="+", default=["steps", "prbs", "ramp", "multisine"],
                     choices=ex.CLASSES)
     ap.add_argument("--limit", type=int, default=0, help="at most this many combinations (0: all)")
     ap.add_argument("--folder", type=Path, default=Path(tempfile.gettempdir()) / "hand-truth-combinations")
     args = ap.parse_args(argv)
-    todo = combos(args.size, args.seeds, tuple(args.classes))
+    todo = combos(args.size, args.seeds, tuple(args.classes), args.first_seed)
     if args.limit:
         todo = [todo[i] for i in np.linspace(0, len(todo) - 1, args.limit).round().astype(int)]
     rows = []
