@@ -175,15 +175,8 @@ def test_a_small_k_holds_to_0_2_hz_on_the_mismatched_plant_and_the_wall_stays_st
     (the profile's integral gain: −13 %), and the slow push against the stiff wall at
     0.1 K_max still meets K (a stronger force loop there chatters)."""
     from hand_service.pinch.compliance import slow_push
-    from hand_service.pinch.mismatch import PLANTS
 
-    plant = PLANTS["mismatched"]
-    k_set = 0.3 * gain_limits(truth.finger("index").model)[0]
-    corner = corner_controller(truth, "index", 0.0, 0.0, plant, calibrate=False, seed=1, diagnosed=True,
-                               errors_last=True, tare_n_per_deg=k_set, span=True)
-    point = rendered(truth, corner.controller, "index", k_set, 0.2, mismatch=plant, amplitude_deg=15.0)
-    assert not point.saturated
-    assert abs(point.stiffness_n_per_deg / k_set - 1.0) < 0.10
+    assert _index_renders_within_a_tenth(truth, 0.3, 0.2, 15.0)
     k_wall = 0.1 * gain_limits(truth.finger("thumb").model)[0]
     push = slow_push(truth, "thumb", k_wall, 0.0003)
     assert abs(push.error_ratio) < 0.10
@@ -217,12 +210,20 @@ def test_a_tenth_of_k_max_spanned_at_its_k_holds_at_0_1_hz_on_the_mismatched_pla
     """At 0.1 K_max what the model misses of the finger's spring reads 2/share = 20 times
     over in the rendered stiffness: spanned at K_max the index renders −15 % at 0.1 Hz under
     K·30°; spanned at the K it renders (bode.span_stiffness), within 10 %."""
+
+    assert _index_renders_within_a_tenth(truth, 0.1, 0.1, 30.0)
+
+
+def _index_renders_within_a_tenth(truth: Profile, share: float, frequency_hz: float,
+                                  amplitude_deg: float) -> bool:
+    """Index on the mismatched plant, diagnosed, the errors last, tared and spanned at its K =
+    share·K_max: the rendered stiffness within 10 % of K at frequency_hz, unsaturated."""
     from hand_service.pinch.mismatch import PLANTS
 
     plant = PLANTS["mismatched"]
-    k_set = 0.1 * gain_limits(truth.finger("index").model)[0]
+    k_set = share * gain_limits(truth.finger("index").model)[0]
     corner = corner_controller(truth, "index", 0.0, 0.0, plant, calibrate=False, seed=1, diagnosed=True,
                                errors_last=True, tare_n_per_deg=k_set, span=True)
-    point = rendered(truth, corner.controller, "index", k_set, 0.1, mismatch=plant, amplitude_deg=30.0)
-    assert not point.saturated
-    assert abs(point.stiffness_n_per_deg / k_set - 1.0) < 0.10
+    point = rendered(truth, corner.controller, "index", k_set, frequency_hz, mismatch=plant,
+                     amplitude_deg=amplitude_deg)
+    return not point.saturated and abs(point.stiffness_n_per_deg / k_set - 1.0) < 0.10
