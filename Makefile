@@ -93,10 +93,10 @@ test-board: $(STAMP)
 	$(PY) -m pytest -q -s -p no:cacheprovider -m qemu tests/board
 
 # board-check against the C board over SLCAN, and every image that breaks a rule on purpose
-# on all three links with every check run (about 2 min; make test runs the board on serial
+# on all three links with every check run (two at a time: each mostly waits on the board; make test runs the board on serial
 # and virtual CAN and each broken image once)
 test-boardcheck: $(STAMP)
-	$(PY) -m pytest -q -p no:cacheprovider -m boardcheck tests/boardcheck
+	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m boardcheck tests/boardcheck
 
 # the live view (docs/view.md) in headless Chromium against a real daemon: the page, its plots,
 # its E-stop, a wrong token (`make screenshot` also refreshes docs/img/view.png), and what the view costs the tick (about 3 min;

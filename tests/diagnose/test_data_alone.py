@@ -31,6 +31,7 @@ def _diagnose(tmp_path: Path) -> dict:
     return diagnose_in_process(*cs.write(cs.build(HYSTERESIS_RAMP), tmp_path), tmp_path)
 
 
+@pytest.mark.thorough
 def test_the_loop_is_named_by_default(tmp_path: Path) -> None:
     """hysteresis, searched behind the screen, names the truth's loop (no valve lag)."""
     result = _diagnose(tmp_path)

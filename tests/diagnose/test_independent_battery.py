@@ -379,6 +379,7 @@ def test_a_second_smooth_torque_may_not_mend_the_firsts_form(
         assert [e["name"] for e in result["effects"]] == named, result["warnings"]
 
 
+@pytest.mark.thorough
 def test_a_slow_valve_that_the_refit_mimics_by_scaling_k_b_n_is_named(tmp_path: Path) -> None:
     """On an over-damped finger a valve lag of 33 ms is fitted as well by k, B and N all
     scaled down ~150× (the inertia then makes the second pole): the data alone cannot tell

@@ -32,6 +32,7 @@ def _without_the_start(monkeypatch: pytest.MonkeyPatch) -> None:
 SLOW_SINE = cs.CaseSpec("gravity", "slow_sine", 2, "evident", "ringing", 200.0, None, 20.0)
 
 
+@pytest.mark.thorough
 def test_a_gravity_load_under_a_slow_sine_is_named_with_k_b_n_held_near_the_nominal(tmp_path: Path) -> None:
     """A ringing finger, a slow sine below resonance, 200 Hz, an evident gravity load: the
     plain refit pins k to a few percent, but gravity beside it lets k, B, N and G slide

@@ -91,6 +91,7 @@ def test_point_samples_of_a_continuous_command_are_taken_as_linear_between_them(
     assert errors["point"] < 0.2 * errors["zoh"], errors
 
 
+@pytest.mark.thorough
 def test_a_clean_recording_with_a_lab_sensors_noise_comes_out_clean(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], seed: int = 3) -> None:
     """Noise correlated over 0.1 s on a drifting offset, with ADC steps, on an exact model:

@@ -73,6 +73,7 @@ def test_its_clean_twin_stays_clean(tmp_path: Path, seed: int) -> None:
     assert result["verdict"] in ("consistent", "parameters_only"), result["warnings"]
 
 
+@pytest.mark.thorough
 def test_a_hysteresis_loop_under_a_pi_loop_is_not_parameters_only(tmp_path: Path) -> None:
     """A case of the independent truth (tests/diagnose/truth/): a rate-independent hysteresis
     loop, outside the library, under a PI loop at 500 Hz, at the strength its calibration

@@ -56,6 +56,7 @@ def _diagnose(spec: cs.CaseSpec, tmp_path: Path) -> tuple[dict, dict]:
 OBJECT_AT_78 = cs.CaseSpec("contact", "slow_sine", 0, "concealed", "overdamped", 200.0, 2.6312124569804047)
 
 
+@pytest.mark.thorough
 def test_an_object_touched_at_the_top_of_a_slow_sine_is_named_a_contact_there(tmp_path: Path) -> None:
     """An over-damped finger on a slow sine that presses into an object past 78° (Hunt-
     Crossley) for the top 10 % of its samples: the default search (contact behind the

@@ -13,6 +13,7 @@ from hand_service.cli import main
 OUTSIDE = Path(__file__).resolve().parent / "outside"
 
 
+@pytest.mark.thorough
 def test_a_spring_stiffening_faster_than_the_cube_on_a_one_way_ramp_is_named_a_cubic_spring(
         tmp_path: Path) -> None:
     """c·(sinh(aθ) − aθ) from 0° to 90°: the cubic spring and gravity beside it fit, gravity's
@@ -29,6 +30,7 @@ def test_a_spring_stiffening_faster_than_the_cube_on_a_one_way_ramp_is_named_a_c
     assert any("gravity does not hold across the recording's postures" in w for w in result["warnings"])
 
 
+@pytest.mark.thorough
 def test_a_stiff_object_met_past_45_degrees_is_named_a_contact_there(tmp_path: Path) -> None:
     """An object five times as stiff as the finger, met past 45° on steps: the default search
     (contact behind the screen, searched again from the residual's onset) names a contact

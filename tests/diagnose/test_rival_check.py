@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from scipy.signal import lfilter
 
 from hand_service.diagnose.fitting.raw_difference import LossDifference, loss_difference
@@ -162,6 +163,7 @@ def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path
     assert _report_failures(d) == []
 
 
+@pytest.mark.thorough
 def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_complete(tmp_path: Path,
                                                                                     monkeypatch) -> None:
     """The independent truth's finger whose material holds a loop (Bouc-Wen, not the library's

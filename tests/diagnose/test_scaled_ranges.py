@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.model.params import EffectScales, Param
@@ -67,6 +68,7 @@ def test_a_stiff_fingers_gravity_beyond_the_librarys_range_is_named(tmp_path: Pa
     assert abs(found) > 2.2  # beyond the old bound
 
 
+@pytest.mark.thorough
 def test_air_drag_in_a_fast_vent_beyond_the_librarys_range_is_named(tmp_path: Path) -> None:
     """A pressurised stiff finger vented: air drag (c2 0.071) beyond the library's range
     scaled by the refitted k (0.054): pinned there, it was left `unexplained`."""
