@@ -134,8 +134,9 @@ def kept(problem: Problem, base: Fit, candidates: list[Scored], later: bool,
     beside the first's model), or, in a `later` round, does not beat `base` (beats_on_raw:
     a model so far at the noise is not added to by a stand-in)."""
     eight = [c for c in candidates if not gated(problem, c.name) and c.significant]
+    eight_raw = {c.name: raw_deg(problem, c.fit.angle_deg) for c in eight}
     base_raw = [raw_deg(problem, base.angle_deg)] if later else []
-    pair_raw: list[float] = []
+    pair_raw: dict[tuple[str, str], float] = {}  # each pair of the eight fitted once
     out = []
     for c in candidates:
         if gated(problem, c.name):
@@ -143,14 +144,16 @@ def kept(problem: Problem, base: Fit, candidates: list[Scored], later: bool,
                 continue
             own = raw_deg(problem, c.fit.angle_deg)
             rivals = [e for e in eight if not paired(c.name, e.name)]
-            if not all(closer_on_raw(own, raw_deg(problem, e.fit.angle_deg)) for e in rivals):
+            if not all(closer_on_raw(own, eight_raw[e.name]) for e in rivals):
                 continue
             if not all(beats_on_raw(own, before, float(c.fit.sigma_deg)) for before in base_raw):
                 continue  # the model so far at the noise leaves the raw angle nothing to show
             if len(rivals) >= 2 and c.delta_bic > rivals[0].delta_bic:
-                if not pair_raw:  # one physics the eight draw as two (a mounted weight: gravity and a cubic)
-                    pair_raw.append(raw_deg(problem, fit_pair(rivals[0].fit, rivals[1].name).fit.angle_deg))
-                if not closer_on_raw(own, pair_raw[0]):
+                # one physics the eight draw as two (a mounted weight: gravity and a cubic)
+                pair = (rivals[0].name, rivals[1].name)
+                if pair not in pair_raw:
+                    pair_raw[pair] = raw_deg(problem, fit_pair(rivals[0].fit, rivals[1].name).fit.angle_deg)
+                if not closer_on_raw(own, pair_raw[pair]):
                     continue
         out.append(c)
     return out
