@@ -9,10 +9,15 @@ INSTALL_INPUTS := pyproject.toml setup.py MANIFEST.in rtcore/_build.py firmware_
 
 .PHONY: run test test-soak test-thorough test-firsthour test-install test-faults test-boardcheck test-browser screenshot test-board-host test-board bench fuzz lint clean
 
+# pip's byte-compiling runs on one core and takes the packages' own test suites too; compileall
+# after it runs on every core and leaves those out (a module nobody imports needs no .pyc; one
+# that is imported without one is compiled again by every process where PYTHONDONTWRITEBYTECODE
+# is set, so the rest are compiled here)
 $(STAMP): $(INSTALL_INPUTS)
 	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --upgrade setuptools wheel cffi cantools  # the build requirements (no isolation)
-	$(PY) -m pip install --quiet --no-build-isolation --editable '.[test]'
+	$(PY) -m pip install --quiet --no-compile --upgrade setuptools wheel cffi cantools  # the build requirements (no isolation)
+	$(PY) -m pip install --quiet --no-compile --no-build-isolation --editable '.[test]'
+	$(PY) -m compileall -q -j 0 -x '/tests?/' $(VENV)/lib
 	@touch $(STAMP)
 
 run: $(STAMP)
@@ -20,7 +25,8 @@ run: $(STAMP)
 
 # The tests that keep time (service, api, transports, HIL, CLI, bench) run at normal priority;
 # the CPU-bound ones (diagnose, effects, identification, replicate, export, commands, config, rtcore,
-# wire, packaging, the recording reader, fuzz, the board's C build, the source scans) beside them
+# wire, packaging, the recording reader, fuzz and its probes, the API's state table on a hand ticked
+# by hand, the board's C build, the source scans) beside them
 # at nice 19, in the time the first leave idle waiting on real time, so they cannot delay a deadline. The
 # CPU-bound ones run in two pytest-xdist workers: one process alone left a core idle while
 # the timed tests waited.
@@ -29,7 +35,8 @@ CPU_TESTS := tests/diagnose tests/identification tests/replicate tests/export te
              tests/rtcore tests/pinch tests/wire tests/packaging tests/test_recording.py tests/test_excel_csv.py \
              tests/test_import_graph.py tests/test_layout.py tests/test_cli_errors.py tests/board/test_board_build.py \
              tests/fuzz/test_config_fuzz.py tests/fuzz/test_csv_fuzz.py tests/fuzz/test_api_fuzz.py tests/effects \
-             tests/service/test_no_false_fault.py tests/test_supervisor_surface.py tests/test_c_call_graph.py
+             tests/service/test_no_false_fault.py tests/test_supervisor_surface.py tests/test_c_call_graph.py \
+             tests/fuzz/test_probes.py tests/api/test_state_table.py
 SELECT := -m "not slow and not thorough and not install and not fuzz and not faults and not boardcheck and not browser and not board and not qemu and not firsthour and not soak"
 
 test: $(STAMP)
@@ -44,9 +51,10 @@ test: $(STAMP)
 # diagnose's and the simulator's repetitions beyond make test's slice (marker thorough): each
 # library effect on the project's own generator named and recovered, the real-rig converter's
 # fitter, a slow valve under a PI loop, the checks shown load-bearing, the costliest fine
-# references (about 1 min in two workers; make test keeps two effects and the rigs' runs)
+# references, the optimised C driver, a small K's impedance to 0.2 Hz (make test keeps a test
+# of each kind: two effects, the rigs' runs, the sanitized driver, a tenth of K_max)
 test-thorough: $(STAMP)
-	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m thorough tests/diagnose tests/rtcore
+	$(PY) -m pytest -q -p no:cacheprovider -n 2 -m thorough tests/diagnose tests/rtcore tests/pinch
 
 # the README's first hour, every command as written, in a fresh directory (tests/test_first_hour.py)
 test-firsthour: $(STAMP)

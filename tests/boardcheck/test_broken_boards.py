@@ -18,7 +18,8 @@ CASES = [
     ("stuck-sequence", "virtual", "sequence", "sequence", "must go up by one with every sample"),
     # the plant through the board, each failure naming its finger (INJECT_BROKEN_FINGER: index)
     ("valves-dead", "virtual", "plant", "plant", "every finger: the valve did not move the chamber"),
-    ("valve-stuck", "serial", "plant", "plant", "index: the valve did not move the chamber (index 0."),
+    # (the stuck chamber's reading is its rest's, a sensor's noise either side of 0 kPa)
+    ("valve-stuck", "serial", "plant", "plant", "index: the valve did not move the chamber (index "),
     ("pressure-nan", "virtual", "plant", "plant", "every finger: chamber pressure NaN (not measured) where"),
     ("pressure-x2", "slcan", "plant", "plant", "the chamber reads at another scale than the setpoint"),
     ("flex-stuck", "virtual", "plant", "plant", "index: flex sensor did not move with the pressure step"),

@@ -15,6 +15,7 @@ from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.raw_error import TIE_NOISE, TIE_SHARE
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.requested import searched
+from hand_service.diagnose.search import late_stand_in as late_module
 from hand_service.diagnose.search.admission import (
     admitted,
     friction_rival,
@@ -22,7 +23,7 @@ from hand_service.diagnose.search.admission import (
     kept,
     loop_beats_friction,
 )
-from hand_service.diagnose.search.forward_selection import NAME_MARGIN_BIC, Selection
+from hand_service.diagnose.search.forward_selection import NAME_MARGIN_BIC, Round, Selection
 from hand_service.diagnose.search.late_stand_in import late_stand_in
 from hand_service.diagnose.search.screening import Screen
 
@@ -143,6 +144,68 @@ def test_a_stand_in_accepted_late_with_more_evidence_than_the_first_pick_is_aske
                                                                                 delta_bic=900.0)])) is None
     assert late_stand_in(_problem(asked=("contact",)), Selection(accepted=[pick, late])) is None
     assert late_stand_in(_problem(), Selection(accepted=[late])) is None
+
+
+def _uncarried(delta_bic: float, **gates: bool) -> SimpleNamespace:
+    """A contact candidate significant in all but carrying itself (`gates` overrides a test)."""
+    passed = {"predicts": True, "at_bound": False, "determined": True, "carries": False, **gates}
+    return SimpleNamespace(name="contact", delta_bic=delta_bic, **passed)
+
+
+def test_a_stand_in_kept_out_after_the_first_round_only_for_its_core_is_asked_again() -> None:
+    """The truth's contact on steps (stiff, 100 Hz): a cubic spring picked first (ΔBIC 291),
+    then beside it the contact gained 1 979 but its spring alone, beside the cubic that took
+    the spring's share, did not carry itself: the selection runs again with the contact
+    fitted from the first round, where its spring is judged against the plain model
+    (late_stand_in.py, docs/results.md §12.60)."""
+    pick = SimpleNamespace(name="cubic_stiffness", delta_bic=291.0)
+
+    def selection(*later: SimpleNamespace, first_round: tuple[SimpleNamespace, ...] = ()) -> Selection:
+        return Selection(rounds=[Round("refit", [pick], list(first_round)), Round("cubic", [], list(later))],
+                         accepted=[pick])
+
+    assert late_stand_in(_problem(), selection(_uncarried(1979.0))) == "contact"
+    # less evidence than the first pick; short of another test; in the first round (judged
+    # against the plain model already); or fitted from the first round already
+    assert late_stand_in(_problem(), selection(_uncarried(200.0))) is None
+    for gate in ({"predicts": False}, {"at_bound": True}, {"determined": False}, {"carries": True}):
+        assert late_stand_in(_problem(), selection(_uncarried(1979.0, **gate))) is None, gate
+    assert late_stand_in(_problem(), selection(first_round=(_uncarried(1979.0),))) is None
+    assert late_stand_in(_problem(asked=("contact",)), selection(_uncarried(1979.0))) is None
+
+
+@dataclass(frozen=True)
+class _Asked:
+    """What select_screened reads of a Problem, and replaces: the effects given and asked."""
+
+    given_effects: dict = field(default_factory=dict)
+    asked: frozenset[str] = frozenset()
+
+
+def test_the_second_selection_for_an_uncarried_stand_in_stands_only_where_it_names_it(monkeypatch) -> None:
+    """Run again for a stand-in that did not carry itself, the selection is kept only where the
+    stand-in is accepted in it; for one accepted late, as before, whatever it finds."""
+    pick = SimpleNamespace(name="cubic_stiffness", delta_bic=291.0)
+    first = Selection(rounds=[Round("refit", [pick]), Round("cubic", [], [_uncarried(1979.0)])],
+                      accepted=[pick])
+    for again_accepts, expected in (([SimpleNamespace(name="contact", delta_bic=2500.0)], "again"),
+                                    ([pick], "first")):
+        again = Selection(accepted=again_accepts)
+        calls: list[frozenset[str]] = []
+
+        def select(problem, refit, names, progress=None, first=first, again=again, calls=calls):
+            calls.append(problem.asked)
+            return first if len(calls) == 1 else again
+
+        monkeypatch.setattr(late_module, "select", select)
+        got = late_module.select_screened(_Asked(), "refit", [])
+        assert calls == [frozenset(), frozenset({"contact"})]
+        assert got is (again if expected == "again" else first)
+    accepted_late = Selection(accepted=[pick, SimpleNamespace(name="contact", delta_bic=2907.0)])
+    again = Selection(accepted=[pick])
+    monkeypatch.setattr(late_module, "select",
+                        lambda problem, *a, **k: accepted_late if not problem.asked else again)
+    assert late_module.select_screened(_Asked(), "refit", []) is again
 
 
 @pytest.mark.thorough

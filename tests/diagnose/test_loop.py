@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from hand_service.diagnose.outside_library.rate_independent_loop import path_state
 from tests.diagnose.truth import cases as cs
@@ -49,6 +50,7 @@ def _diagnose(spec: cs.CaseSpec, tmp_path: Path) -> dict:
     return json.loads(out.read_text())
 
 
+@pytest.mark.thorough  # make test keeps the loop named by default on the outside recording
 def test_a_hysteresis_loop_on_ramps_is_named_a_loop_by_default(tmp_path: Path) -> None:
     """A stiff finger with an evident Bouc-Wen loop under triangles of three rates: the
     library's Dahl loop, searched behind the screen, names it."""
@@ -76,6 +78,7 @@ def test_a_hysteresis_loop_on_ramps_is_not_named_a_valve_lag(tmp_path: Path, mon
     assert any("does not grow with the command's rate" in w for w in result["warnings"])
 
 
+@pytest.mark.thorough  # a valve lag named: make test keeps the concealed and independent slices
 def test_a_valve_lag_on_ramps_of_several_rates_is_still_named(tmp_path: Path) -> None:
     """The control: an evident valve lag on an over-damped finger under the same kind of
     ramps: its lag grows with the rate, and no loop beats it."""

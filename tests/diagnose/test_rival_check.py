@@ -186,6 +186,7 @@ def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_comp
     assert _report_failures(d) == []
 
 
+@pytest.mark.thorough  # the loop by default: make test keeps the outside recording's
 def test_default_names_the_loop_and_no_loop_rival_beside_it(tmp_path: Path) -> None:
     """The same finger under the default search: `hysteresis` is named, and no Dahl loop is
     fitted in its place as a rival (the named model holds one)."""

@@ -25,7 +25,8 @@ BUILDS = {
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc")
-@pytest.mark.parametrize("build", sorted(BUILDS))
+# the sanitized build in make test, the optimised one in test-thorough
+@pytest.mark.parametrize("build", [pytest.param("optimised", marks=pytest.mark.thorough), "sanitized"])
 def test_c_driver(tmp_path: Path, build: str) -> None:
     binary = tmp_path / f"test_rtcore_{build}"
     compile_cmd = ["gcc", *STRICT, *BUILDS[build], *INCLUDES, *SOURCES, "-lm", "-o", str(binary)]

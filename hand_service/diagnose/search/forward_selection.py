@@ -138,6 +138,7 @@ class Candidate:
 class Round:
     base: Fit  # the model this round starts from
     candidates: list[Candidate]  # strongest first
+    uncarried: list[Candidate] = field(default_factory=list)  # fitted, not carrying itself (late_stand_in)
 
     def best(self) -> Candidate | None:
         return self.candidates[0] if self.candidates else None
@@ -176,11 +177,9 @@ def score(problem: Problem, base: Fit, screened: Screen, sigma: float, thorough:
     """Fit the screened effect jointly with every parameter of `base`, from each start
     (`thorough`), or from the most promising one only (an effect the screen gives no chance,
     fitted for the evidence table alone). `lazy` (the later rounds, where every simulation
-    carries the effects accepted so far, and dry friction's cost ten times as much): from
-    the most promising start first, and from the others only if that fit gains anything
-    (ΔBIC above 0). The screen's own prediction cannot decide it: it is taken on the raw
-    residual, which correlated noise inflates (it predicted ΔBIC 1 882 for a dead zone
-    whose fit lost 15)."""
+    carries the effects accepted so far, dry friction's ten times dearer): from the most
+    promising start first, and from the others only if that fit gains (ΔBIC above 0). Not
+    the screen's prediction: taken on the raw residual, which correlated noise inflates."""
     shape, shaped = problem.shape_of(screened.name)  # fitted beside its size
     params = (*joint_range(problem, base), screened.param, *shape)
     starts = [[*base.values, s, *shaped] for s in screened.starts]
@@ -350,7 +349,8 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     candidates.sort(key=lambda c: -c.delta_bic)
     # a stand-in the screen let in that is not significant, or does not beat the eight's fits
     # (and a later round's model so far) on the raw angle, is as if kept out (admission.py)
-    return Round(base, kept(problem, base, candidates, later=not fit_all, fit_pair=partial(beside, problem)))
+    return Round(base, kept(problem, base, candidates, later=not fit_all, fit_pair=partial(beside, problem)),
+                 [c for c in candidates if not c.carries])
 
 
 def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None,

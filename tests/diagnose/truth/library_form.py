@@ -10,9 +10,9 @@ truth's noise-free angle on the recorded command (the sensor's offset and slow d
 out as diagnose takes them): k, B, N, K, θc, n and C together, from
 the truth's onset, Hertz's n = 1.5 and no damper and from starts beside them, the best
 kept. `left` (its RMS error over the sensor's noise RMS) says whether the library's form
-can explain the contact (below on_request.OBSERVABLE_LEFT) or only part of it (then
+can explain the contact (below observability.OBSERVABLE_LEFT) or only part of it (then
 diagnose's "partial" is the truthful answer), and beside `plain_left` (k, B and N alone)
-how much of the contact the library's form can show at all (`gain`, on_request.observable);
+how much of the contact the library's form can show at all (`gain`, observability.observable);
 its spring's torque at the deepest angle recorded is the size an estimate is scored against
 (its K alone, at another n, is not comparable)."""
 

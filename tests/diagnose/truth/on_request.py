@@ -10,7 +10,7 @@ an exponential; creep two Maxwell branches at T and 4·T; hysteresis Bouc-Wen's 
 
 Hysteresis and contact are the battery's cases outside the library (cases.OUT_OF_LIBRARY:
 the same recordings), here searched for by name. Each case is scored as a library effect
-(scoring.py): named first where observable (`observable`); the estimate's error against the
+(scoring.py): named first where observable (observability.py); the estimate's error against the
 truth's library equivalent (cases.library_equivalent) and, for contact and pressure
 stiffening, against the library form's best fit to the truth (library_form.py), which also
 says where the library's form explains the truth's contact only in part (`beyond_form`)."""
@@ -34,7 +34,6 @@ import numpy as np  # noqa: E402
 
 from tests.diagnose.truth import cases as cs  # noqa: E402
 from tests.diagnose.truth.battery import diagnose_argv  # noqa: E402
-from tests.diagnose.truth.distinct import left_over, library_torques  # noqa: E402
 from tests.diagnose.truth.excitation import CLASSES  # noqa: E402
 from tests.diagnose.truth.library_form import (  # noqa: E402
     ContactForm,
@@ -42,60 +41,9 @@ from tests.diagnose.truth.library_form import (  # noqa: E402
     contact_form,
     contact_torque_nm,
 )
+from tests.diagnose.truth.observability import OBSERVABLE_LEFT, observable  # noqa: E402
 
 EFFECTS = (*cs.ON_REQUEST, *cs.OUT_OF_LIBRARY)
-# the least time past a contact's onset that shows it, and the least angle range that turns
-# a loop over (the on-request rule's 5°)
-CONTACT_TIME_S = 0.1
-LOOP_RANGE_DEG = 5.0
-
-
-# the battery's observability bar: what the effect leaves over the noise RMS
-OBSERVABLE_LEFT = 0.4
-
-
-def library_left(case: cs.Case) -> float:
-    """What the truth's effect leaves of its signature over the sensor's noise RMS once k, B
-    and N (a lab's ±25 %), the sensor's offset and drift and the eight's state torques
-    (distinct.library_torques: θ³, 1 − cos θ, dry friction, air drag, a backward spring)
-    are fitted to it, linearised about the truth's plain finger: its part that neither the
-    plain model nor a stand-in among the eight can take (distinct.left_over)."""
-    spec = case.spec.resolved()
-    _, tau0, delay0 = cs.known_effects(spec.effect, cs.shape_of(spec))
-    start = cs.plain_finger(cs.FAMILIES[spec.family], case.truth, tau0, delay0)
-    traj = case.trajectory
-    return left_over(traj.theta_deg, traj.command_kpa, case.rate_hz, start, case.plan.theta0_deg,
-                     case.sensor.noise_rms_deg, library_torques(traj.theta_deg, traj.omega_rad_s))
-
-
-def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, str]:
-    """Observable: the physics exercised (for pressure stiffening and creep the case's own
-    rule, cases.exercised; the finger past the contact's onset for CONTACT_TIME_S; the angle
-    moved over LOOP_RANGE_DEG for a loop), visibility 0.4 (the plain refit leaves 0.4 × the
-    noise), and library_left ≥ OBSERVABLE_LEFT: measured on the truth, apart from diagnose.
-    For a contact also the library form's gain (`form`, library_form.contact_form) ≥
-    OBSERVABLE_LEFT: what its best fit to the noise-free angle explains beyond k, B and N
-    fitted alone. library_left is linearised about the truth's plain finger, so k, B and N
-    move in it only as far as a linear step takes them: a contact that a plain refit moving
-    k by a third absorbs whole was counted observable by it (docs/results.md §12.31); the
-    nonlinear refit on a noise-free copy cannot overcount so."""
-    effect = case.spec.effect
-    if effect in cs.ON_REQUEST and not case.observable:
-        return False, case.reason
-    if case.visibility < 0.4:
-        return False, "absorbed by k, B and N at every plausible size tried"
-    theta_deg = case.trajectory.theta_deg
-    if effect == "contact" and np.sum(theta_deg > case.truth.contact_deg) / case.rate_hz < CONTACT_TIME_S:
-        return False, "the finger barely passes the contact's onset"
-    if effect == "hysteresis" and np.ptp(theta_deg) < LOOP_RANGE_DEG:
-        return False, f"the angle moves under {LOOP_RANGE_DEG:g} deg"
-    left = library_left(case)
-    if left < OBSERVABLE_LEFT:
-        return False, (f"k, B, N, the sensor's offset and drift and the eight's state torques leave "
-                       f"{left:.2f} × the noise of it")
-    if form is not None and form.gain < OBSERVABLE_LEFT:
-        return False, f"the library's contact explains {form.gain:.2f} × the noise beyond a plain refit"
-    return True, ""
 
 
 def truth_shape(case: cs.Case) -> dict[str, float]:

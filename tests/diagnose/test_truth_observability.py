@@ -1,0 +1,36 @@
+"""The battery labels a case of an effect beyond the eight observable by the rule
+on_request.py scores them by (tests/diagnose/truth/observability.py), not by its magnitude's
+name: an "evident" contact the calibration could not raise to its target is unobservable
+where the plain model and the eight's state torques take all but a fraction of the noise of it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from tests.diagnose.truth import battery, scoring
+from tests.diagnose.truth import cases as cs
+
+# the battery's "evident" contact on a PRBS, s0: over-damped at 500 Hz, the generator's
+# contact at its stiffness cap, met past its onset by few of the swings
+SHALLOW = cs.CaseSpec("contact", "prbs", 0, "evident")
+
+
+def test_an_evident_contact_the_eight_take_is_labelled_unobservable(tmp_path: Path) -> None:
+    """Labelled so when made; and a recording cached by a battery before the rule labelled it
+    (its truth says observable, no labelled_by) is made again rather than scored by the old
+    label."""
+    _, _, summary, _ = battery.generate(SHALLOW, tmp_path)
+    assert summary["id"] == "contact-prbs-s0-evident-overdamped-500hz"  # the case the truth makes
+    assert summary["visibility"] < 1.0, summary["visibility"]  # short of "evident"'s 3 to 5
+    assert not summary["observable"]
+    assert "the eight's state torques leave" in summary["reason"], summary["reason"]
+    assert summary["labelled_by"] == battery.LABELLED_BY
+    # diagnose's honest "cannot tell" on it is then right, not a miss
+    scored = scoring.score(SHALLOW, summary["observable"], {"verdict": "insufficient_excitation"})
+    assert scored["right"], scored
+    meta = tmp_path / f"{SHALLOW.id}.truth.json"
+    stale = {k: v for k, v in summary.items() if k != "labelled_by"} | {"observable": True, "reason": ""}
+    meta.write_text(json.dumps(stale))
+    _, _, again, _ = battery.generate(SHALLOW, tmp_path)
+    assert not again["observable"] and again["labelled_by"] == battery.LABELLED_BY
