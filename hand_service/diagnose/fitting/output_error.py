@@ -2,9 +2,8 @@
 
 The simulator (rtcore_sim_run in C) is smooth in every parameter, including the dead
 time, so scipy's trust-region reflective solver with finite-difference Jacobians works
-directly on the simulated angles; after a step the Jacobian's linear model predicted well,
-a secant update stands in for the next one (secant.py), and the last is fresh. Parameters
-are scaled by their typical magnitude and kept within their plausible bounds.
+directly on the simulated angles. Parameters are scaled by their typical magnitude and
+kept within their plausible bounds.
 
 A Jacobian's columns are independent simulations: they run side by side on the machine's
 cores (the C simulator runs without Python's lock), taken in column order, so the
@@ -21,7 +20,6 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from hand_service.config import effects as fx
-from hand_service.diagnose.fitting.secant import SecantJacobian
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PRIOR_RELATIVE_WIDTH, Prior, Problem
 from hand_service.diagnose.model.simulation_cache import finger_key
@@ -115,7 +113,6 @@ def _into_bounds(x: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndar
 
 # least_squares takes `workers` from SciPy 1.16 on; before, the columns run one at a time
 _PARALLEL_COLUMNS = "workers" in inspect.signature(least_squares).parameters
-DIFF_STEP = 1e-6  # the finite differences' relative step
 
 
 def column_map(function: Callable[[np.ndarray], np.ndarray],
@@ -226,11 +223,10 @@ def _fit(problem: Problem, params: tuple[Param, ...], start: Sequence[float], ba
         return np.concatenate((residual(x), prior_rows(x * scales))) if held else residual(x)
 
     x0 = _into_bounds(np.asarray(start, dtype=float) / scales, lower, upper)
-    jacobian = SecantJacobian(cost_rows, (lower, upper), DIFF_STEP, parallel_columns())
-    result = least_squares(jacobian.rows, x0, jac=jacobian, bounds=(lower, upper), method="trf",
-                           x_scale="jac", max_nfev=max_nfev, xtol=1e-7,
-                           ftol=cost_tolerance(problem.n_fit), gtol=1e-8)
-    result.jac = jacobian.fresh_at(result.x, result.fun, result.jac)  # the covariance's: fresh
+    result = least_squares(cost_rows, x0, bounds=(lower, upper), method="trf", x_scale="jac",
+                           diff_step=1e-6, max_nfev=max_nfev, xtol=1e-7,
+                           ftol=cost_tolerance(problem.n_fit), gtol=1e-8,
+                           **parallel_columns())
     values = result.x * scales
     finger = problem.finger(params, values, base)
     n = problem.n_fit
