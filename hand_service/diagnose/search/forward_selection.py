@@ -5,17 +5,13 @@ with k, B, N (A held) and the effects already accepted. An effect is accepted wh
 
 - the information criterion favours it strongly (ΔBIC > SIGNIFICANT_BIC), and
 - it predicts the held-out data better by more than the noise allows (z > SIGNIFICANT_Z),
-- and no other effect explains the same residual nearly as well: when the runner-up is
-  within NAME_MARGIN_BIC and fitting both together is not better than the best alone,
-  the recording cannot tell them apart (ambiguous). Neither is named, but the tie does
-  not end the search: the better of the two is carried in the model, unnamed, and the
-  next rounds look for what else is missing (a near-tie between a valve lag and a dead
-  time must not drop a clear second effect).
+- and no other effect explains the same residual nearly as well (`tied`): then neither is
+  named, but the better is carried in the model, unnamed, and the next rounds look for
+  what else is missing (a lag/dead-time tie must not drop a clear second effect).
 
-Each fit starts from the Gauss-Newton step of the effect's signature: the sensitivity of
-the angle to the effect's parameter, with what k, B and N can absorb projected out. Its
-correlation with the residual is the score (Lagrange multiplier) test, and is reported
-as the effect's signature correlation.
+Each fit starts from the Gauss-Newton step of the effect's signature (the angle's
+sensitivity to its parameter, what k, B and N absorb projected out); its correlation with
+the residual is the score (Lagrange multiplier) test, reported as the signature correlation.
 """
 
 from __future__ import annotations
@@ -122,10 +118,9 @@ class Candidate:
 
     @property
     def predicts(self) -> bool:
-        """The held-out data favour it; or, where the plain refit had to go far from the
-        nominal to fit (beyond its stated uncertainty), the effect brings k, B and N back
-        (the prior's χ² drops by SIGNIFICANT_BIC) without predicting the held-out data
-        worse: a slow valve that the refit mimicked by scaling k, B and N together."""
+        """The held-out data favour it; or, where the plain refit went beyond the nominal's
+        stated uncertainty, it brings k, B and N back (the prior's χ² drops by SIGNIFICANT_BIC)
+        without predicting worse: a slow valve the refit mimicked by scaling k, B and N."""
         return self.z_heldout > SIGNIFICANT_Z or (self.prior_gain > SIGNIFICANT_BIC and self.z_heldout > -1.0)
 
     @property
@@ -353,6 +348,17 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
                  [c for c in candidates if not c.carries])
 
 
+def tied(best: Candidate, runner: Candidate | None, fit_pair: Callable[[Fit, str], Candidate],
+         progress: Progress | None = None) -> bool:
+    """Two names for one signature: the runner-up significant within the naming margin of the
+    best, and the two fitted together (`fit_pair`, `beside`) not clearly better than the best."""
+    if runner is None or not runner.significant or best.delta_bic - runner.delta_bic >= NAME_MARGIN_BIC:
+        return False
+    if progress:
+        progress(f"{best.name} or {runner.name}? fitting both together")
+    return not fit_pair(best.fit, runner.name).significant
+
+
 def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | None = None,
            first: Candidate | None = None) -> Selection:
     """Forward selection over `names` from the plain refit (or from `first`, other_first.py)."""
@@ -369,24 +375,15 @@ def select(problem: Problem, refit: Fit, names: list[str], progress: Progress | 
         if best is None or not best.significant:
             break
         if len(selection.rounds) > 1:
-            # An effect significant beside the accepted ones in a later round, but not the
-            # best, is fitted again in the next round whatever the screen says: the screen's
-            # linear step misjudges a non-smooth effect beside a new pick (dry friction,
-            # ΔBIC 159 beside a valve lag, was not fitted beside the dead time picked
-            # next). The first round's runners-up are not carried: fitted against the plain
-            # model, most of them stand in for the first pick.
+            # a later round's significant runners-up are fitted again in the next whatever the
+            # screen (its linear step misjudges a non-smooth effect beside a new pick); not the
+            # first round's: against the plain model, most stand in for the first pick
             standing = [c.name for c in round_.candidates[1:] if c.significant]
         runner = round_.candidates[1] if len(round_.candidates) > 1 else None
         # a loop that dry friction draws as well on the raw angle is a tie with it (admission.py)
         other = friction_rival(problem, best, round_.candidates, remaining, partial(beside, problem, current))
-        if (other is None and runner is not None and runner.significant
-                and best.delta_bic - runner.delta_bic < NAME_MARGIN_BIC):
-            # Both explain the residual about as well: unless the two together do clearly
-            # better than the best alone, they are two names for one signature.
-            if progress:
-                progress(f"{best.name} or {runner.name}? fitting both together")
-            if not beside(problem, best.fit, runner.name).significant:
-                other = runner
+        if other is None and tied(best, runner, partial(beside, problem), progress):
+            other = runner
         if other is not None:
             selection.ambiguous = (best, other)
             selection.carried.append(best)

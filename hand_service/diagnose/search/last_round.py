@@ -30,13 +30,13 @@ from hand_service.diagnose.search import set_search
 from hand_service.diagnose.search.admission import gated
 from hand_service.diagnose.search.forward_selection import (
     MAX_EFFECTS,
-    NAME_MARGIN_BIC,
     Candidate,
     Progress,
     Round,
     Selection,
     beside,
     second_look,
+    tied,
 )
 from hand_service.diagnose.workers import ordered_map
 
@@ -86,8 +86,7 @@ def search(problem: Problem, selection: Selection, names: list[str],
     if best is None or not best.significant:
         return None
     runner = round_.candidates[1] if len(round_.candidates) > 1 else None
-    if (runner is not None and runner.significant and best.delta_bic - runner.delta_bic < NAME_MARGIN_BIC
-            and not beside(problem, best.fit, runner.name).significant):
+    if tied(best, runner, lambda fit, name: beside(problem, fit, name)):
         return None  # two names for one signature: the forward selection's tie, not a third effect
     members = [*selection.accepted, best]
     if not set_search.holds(problem, members):
