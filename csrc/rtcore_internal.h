@@ -27,6 +27,9 @@ double rtcore_model_torque_nm(const rtcore_prbm *m, double angle_rad, double vel
 double rtcore_model_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad);
 double rtcore_model_side_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s,
                                    int32_t in_contact);
+double rtcore_model_friction_tanh(const rtcore_effects *e, double velocity_rad_per_s);
+double rtcore_model_side_torque_with_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s,
+                                        int32_t in_contact, double friction_tanh);
 int32_t rtcore_contact_reached(const rtcore_effects *e, double angle_rad);
 double rtcore_contact_push_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s);
 double rtcore_contact_side_torque_nm(const rtcore_effects *e, double angle_rad, double velocity_rad_per_s,

@@ -139,14 +139,31 @@ static double linear_stiffness_nm_per_rad(const rtcore_prbm *m, double angle_rad
 double rtcore_model_side_torque_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s,
                                    int32_t in_contact)
 {
+    return rtcore_model_side_torque_with_nm(m, angle_rad, velocity_rad_per_s, in_contact,
+                                            rtcore_model_friction_tanh(&m->effects, velocity_rad_per_s));
+}
+
+/* tanh(θ'/ω_s), dry friction's share of Tc at θ' (0 without it) */
+double rtcore_model_friction_tanh(const rtcore_effects *e, double velocity_rad_per_s)
+{
+    if (e->coulomb_torque_nm == 0.0) {
+        return 0.0;
+    }
+    return tanh(velocity_rad_per_s / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG));
+}
+
+/* The same with friction_tanh = rtcore_model_friction_tanh at velocity_rad_per_s, which a
+ * caller that needs it for more than one torque at that velocity takes once */
+double rtcore_model_side_torque_with_nm(const rtcore_prbm *m, double angle_rad, double velocity_rad_per_s,
+                                        int32_t in_contact, double friction_tanh)
+{
     const rtcore_effects *e = &m->effects;
     double torque = linear_stiffness_nm_per_rad(m, angle_rad) * angle_rad;
 
     torque += e->cubic_stiffness_nm_per_rad3 * angle_rad * angle_rad * angle_rad;
     torque += e->quadratic_damping_nms2_per_rad2 * fabs(velocity_rad_per_s) * velocity_rad_per_s;
     if (e->coulomb_torque_nm != 0.0) {
-        const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
-        torque += e->coulomb_torque_nm * tanh(velocity_rad_per_s / smoothing_rad_per_s);
+        torque += e->coulomb_torque_nm * friction_tanh;
     }
     if (e->gravity_torque_nm != 0.0) {
         torque += e->gravity_torque_nm * (1.0 - cos(angle_rad));

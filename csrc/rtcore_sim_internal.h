@@ -114,6 +114,9 @@ double rtcore_sim_creep_angle_rad(const rtcore_effects *e, const rtcore_sim_moti
 double rtcore_sim_nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motion *from, double angle_rad,
                                       double velocity_rad_per_s, int32_t touching, double drive_nm,
                                       double elapsed_s);
+double rtcore_sim_nonlinear_torque_with_nm(const sim_plant *p, const rtcore_sim_motion *from, double angle_rad,
+                                           double velocity_rad_per_s, int32_t touching, double drive_nm,
+                                           double elapsed_s, double friction_tanh);
 double rtcore_sim_pressure_torque_nm(const rtcore_sim_finger *f, double chamber_kpa);
 void rtcore_sim_plant_for(const rtcore_sim_finger *f, sim_plant *p);
 
@@ -140,6 +143,8 @@ typedef struct {
     double t0_s;
     double torque_nm;
     double external_torque_nm;
+    double drive0_nm; /* the drive at the passage's start (t0_s) */
+    double g0_nm; /* g at the passage's start under torque_nm, on its sides */
 } sim_knee_drive;
 
 /* A knee's passage: the state at `count` nodes, the first the start, the last its end. */

@@ -29,26 +29,29 @@ static double drive_at(const sim_knee_drive *d, double t_s)
            + d->external_torque_nm;
 }
 
-/* A·θ'' = the torque out of balance at (t, θ, ω), the friction's included */
+/* A·θ'' = the torque out of balance at (t, θ, ω), the friction's included (its
+ * tanh(ω/ω_s) given: rtcore_model_friction_tanh) */
 static double net_torque_nm(const sim_plant *p, const rtcore_sim_motion *from, int32_t touching,
-                            const sim_knee_drive *d, double t_s, double angle_rad, double velocity_rad_per_s)
+                            const sim_knee_drive *d, double t_s, double angle_rad, double velocity_rad_per_s,
+                            double friction_tanh)
 {
     const double drive_nm = drive_at(d, t_s);
     return drive_nm
-           + rtcore_sim_nonlinear_torque_nm(p, from, angle_rad, velocity_rad_per_s, touching, drive_nm, t_s)
+           + rtcore_sim_nonlinear_torque_with_nm(p, from, angle_rad, velocity_rad_per_s, touching, drive_nm, t_s,
+                                                 friction_tanh)
            - p->linear.stiffness_nm_per_rad * angle_rad - p->linear.damping_nms_per_rad * velocity_rad_per_s;
 }
 
 /* d(t, θ)/dω = (A, A·ω)/net; 0 where the torque beyond the friction has fallen below
  * KNEE_MARGIN·Tc on the passage's side or moved from its start, beyond0_nm, by more than
- * KNEE_DRIFT of it */
+ * KNEE_DRIFT of it (friction_tanh: tanh(ω/ω_s), taken once for each ω the RK4 step visits) */
 static int32_t slopes(const sim_plant *p, const rtcore_sim_motion *from, int32_t touching, const sim_knee_drive *d,
-                      double beyond0_nm, double velocity_rad_per_s, const double y[2], double out[2])
+                      double beyond0_nm, double velocity_rad_per_s, double friction_tanh, const double y[2],
+                      double out[2])
 {
     const rtcore_effects *e = &p->finger->prbm.effects;
-    const double net_nm = net_torque_nm(p, from, touching, d, y[0], y[1], velocity_rad_per_s);
-    const double beyond_nm
-        = net_nm + e->coulomb_torque_nm * tanh(velocity_rad_per_s / (e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG));
+    const double net_nm = net_torque_nm(p, from, touching, d, y[0], y[1], velocity_rad_per_s, friction_tanh);
+    const double beyond_nm = net_nm + e->coulomb_torque_nm * friction_tanh;
     if (!(fabs(beyond_nm) > KNEE_MARGIN * e->coulomb_torque_nm
           && fabs(beyond_nm - beyond0_nm) <= KNEE_DRIFT * fabs(beyond0_nm))) {
         return 0;
@@ -65,6 +68,8 @@ int32_t rtcore_sim_knee_passage(const sim_plant *p, const rtcore_sim_motion *s, 
     const double torque_c_nm = e->coulomb_torque_nm;
     const double smoothing_rad_per_s = e->coulomb_smoothing_deg_per_s * RTCORE_RAD_PER_DEG;
     const double w0 = s->velocity_rad_per_s;
+    double tanh0;
+    double net0_nm;
     double beyond_nm;
     double side;
     double w_exit;
@@ -79,7 +84,18 @@ int32_t rtcore_sim_knee_passage(const sim_plant *p, const rtcore_sim_motion *s, 
         return 0;
     }
     /* the torque beyond the friction's at the start */
-    beyond_nm = net_torque_nm(p, s, touching, d, 0.0, s->angle_rad, w0) + torque_c_nm * tanh(w0 / smoothing_rad_per_s);
+    tanh0 = rtcore_model_friction_tanh(e, w0);
+    {
+        /* the drive at the start is the step's (d->torque_nm, whose g is d->g0_nm) but for
+         * a moving chamber's rounding */
+        const double drive_nm = d->drive0_nm;
+        const double g_nm = drive_nm == d->torque_nm
+                                ? d->g0_nm
+                                : rtcore_sim_nonlinear_torque_with_nm(p, s, s->angle_rad, w0, touching, drive_nm, 0.0,
+                                                                      tanh0);
+        net0_nm = drive_nm + g_nm - p->linear.stiffness_nm_per_rad * s->angle_rad - p->linear.damping_nms_per_rad * w0;
+        beyond_nm = net0_nm + torque_c_nm * tanh0;
+    }
     if (!(fabs(beyond_nm) > KNEE_MARGIN * torque_c_nm)) {
         return 0;
     }
@@ -97,27 +113,31 @@ int32_t rtcore_sim_knee_passage(const sim_plant *p, const rtcore_sim_motion *s, 
     path->angle_rad[0] = y[1];
     path->velocity_rad_per_s[0] = w0;
     for (i = 0; i < n; ++i) {
+        const double tanh_mid = rtcore_model_friction_tanh(e, w + 0.5 * dw);
         double k1[2];
         double k2[2];
         double k3[2];
         double k4[2];
         double mid[2];
-        if (!slopes(p, s, touching, d, beyond_nm, w, y, k1)) {
+        if (i == 0) { /* at the start: slopes' torque is net0_nm, which passed its tests above */
+            k1[0] = p->linear.inertia_kgm2 / net0_nm;
+            k1[1] = w * k1[0];
+        } else if (!slopes(p, s, touching, d, beyond_nm, w, rtcore_model_friction_tanh(e, w), y, k1)) {
             return 0;
         }
         mid[0] = y[0] + 0.5 * dw * k1[0];
         mid[1] = y[1] + 0.5 * dw * k1[1];
-        if (!slopes(p, s, touching, d, beyond_nm, w + 0.5 * dw, mid, k2)) {
+        if (!slopes(p, s, touching, d, beyond_nm, w + 0.5 * dw, tanh_mid, mid, k2)) {
             return 0;
         }
         mid[0] = y[0] + 0.5 * dw * k2[0];
         mid[1] = y[1] + 0.5 * dw * k2[1];
-        if (!slopes(p, s, touching, d, beyond_nm, w + 0.5 * dw, mid, k3)) {
+        if (!slopes(p, s, touching, d, beyond_nm, w + 0.5 * dw, tanh_mid, mid, k3)) {
             return 0;
         }
         mid[0] = y[0] + dw * k3[0];
         mid[1] = y[1] + dw * k3[1];
-        if (!slopes(p, s, touching, d, beyond_nm, w + dw, mid, k4)) {
+        if (!slopes(p, s, touching, d, beyond_nm, w + dw, rtcore_model_friction_tanh(e, w + dw), mid, k4)) {
             return 0;
         }
         y[0] += dw * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]) / 6.0;

@@ -19,11 +19,8 @@ static const int32_t ONSET_REFINEMENTS = 4;
  * (a later step inside a span) the torque out of balance without the damper's share too: an
  * over-damped finger on its way has its drive balanced by B·θ' far from where it goes. */
 static double state_cap_s(const sim_plant *p, const rtcore_sim_motion *s, double torque_now_nm,
-                          double torque_last_nm, double step_cap_s, double floor_s, int32_t en_route)
+                          double torque_last_nm, double step_cap_s, double floor_s, int32_t en_route, double g_nm)
 {
-    const rtcore_sim_finger *f = p->finger;
-    const double g_nm = rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, rtcore_sim_touches(f, s->angle_rad),
-                                            torque_now_nm, 0.0);
     const double spring_nm = p->linear.stiffness_nm_per_rad * s->angle_rad;
     const double linear_nm = spring_nm + p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
     double accel_nm = fmax(fabs(torque_now_nm + g_nm - linear_nm), fabs(torque_last_nm + g_nm - linear_nm));
@@ -31,6 +28,14 @@ static double state_cap_s(const sim_plant *p, const rtcore_sim_motion *s, double
         accel_nm = fmax(accel_nm, fmax(fabs(torque_now_nm + g_nm - spring_nm), fabs(torque_last_nm + g_nm - spring_nm)));
     }
     return fmin(step_cap_s, fmax(rtcore_sim_state_step_s(p, s->angle_rad, accel_nm), floor_s));
+}
+
+/* g at the state `s` with the sides the angle is on (rtcore_sim_touches), under the drive
+ * torque_now_nm: what state_cap_s takes */
+static double g_here_nm(const sim_plant *p, const rtcore_sim_motion *s, double torque_now_nm)
+{
+    return rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s,
+                                          rtcore_sim_touches(p->finger, s->angle_rad), torque_now_nm, 0.0);
 }
 
 /* The finger at the end of a step of elapsed_s (or a knee's passage) from `s`: the loop
@@ -110,15 +115,23 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
         return;
     }
     if (p->state_dependent) {
-        cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 0);
+        cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 0,
+                            g_here_nm(p, s, torque_start));
     }
     while (!last) {
         const double remaining_s = duration_s - t_s;
-        int32_t touching = next_touching >= 0 ? next_touching : rtcore_sim_touches(f, s->angle_rad);
+        const int32_t sides = rtcore_sim_touches(f, s->angle_rad);
+        int32_t touching = next_touching >= 0 ? next_touching : sides;
+        /* g at the step's start, on the sides the step keeps: the step's g_start, the knee's
+         * first torque and (on the sides the angle is on) the state's bounds, computed once */
+        double g_start = p->nonlinear
+                             ? rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
+                             : 0.0;
+        const double g_sides = touching == sides || !p->state_dependent ? g_start : g_here_nm(p, s, torque_start);
         if (p->state_dependent && span != 0 && t_s > 0.0) {
             /* a span lasts many periods: the reach from the state now, as a step per
              * sample would take it at each sample */
-            cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1);
+            cap_s = state_cap_s(p, s, torque_start, torque_last, step_cap_s, state_floor_s, 1, g_sides);
         }
         if (f->prbm.effects.coulomb_torque_nm > 0.0) {
             /* a drive that carries the finger through the friction's knee: crossed as one
@@ -134,6 +147,11 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             drive.t0_s = t_s;
             drive.torque_nm = torque_start;
             drive.external_torque_nm = external_torque_nm;
+            /* the drive at the passage's start: the chamber now is the one at t_s (each
+             * assignment below takes it at the t_s it moves to) */
+            drive.drive0_nm = moving ? rtcore_sim_pressure_torque_nm(f, chamber_now_kpa) + external_torque_nm
+                                     : torque_start;
+            drive.g0_nm = g_start;
             if (rtcore_sim_knee_passage(p, s, touching, &drive, fmin(remaining_s * (1.0 - 1e-9), step_cap_s), &path)) {
                 const double angle_rad = path.angle_rad[path.count - 1];
                 const double velocity_rad_per_s = path.velocity_rad_per_s[path.count - 1];
@@ -156,9 +174,6 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
                 continue;
             }
         }
-        double g_start = p->nonlinear
-                             ? rtcore_sim_nonlinear_torque_nm(p, s, s->angle_rad, s->velocity_rad_per_s, touching, torque_start, 0.0)
-                             : 0.0;
         const double friction0 = f->prbm.effects.coulomb_torque_nm > 0.0
                                      ? rtcore_sim_friction_slope_nms_per_rad(&f->prbm.effects, s->velocity_rad_per_s)
                                      : 0.0;
@@ -193,7 +208,7 @@ static void integrate_segment(const sim_plant *p, rtcore_sim_motion *s, rtcore_p
             double creep_s = rtcore_sim_parameter_step_s(&local);
             if (p->state_dependent) {
                 creep_s = fmin(creep_s, state_cap_s(&local, s, torque_start, torque_last, INFINITY, 0.0,
-                                                    span != 0 && t_s > 0.0));
+                                                    span != 0 && t_s > 0.0, g_sides));
             }
             h = fmax(h, fmin(fmin(request_cap_s, span != 0 ? span->dt_s : INFINITY), CREEP_STEP_SHARE * creep_s));
         }

@@ -8,14 +8,21 @@
 #include "rtcore_internal.h"
 #include "rtcore_sim_internal.h"
 
+/* |re + i·im|: hypot(re, ±0) is |re| (C99 F.9.4.3), which real eigenvalues, an
+ * over-damped plant's, take without hypot's scaling */
+static double modulus(double re, double im)
+{
+    return im == 0.0 ? fabs(re) : hypot(re, im);
+}
+
 static double shift_per_s(const sim_plant *p, double damping, double stiffness)
 {
     double lambda_per_s[4];
     double first;
     double second;
     rtcore_exact_eigenvalues(p->linear.inertia_kgm2, damping, stiffness, lambda_per_s);
-    first = hypot(lambda_per_s[0] - p->linear.lambda_per_s[0], lambda_per_s[1] - p->linear.lambda_per_s[1]);
-    second = hypot(lambda_per_s[2] - p->linear.lambda_per_s[2], lambda_per_s[3] - p->linear.lambda_per_s[3]);
+    first = modulus(lambda_per_s[0] - p->linear.lambda_per_s[0], lambda_per_s[1] - p->linear.lambda_per_s[1]);
+    second = modulus(lambda_per_s[2] - p->linear.lambda_per_s[2], lambda_per_s[3] - p->linear.lambda_per_s[3]);
     return first > second ? first : second;
 }
 
@@ -200,7 +207,7 @@ double rtcore_sim_damping_step_s(const sim_plant *local, double velocity_rad_per
  * any step), else a fraction of the motion's time scale and of what g's slopes need. */
 double rtcore_sim_parameter_step_s(const sim_plant *p)
 {
-    const double motion_per_s = hypot(p->linear.lambda_per_s[0], p->linear.lambda_per_s[1]);
+    const double motion_per_s = modulus(p->linear.lambda_per_s[0], p->linear.lambda_per_s[1]);
     double step_s;
     if (!p->nonlinear) {
         return INFINITY;
@@ -259,7 +266,7 @@ double rtcore_sim_settled_step_s(const sim_plant *p, const rtcore_sim_motion *s,
 {
     const rtcore_effects *e = &p->finger->prbm.effects;
     const double k = p->linear.stiffness_nm_per_rad;
-    const double motion_per_s = hypot(p->linear.lambda_per_s[0], p->linear.lambda_per_s[1]);
+    const double motion_per_s = modulus(p->linear.lambda_per_s[0], p->linear.lambda_per_s[1]);
     const double net_nm = drive_nm - k * s->angle_rad - p->linear.damping_nms_per_rad * s->velocity_rad_per_s;
     const double left_rad = (fabs(net_nm) + drift_nm) / k
                             + (motion_per_s > 0.0 ? fabs(s->velocity_rad_per_s) / motion_per_s : 0.0);

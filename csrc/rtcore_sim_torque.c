@@ -78,10 +78,20 @@ double rtcore_sim_creep_angle_rad(const rtcore_effects *e, const rtcore_sim_moti
 double rtcore_sim_nonlinear_torque_nm(const sim_plant *p, const rtcore_sim_motion *from, double angle_rad,
                                   double velocity_rad_per_s, int32_t touching, double drive_nm, double elapsed_s)
 {
+    return rtcore_sim_nonlinear_torque_with_nm(p, from, angle_rad, velocity_rad_per_s, touching, drive_nm, elapsed_s,
+                                               rtcore_model_friction_tanh(&p->finger->prbm.effects, velocity_rad_per_s));
+}
+
+/* The same with dry friction's tanh(θ'/ω_s) given (rtcore_model_friction_tanh) */
+double rtcore_sim_nonlinear_torque_with_nm(const sim_plant *p, const rtcore_sim_motion *from, double angle_rad,
+                                           double velocity_rad_per_s, int32_t touching, double drive_nm,
+                                           double elapsed_s, double friction_tanh)
+{
     const rtcore_sim_finger *f = p->finger;
     const rtcore_prbm *m = &f->prbm;
     double torque_nm = m->stiffness_nm_per_rad * angle_rad
-                       - rtcore_model_side_torque_nm(m, angle_rad, velocity_rad_per_s, (touching & SIM_TOUCH_CONTACT) != 0);
+                       - rtcore_model_side_torque_with_nm(m, angle_rad, velocity_rad_per_s, (touching & SIM_TOUCH_CONTACT) != 0,
+                                                          friction_tanh);
     if (m->effects.pressure_stiffening_gain > 0.0 && m->pressure_gain_nm_per_kpa > 0.0) {
         torque_nm -= rtcore_stiffening_torque_nm(m, angle_rad,
                                                  (drive_nm - p->external_torque_nm) / m->pressure_gain_nm_per_kpa);
