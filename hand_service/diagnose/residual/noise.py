@@ -153,7 +153,8 @@ def from_basis(basis: np.ndarray, a: np.ndarray) -> np.ndarray:
         return basis @ a
     full = np.zeros(basis.shape[0])
     full[:m] = a
-    return fft.idct(full, type=2, norm="ortho")
+    # in place: `full` is this call's own (the same transform, bit for bit, without its copy)
+    return fft.idct(full, type=2, norm="ortho", overwrite_x=True)
 
 
 def start_motion(finger: SimFinger, n: int, rate_hz: float) -> np.ndarray:
