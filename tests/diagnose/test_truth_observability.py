@@ -8,7 +8,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tests.diagnose.truth import battery, scoring
+import pytest
+
+from tests.diagnose.truth import battery, observability, scoring
 from tests.diagnose.truth import cases as cs
 
 # the battery's "evident" contact on a PRBS, s0: over-damped at 500 Hz, the generator's
@@ -34,3 +36,25 @@ def test_an_evident_contact_the_eight_take_is_labelled_unobservable(tmp_path: Pa
     meta.write_text(json.dumps(stale))
     _, _, again, _ = battery.generate(SHALLOW, tmp_path)
     assert not again["observable"] and again["labelled_by"] == battery.LABELLED_BY
+
+
+# the battery's "evident" pressure stiffening on a slow sine, s1: ringing at 100 Hz, the
+# truth's exponential stiffening, which a cubic spring and gravity fitted together draw
+RINGING_SINE = cs.CaseSpec("pressure_stiffening", "slow_sine", 1, "evident")
+# and on a PRBS, s0: the pressure and the angle move apart, nothing of the eight draws it
+PRBS = cs.CaseSpec("pressure_stiffening", "prbs", 0, "evident")
+
+
+@pytest.mark.thorough
+def test_a_stiffening_the_eight_take_only_unlinearised_is_labelled_unobservable() -> None:
+    """The linearised rule (library_left) counts the ringing sine observable; the eight's state
+    effects refitted with k, B and N to the noise-free angle leave under OBSERVABLE_LEFT × the
+    noise of it, so the recording cannot part the stiffening from them: unobservable. The PRBS,
+    where they leave most of it, stays observable."""
+    case = cs.build(RINGING_SINE)
+    assert case.spec.resolved().id == "pressure_stiffening-slow_sine-s1-evident-ringing-100hz"
+    assert observability.library_left(case) >= observability.OBSERVABLE_LEFT
+    seen, reason = observability.observable(case)
+    assert not seen
+    assert "fitted to the noise-free angle" in reason, reason
+    assert observability.observable(cs.build(PRBS)) == (True, "")

@@ -14,7 +14,8 @@ can explain the contact (below observability.OBSERVABLE_LEFT) or only part of it
 diagnose's "partial" is the truthful answer), and beside `plain_left` (k, B and N alone)
 how much of the contact the library's form can show at all (`gain`, observability.observable);
 its spring's torque at the deepest angle recorded is the size an estimate is scored against
-(its K alone, at another n, is not comparable)."""
+(its K alone, at another n, is not comparable). `eight_left` fits the eight's effects of the
+finger's state in the same way, for any effect beyond them: what none of them can draw."""
 
 from __future__ import annotations
 
@@ -31,6 +32,11 @@ from tests.diagnose.truth import cases as cs
 DEG = math.pi / 180.0
 # the fit's starts: (θc − the truth's onset in degrees, n); the damper's from 0
 STARTS = ((0.0, 1.5), (-5.0, 2.0), (3.0, 1.2))
+# the eight's effects whose torques are functions of the finger's state (in the library's
+# forms what distinct.library_torques linearises), and the sizes the two that draw a
+# posture-dependent torque are fitted from alone, neutral first (N·m/rad³ and N·m)
+EIGHT_STATE = ("cubic_stiffness", "gravity", "coulomb_friction", "quadratic_damping", "asymmetric_stiffness")
+STATE_STARTS = {"cubic_stiffness": (0.0, 0.5, -0.5), "gravity": (0.0, 0.05, -0.05)}
 
 
 @dataclass(frozen=True)
@@ -57,17 +63,18 @@ def contact_torque_nm(stiffness_nm_per_radn: float, onset_deg: float, exponent: 
     return stiffness_nm_per_radn * (max(theta_deg - onset_deg, 0.0) * DEG) ** exponent
 
 
-def best_form(case: cs.Case, effect: str, size: float,
-              shapes: list[dict[str, float]]) -> tuple[dict[str, float], float, float]:
-    """The library's `effect` fitted by output error to the truth's noise-free angle with k,
-    B and N, its size from `size` and its shape parameters (those diagnose fits) from each
-    of `shapes`, the best kept: (its parameters, what it leaves over the noise RMS, what k,
-    B and N alone leave)."""
-    from hand_service.config import effects as fx
+def _fitted_plain(case: cs.Case, held: bool = False):
+    """The truth's noise-free angle as diagnose fits it (the sensor's offset and slow drift as
+    nuisances): (the problem, k, B and N's parameters, their fit alone, the effects' scales).
+    `held`: k, B and N held by a lab's knowledge of them, diagnose's log-normal prior of
+    PRIOR_RELATIVE_WIDTH about the truth's plain finger weighted by the sensor's noise RMS
+    (as observability.library_left holds them): free, an over-damped finger's k, B and N
+    slide together along what the recording pins (their ratios), and an effect's bounds,
+    absolute, widen with them."""
     from hand_service.config.profile import load_model
     from hand_service.diagnose.fitting.output_error import fit
     from hand_service.diagnose.model.params import EffectScales, Param
-    from hand_service.diagnose.model.problem import PLAIN, build_problem
+    from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Prior, build_problem
     from hand_service.diagnose.residual.noise import nuisance_only
 
     with tempfile.TemporaryDirectory(prefix="library-form-") as scratch:
@@ -75,18 +82,34 @@ def best_form(case: cs.Case, effect: str, size: float,
         model = load_model(path)
     traj, rate = case.trajectory, case.rate_hz
     t_s = np.arange(traj.theta_deg.size) / rate
-    # with the sensor's offset and slow drift as nuisances, as diagnose fits every model
     problem = dataclasses.replace(build_problem(model, t_s, traj.command_kpa, traj.theta_deg, rate),
                                   noise=nuisance_only(traj.theta_deg.size, rate))
     family = case.truth.family
     plain = [Param.plain(name, getattr(model, name)) for name in PLAIN]
     plain_start = [family.stiffness_nm_per_rad, family.damping_nms_per_rad + cs.linear_damping(case.truth),
                    family.gain_nm_per_kpa]
+    if held:
+        problem.prior = Prior({p.label: v for p, v in zip(plain, plain_start, strict=True)},
+                              {p.label: PRIOR_RELATIVE_WIDTH for p in plain}, case.sensor.noise_rms_deg)
     alone = fit(problem, plain, plain_start, max_nfev=100)
-    spec = fx.BY_NAME[effect]
-    members = [q.name for q in spec.shape_parameters]
     scales = EffectScales.of(family.stiffness_nm_per_rad, family.gain_nm_per_kpa, traj.command_kpa,
                              traj.theta_deg, rate)
+    return problem, plain, alone, scales
+
+
+def best_form(case: cs.Case, effect: str, size: float,
+              shapes: list[dict[str, float]]) -> tuple[dict[str, float], float, float]:
+    """The library's `effect` fitted by output error to the truth's noise-free angle with k,
+    B and N, its size from `size` and its shape parameters (those diagnose fits) from each
+    of `shapes`, the best kept: (its parameters, what it leaves over the noise RMS, what k,
+    B and N alone leave)."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose.fitting.output_error import fit
+    from hand_service.diagnose.model.params import Param
+
+    problem, plain, alone, scales = _fitted_plain(case)
+    spec = fx.BY_NAME[effect]
+    members = [q.name for q in spec.shape_parameters]
     params = [*plain, Param.effect(effect, scales), *(Param.shape(effect, m) for m in members)]
     fits = [fit(problem, params, [*alone.values, size, *(shape[m] for m in members)], max_nfev=100)
             for shape in shapes]
@@ -95,6 +118,33 @@ def best_form(case: cs.Case, effect: str, size: float,
     values = {spec.param: best.value(effect), **{m: best.value(effect, m) for m in members}}
     return (values, math.sqrt(best.rss_deg2 / best.n_fit) / noise,
             math.sqrt(alone.rss_deg2 / alone.n_fit) / noise)
+
+
+def eight_left(case: cs.Case) -> float:
+    """What the truth's noise-free angle leaves over the noise RMS once the library's model
+    with k, B and N (held as library_left holds them: _fitted_plain's `held`) and the eight's
+    effects of the finger's state together (EIGHT_STATE, in their fit ranges) is fitted to it
+    by output error: observability.library_left's question without its linearisation. Fitted
+    from every effect at neutral, from the cubic spring's and gravity's best alone (each from
+    STATE_STARTS) and from both."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose.fitting.output_error import fit
+    from hand_service.diagnose.model.params import Param
+
+    problem, plain, alone, scales = _fitted_plain(case, held=True)
+    neutral = {name: fx.BY_NAME[name].neutral for name in EIGHT_STATE}
+    alone_best = {}
+    for name, sizes in STATE_STARTS.items():
+        params = [*plain, Param.effect(name, scales)]
+        fits = [fit(problem, params, [*alone.values, size], max_nfev=100) for size in sizes]
+        alone_best[name] = float(min(fits, key=lambda f: f.rss_deg2).value(name))
+    starts = [neutral, {**neutral, "cubic_stiffness": alone_best["cubic_stiffness"]},
+              {**neutral, "gravity": alone_best["gravity"]}, {**neutral, **alone_best}]
+    params = [*plain, *(Param.effect(name, scales) for name in EIGHT_STATE)]
+    fits = [fit(problem, params, [*alone.values, *(start[name] for name in EIGHT_STATE)], max_nfev=100)
+            for start in starts]
+    best = min(fits, key=lambda f: f.rss_deg2)
+    return math.sqrt(best.rss_deg2 / best.n_fit) / case.sensor.noise_rms_deg
 
 
 def contact_form(case: cs.Case) -> ContactForm:

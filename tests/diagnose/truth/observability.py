@@ -17,7 +17,7 @@ import numpy as np
 
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.distinct import left_over, library_torques
-from tests.diagnose.truth.library_form import ContactForm, contact_form
+from tests.diagnose.truth.library_form import ContactForm, contact_form, eight_left
 
 # the least time past a contact's onset that shows it, and the least angle range that turns
 # a loop over (the on-request rule's 5°)
@@ -47,7 +47,12 @@ def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, st
     """Observable: the physics exercised (for pressure stiffening and creep the case's own
     rule, cases.exercised; the finger past the contact's onset for CONTACT_TIME_S; the angle
     moved over LOOP_RANGE_DEG for a loop), visibility 0.4 (the plain refit leaves 0.4 × the
-    noise), and library_left ≥ OBSERVABLE_LEFT: measured on the truth, apart from diagnose.
+    noise), and library_left ≥ OBSERVABLE_LEFT and its nonlinear refit on the noise-free angle
+    (library_form.eight_left) too: measured on the truth, apart from diagnose. Linearised
+    about the plain finger, library_left moves the eight's torques through it only as far as a
+    linear step does: a pressure stiffening on a ringing slow sine that the eight's state
+    effects refitted take to within 0.30 × the noise it counted observable at 0.68
+    (docs/results.md §12.66).
     For a contact also the library form's gain (`form`, library_form.contact_form) ≥
     OBSERVABLE_LEFT: what its best fit to the noise-free angle explains beyond k, B and N
     fitted alone. library_left is linearised about the truth's plain finger, so k, B and N
@@ -68,6 +73,10 @@ def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, st
     if left < OBSERVABLE_LEFT:
         return False, (f"k, B, N, the sensor's offset and drift and the eight's state torques leave "
                        f"{left:.2f} × the noise of it")
+    nonlinear = eight_left(case)
+    if nonlinear < OBSERVABLE_LEFT:
+        return False, (f"k, B, N and the eight's state effects, fitted to the noise-free angle, leave "
+                       f"{nonlinear:.2f} × the noise of it")
     if form is not None and form.gain < OBSERVABLE_LEFT:
         return False, f"the library's contact explains {form.gain:.2f} × the noise beyond a plain refit"
     return True, ""
