@@ -26,12 +26,13 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit, far_from_nominal, fit, nominal_prior, unpinned
 from hand_service.diagnose.model.params import Param
-from hand_service.diagnose.model.problem import NO_PRIOR, Problem
+from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import effect_size
 from hand_service.diagnose.search.admission import admitted, friction_rival, kept
 from hand_service.diagnose.search.held_out import expected_z, second_split_z
 from hand_service.diagnose.search.joint_start import joint_range, nominal_start
+from hand_service.diagnose.search.prior_evidence import prior_chi2
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
 from hand_service.diagnose.workers import ordered_map
 
@@ -291,25 +292,6 @@ def second_look(problem: Problem, round_: Round) -> None:
         return
     z = (best.z_heldout + second_split_z(problem, round_.base, best.fit)) / np.sqrt(2.0)
     round_.candidates[0] = dataclasses.replace(best, z_heldout=z)
-
-
-def data_alone_bic(problem: Problem, refit: Fit, accepted: Candidate) -> float:
-    """ΔBIC of an accepted effect with k, B and N free of the nominal's prior, the model
-    without and with it each refitted so. Where the recording cannot pin k, B and N and
-    the prior holds them, an effect may win only because it does what the prior keeps them
-    from doing: on a slow ramp a valve lag delays the finger as extra damping B would."""
-    free = dataclasses.replace(problem, prior=NO_PRIOR)
-    without = fit(free, refit.params, refit.values, base=refit.finger)
-    with_effect = fit(free, accepted.fit.params, accepted.fit.values, base=refit.finger)
-    return stats.delta_bic(free.fit_rss(free.innovations(without.angle_deg)),
-                           free.fit_rss(free.innovations(with_effect.angle_deg)), free.n_fit)
-
-
-def prior_chi2(problem: Problem, f: Fit) -> float:
-    """The nominal's log-normal prior as a χ² (−2 ln prior, up to a constant): the term it
-    adds to the BIC of a fit that held k, B and N near the nominal."""
-    weight = problem.prior.weight_deg
-    return f.prior_cost_deg2 / weight**2 if weight > 0.0 else 0.0
 
 
 def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None,
