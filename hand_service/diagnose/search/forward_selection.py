@@ -29,7 +29,7 @@ from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import effect_size
-from hand_service.diagnose.search.admission import admitted, friction_rival, kept
+from hand_service.diagnose.search.admission import admitted, beside_a_tie, friction_rival, kept
 from hand_service.diagnose.search.held_out import expected_z, second_split_z
 from hand_service.diagnose.search.joint_start import joint_range, nominal_start
 from hand_service.diagnose.search.prior_evidence import prior_chi2
@@ -310,6 +310,7 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     longest_first = sorted(names, key=lambda name: name not in WHOLE_GRID)
     screens = ordered_map(lambda name: screen(problem, base, name), longest_first)
     screens.sort(key=lambda s: (-s.predicted_bic, names.index(s.name)))
+    screened = screens
     screens = admitted(problem, screens, NAME_MARGIN_BIC)  # a stand-in only past the screen
     chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
     if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
@@ -324,6 +325,11 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
                                                 lazy=not fit_all),
                              enumerate(chosen))
     candidates.sort(key=lambda c: -c.delta_bic)
+    if fit_all:
+        out = [s for s in screened if s.name not in {t.name for t in screens}]  # kept out by the screen
+        candidates += beside_a_tie(problem, candidates, out, NAME_MARGIN_BIC,
+                                   lambda s: score(problem, base, s, sigma, True))
+        candidates.sort(key=lambda c: -c.delta_bic)
     # a stand-in the screen let in that is not significant, or does not beat the eight's fits
     # (and a later round's model so far) on the raw angle, is as if kept out (admission.py)
     return Round(base, kept(problem, base, candidates, later=not fit_all, fit_pair=partial(beside, problem)),
