@@ -326,3 +326,8 @@ def test_a_stand_in_the_screen_kept_out_is_fitted_beside_a_tie_of_the_eight() ->
     weak = scored("contact", 1251.0, 0.7)
     weak.significant = False
     assert beside_a_tie(problem, tie, out, NAME_MARGIN_BIC, lambda s: weak) == []
+    # a stand-in the screen let in, significant, already as close to the raw angle: not kept
+    creep = scored("creep", 400.0, 0.7 * (1.0 - 0.5 * TIE_SHARE))
+    assert beside_a_tie(problem, [creep, *tie], out, NAME_MARGIN_BIC, fit_screened) == []
+    creep.significant = False
+    assert beside_a_tie(problem, [creep, *tie], out, NAME_MARGIN_BIC, fit_screened) == [contact]

@@ -186,17 +186,20 @@ def beside_a_tie(problem: Problem, candidates: list[Scored], kept_out: list[Scre
                  fit_screened: Callable[[Screen], Scored]) -> list[Scored]:
     """Where the first round's two best of the eight tie (both significant, within
     `margin_bic`), the stand-ins the screen kept out (`kept_out`) fitted (`fit_screened`),
-    those significant that follow the raw angle closer (closer_on_raw) than both tied effects:
-    a tie says the eight have no name for the residual, and a stand-in whose screen fell below
-    theirs at its shape's start may still draw it (a contact under PI steps, the finger bent
-    one way, docs/results.md §12.57)."""
+    those significant that follow the raw angle closer (closer_on_raw) than both tied effects
+    and than every significant stand-in the screen let in: a tie says the eight have no name
+    for the residual, and a stand-in whose screen fell below theirs at its shape's start may
+    still draw it (a contact under PI steps, the finger bent one way, docs/results.md §12.57);
+    one the screen let in may have the name already (a creep beside a lag and a dead time
+    tied, where a loop fitted beside the tie out-gained it, further from the raw angle)."""
     eight = [c for c in candidates if not gated(problem, c.name) and c.significant]
     if len(eight) < 2 or eight[0].delta_bic - eight[1].delta_bic >= margin_bic:
         return []
-    tied_raw = [raw_deg(problem, c.fit.angle_deg) for c in eight[:2]]
+    let_in = [c for c in candidates if gated(problem, c.name) and c.significant]
+    rivals_raw = [raw_deg(problem, c.fit.angle_deg) for c in [*eight[:2], *let_in]]
     out = []
     for s in kept_out:
         c = fit_screened(s)
-        if c.significant and all(closer_on_raw(raw_deg(problem, c.fit.angle_deg), t) for t in tied_raw):
+        if c.significant and all(closer_on_raw(raw_deg(problem, c.fit.angle_deg), r) for r in rivals_raw):
             out.append(c)
     return out
