@@ -62,9 +62,9 @@ from hand_service.diagnose.search.forward_selection import (
     SIGNIFICANT_BIC,
     Progress,
     Selection,
-    data_alone_bic,
 )
 from hand_service.diagnose.search.late_stand_in import select_screened
+from hand_service.diagnose.search.prior_evidence import data_alone_bic
 
 
 def plain_params(problem: Problem, model: FingerModel, warnings: list[str]) -> list[Param]:
@@ -224,7 +224,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         refit_white = stats.ljung_box(refit_e[fit_mask], lags)
     if unidentified and selection.accepted:
         first = selection.accepted[0]
-        free_bic = data_alone_bic(problem, refit, first)
+        free_bic = data_alone_bic(problem, refit, first.fit)
         if free_bic < SIGNIFICANT_BIC:
             warnings.append(f"{first.name} is favoured (ΔBIC {first.delta_bic:.0f}) only while k, B and N "
                             f"are held near the nominal; with them free, the recording is explained as "

@@ -18,6 +18,7 @@ from hand_service.diagnose.requested import searched
 from hand_service.diagnose.search import late_stand_in as late_module
 from hand_service.diagnose.search.admission import (
     admitted,
+    beside_a_tie,
     friction_rival,
     gated,
     kept,
@@ -224,6 +225,21 @@ def test_a_contact_screened_out_of_the_first_round_is_named_alone(tmp_path) -> N
     assert [e.name for e in d.effects] == ["contact"], d.warnings
 
 
+@pytest.mark.thorough
+def test_a_contact_behind_a_tie_of_the_eight_is_named(tmp_path) -> None:
+    """The battery's evident contact under PI steps (s0, ringing, 100 Hz): gravity and a cubic
+    spring tie in the first round, the contact's screen below the cubic's; without the guard
+    it never entered a round (`insufficient_excitation`, docs/results.md §12.60). Fitted
+    beside the tie (`beside_a_tie`) it is named alone."""
+    from tests.diagnose.test_sentence_checks import _diagnosed
+    from tests.diagnose.truth import cases as cs
+
+    case = cs.build(cs.CaseSpec("contact", "pi_steps", 0, "evident"))
+    d = _diagnosed(*cs.write(case, tmp_path))
+    assert [e.name for e in d.effects] == ["contact"], d.warnings
+    assert d.grade == "complete", d.warnings
+
+
 @dataclass
 class _Scored(_Candidate):
     delta_bic: float = 0.0
@@ -276,3 +292,42 @@ def test_a_stand_in_stays_in_its_round_only_where_it_beats_the_eight_on_the_raw_
     loop = _Scored("hysteresis", truth + 1.001 * off, delta_bic=300.0)
     friction = _Scored("coulomb_friction", truth + off, delta_bic=200.0)
     assert names([loop, friction], False, 0.5) == ["hysteresis", "coulomb_friction"]
+
+
+def test_a_stand_in_the_screen_kept_out_is_fitted_beside_a_tie_of_the_eight() -> None:
+    """The truth's contact under PI steps (ringing, 100 Hz): gravity and a cubic spring tie in
+    the first round (ΔBIC 306 and 298), the contact's screen fell below theirs; fitted beside
+    the tie it follows the raw angle closer than both and joins the round (admission.py)."""
+    problem = _problem()
+    truth = problem.measured_deg
+    off = np.random.default_rng(1).normal(0.0, 0.5, truth.size)
+
+    def scored(name: str, delta_bic: float, share: float) -> SimpleNamespace:
+        candidate = _Candidate(name, truth + share * off)
+        return SimpleNamespace(name=name, fit=candidate.fit, significant=True, delta_bic=delta_bic)
+
+    tie = [scored("gravity", 306.0, 1.0), scored("cubic_stiffness", 298.0, 1.01)]
+    contact = scored("contact", 1251.0, 0.7)
+    fitted: list[str] = []
+
+    def fit_screened(s: Screen) -> SimpleNamespace:
+        fitted.append(s.name)
+        return contact
+
+    out = [_screen("contact", 100.0)]
+    assert beside_a_tie(problem, tie, out, NAME_MARGIN_BIC, fit_screened) == [contact]
+    assert fitted == ["contact"]
+    # no tie (the best clear of the runner-up by the margin): nothing fitted
+    clear = [scored("gravity", 306.0 + NAME_MARGIN_BIC, 1.0), tie[1]]
+    assert beside_a_tie(problem, clear, out, NAME_MARGIN_BIC, pytest.fail) == []
+    # a stand-in no closer than one of the tied by the raw tie share: not kept
+    near = scored("contact", 1251.0, 1.0 - 0.5 * TIE_SHARE)
+    assert beside_a_tie(problem, tie, out, NAME_MARGIN_BIC, lambda s: near) == []
+    weak = scored("contact", 1251.0, 0.7)
+    weak.significant = False
+    assert beside_a_tie(problem, tie, out, NAME_MARGIN_BIC, lambda s: weak) == []
+    # a stand-in the screen let in, significant, already as close to the raw angle: not kept
+    creep = scored("creep", 400.0, 0.7 * (1.0 - 0.5 * TIE_SHARE))
+    assert beside_a_tie(problem, [creep, *tie], out, NAME_MARGIN_BIC, fit_screened) == []
+    creep.significant = False
+    assert beside_a_tie(problem, [creep, *tie], out, NAME_MARGIN_BIC, fit_screened) == [contact]

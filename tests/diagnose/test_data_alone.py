@@ -1,5 +1,5 @@
 """An effect favoured only while the nominal's prior holds k, B and N is not named
-(search.data_alone_bic, in engine.py): the truth's hysteresis on a slow ramp, which a
+(prior_evidence.data_alone_bic, in engine.py): the truth's hysteresis on a slow ramp, which a
 recording cannot pin k, B, N from, lags the finger; with the eight alone searched the prior
 keeps B from taking that lag, and a valve lag takes it instead. The default search names
 the loop (hysteresis, behind the screen)."""

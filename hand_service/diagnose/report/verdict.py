@@ -14,7 +14,8 @@ from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Problem
 from hand_service.diagnose.residual import noise, stats
 from hand_service.diagnose.search.effect_size import SizeEstimate
-from hand_service.diagnose.search.forward_selection import Selection, prior_chi2
+from hand_service.diagnose.search.forward_selection import Selection
+from hand_service.diagnose.search.prior_evidence import prior_chi2
 
 STRUCTURE_P = 1e-6  # Ljung-Box p-value below which a residual is clearly structured
 # An effect whose signature k, B and N absorb all but this share of could hide in a refit:

@@ -39,6 +39,13 @@ one physics): else the eight's explanation, or the model so far, stands (`kept`)
 one physics the eight draw as two: a weight mounted at an angle is the library's gravity
 and a cubic spring (k takes its linear part); a stiffening chamber drew it in one, closer
 than gravity alone but not than the two (docs/results.md §12.57).
+
+Where the first round's two best of the eight tie (both significant, within the naming
+margin), the eight have no name for the residual, and the stand-ins the screen kept out are
+fitted too: each joins the round only where it is significant and follows the raw angle
+closer than both tied effects by more than the tie share (`beside_a_tie`), and `kept` then
+judges it as any stand-in (a contact under PI steps, the finger bent one way: gravity and a
+cubic spring tied, the contact's screen below the cubic's, fitted far above both, §12.60).
 """
 
 from __future__ import annotations
@@ -173,3 +180,26 @@ def friction_rival(problem: Problem, best: Candidate, candidates: list[Candidate
                            noise_deg):
         return None
     return friction
+
+
+def beside_a_tie(problem: Problem, candidates: list[Scored], kept_out: list[Screen], margin_bic: float,
+                 fit_screened: Callable[[Screen], Scored]) -> list[Scored]:
+    """Where the first round's two best of the eight tie (both significant, within
+    `margin_bic`), the stand-ins the screen kept out (`kept_out`) fitted (`fit_screened`),
+    those significant that follow the raw angle closer (closer_on_raw) than both tied effects
+    and than every significant stand-in the screen let in: a tie says the eight have no name
+    for the residual, and a stand-in whose screen fell below theirs at its shape's start may
+    still draw it (a contact under PI steps, the finger bent one way, docs/results.md §12.57);
+    one the screen let in may have the name already (a creep beside a lag and a dead time
+    tied, where a loop fitted beside the tie out-gained it, further from the raw angle)."""
+    eight = [c for c in candidates if not gated(problem, c.name) and c.significant]
+    if len(eight) < 2 or eight[0].delta_bic - eight[1].delta_bic >= margin_bic:
+        return []
+    let_in = [c for c in candidates if gated(problem, c.name) and c.significant]
+    rivals_raw = [raw_deg(problem, c.fit.angle_deg) for c in [*eight[:2], *let_in]]
+    out = []
+    for s in kept_out:
+        c = fit_screened(s)
+        if c.significant and all(closer_on_raw(raw_deg(problem, c.fit.angle_deg), r) for r in rivals_raw):
+            out.append(c)
+    return out

@@ -26,12 +26,13 @@ import numpy as np
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit, far_from_nominal, fit, nominal_prior, unpinned
 from hand_service.diagnose.model.params import Param
-from hand_service.diagnose.model.problem import NO_PRIOR, Problem
+from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search import effect_size
-from hand_service.diagnose.search.admission import admitted, friction_rival, kept
+from hand_service.diagnose.search.admission import admitted, beside_a_tie, friction_rival, kept
 from hand_service.diagnose.search.held_out import expected_z, second_split_z
 from hand_service.diagnose.search.joint_start import joint_range, nominal_start
+from hand_service.diagnose.search.prior_evidence import prior_chi2
 from hand_service.diagnose.search.screening import WHOLE_GRID, Screen, screen, start_value
 from hand_service.diagnose.workers import ordered_map
 
@@ -293,25 +294,6 @@ def second_look(problem: Problem, round_: Round) -> None:
     round_.candidates[0] = dataclasses.replace(best, z_heldout=z)
 
 
-def data_alone_bic(problem: Problem, refit: Fit, accepted: Candidate) -> float:
-    """ΔBIC of an accepted effect with k, B and N free of the nominal's prior, the model
-    without and with it each refitted so. Where the recording cannot pin k, B and N and
-    the prior holds them, an effect may win only because it does what the prior keeps them
-    from doing: on a slow ramp a valve lag delays the finger as extra damping B would."""
-    free = dataclasses.replace(problem, prior=NO_PRIOR)
-    without = fit(free, refit.params, refit.values, base=refit.finger)
-    with_effect = fit(free, accepted.fit.params, accepted.fit.values, base=refit.finger)
-    return stats.delta_bic(free.fit_rss(free.innovations(without.angle_deg)),
-                           free.fit_rss(free.innovations(with_effect.angle_deg)), free.n_fit)
-
-
-def prior_chi2(problem: Problem, f: Fit) -> float:
-    """The nominal's log-normal prior as a χ² (−2 ln prior, up to a constant): the term it
-    adds to the BIC of a fit that held k, B and N near the nominal."""
-    weight = problem.prior.weight_deg
-    return f.prior_cost_deg2 / weight**2 if weight > 0.0 else 0.0
-
-
 def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress | None,
               fit_all: bool, standing: Sequence[str] = ()) -> Round:
     """Screen every effect; fit jointly all of them (`fit_all`, the first round, whose
@@ -328,6 +310,7 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     longest_first = sorted(names, key=lambda name: name not in WHOLE_GRID)
     screens = ordered_map(lambda name: screen(problem, base, name), longest_first)
     screens.sort(key=lambda s: (-s.predicted_bic, names.index(s.name)))
+    screened = screens
     screens = admitted(problem, screens, NAME_MARGIN_BIC)  # a stand-in only past the screen
     chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
     if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
@@ -342,6 +325,11 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
                                                 lazy=not fit_all),
                              enumerate(chosen))
     candidates.sort(key=lambda c: -c.delta_bic)
+    if fit_all:
+        out = [s for s in screened if s.name not in {t.name for t in screens}]  # kept out by the screen
+        candidates += beside_a_tie(problem, candidates, out, NAME_MARGIN_BIC,
+                                   lambda s: score(problem, base, s, sigma, True))
+        candidates.sort(key=lambda c: -c.delta_bic)
     # a stand-in the screen let in that is not significant, or does not beat the eight's fits
     # (and a later round's model so far) on the raw angle, is as if kept out (admission.py)
     return Round(base, kept(problem, base, candidates, later=not fit_all, fit_pair=partial(beside, problem)),
