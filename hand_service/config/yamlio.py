@@ -132,7 +132,8 @@ def parse_yaml(text: str, path: str | Path) -> Any:
     try:
         with warnings.catch_warnings():  # an anchor defined twice: the later one holds, as in YAML 1.1
             warnings.simplefilter("ignore", ReusedAnchorWarning)
-            return _plain(_yaml().load(text), None)
+            document = _load(text, path)
+        return _plain(document, None)
     except _BadValue as exc:
         raise UserError(f"{where(path, exc.line)}: {exc}") from None
     except MarkedYAMLError as exc:
@@ -148,6 +149,15 @@ def parse_yaml(text: str, path: str | Path) -> Any:
         raise UserError(f"{path}: not valid YAML: {_one_line(exc)}") from None
     except RecursionError:
         raise UserError(f"{path}: not valid YAML: nested too deeply") from None
+
+
+def _load(text: str, path: str | Path) -> Any:
+    """ruamel's load; a key that is itself a mapping (`? {a: 1}: x`, or a block mapping under
+    a `?`) makes ruamel test it as a dict key and fail with TypeError: refused in one line."""
+    try:
+        return _yaml().load(text)
+    except TypeError as exc:
+        raise UserError(f"{path}: not valid YAML: a mapping used as a key ({_one_line(exc)})") from None
 
 
 def dump_yaml(data: dict[str, Any]) -> str:

@@ -142,3 +142,13 @@ def test_an_invalid_result_leaves_the_file_alone(tmp_path: Path) -> None:
         update_values(path, [(("hand", "ring", "pressure_gain_nm_per_kpa"), -1.0)], load_profile)
     assert path.read_text() == DEFAULT_PROFILE.read_text()
     assert not list(tmp_path.glob(".*updating"))
+
+
+def test_a_mapping_used_as_a_key_is_refused_in_one_line(tmp_path: Path) -> None:
+    """A block mapping under a `?` key makes ruamel test a mapping as a dict key (TypeError);
+    the fuzzer's input, refused as bad YAML."""
+    path = tmp_path / "m.yaml"
+    path.write_text("gamma: 0.85\n? [a, b]:\n  valve_lag: {tau_s: 0.03}\n  dead_time: {delay_s: 0.005}\n")
+    with pytest.raises(UserError, match=r"m.yaml: not valid YAML: a mapping used as a key") as raised:
+        load_yaml(path)
+    assert "\n" not in str(raised.value)
