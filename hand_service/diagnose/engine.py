@@ -50,6 +50,7 @@ from hand_service.diagnose.report.verdict import (
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_only, stats
 from hand_service.diagnose.search import (
+    excerpt,
     loop_rival,
     posture_stability,
     rest_order,
@@ -125,16 +126,14 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     Jacobian's columns in fitting/output_error.py) keep the cores busy, and OpenBLAS, which
     threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
     and 1 kHz), would only make them wait."""
-    with threadpool_limits(limits=1, user_api="blas"), workers.using(jobs):
-        search = searched(also)
-        result = _diagnose(model, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                           noise_model, search, also)
+    def run(part: slice, search: list[str]) -> Diagnosis:  # samples `part`, searched over `search`
+        args = (t_s[part], pressure_kpa[part], angle_deg[part], rate_hz, progress,
+                None if missing is None else missing[part], input_hold, noise_model, search, also)
+        result = _diagnose(model, *args)
         at_onset = contact_at_onset(model, result, search)
         if at_onset is None:
             return result
-        # the contact searched for from where the residual says a torque switches on
-        again = _diagnose(at_onset, t_s, pressure_kpa, angle_deg, rate_hz, progress, missing, input_hold,
-                          noise_model, search, also)
+        again = _diagnose(at_onset, *args)  # contact from where the residual's torque switches on
         if not again.effects or again.effects[0].name != "contact":
             return result
         onset = at_onset.effects["contact"]
@@ -143,6 +142,9 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
                               f"exponent ({onset['exponent']:g}) where the residual's torque switches on "
                               "(its onset, fitted apart), and fitted them with its stiffness from there")
         return again
+
+    with threadpool_limits(limits=1, user_api="blas"), workers.using(jobs):  # a long one: excerpt.py
+        return excerpt.searched_from_excerpt(run, t_s.size, rate_hz, searched(also), also, progress)
 
 
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
