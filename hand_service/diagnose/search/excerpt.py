@@ -2,13 +2,14 @@
 
 The search's cost is its fits times the recording's length: every candidate is fitted from
 several starts, each fit a run of simulations over every sample. A recording longer than
-BUDGET_SAMPLES is first diagnosed on its first BUDGET_SAMPLES samples, by the whole of
-`diagnose` (every effect searched). The whole recording is then diagnosed by the same
-rules with the search's candidates restricted to what that excerpt found worth fitting
-(`worth_fitting`): its named and partial effects, the effects accepted or carried in its
-selection, both of a tie, and every effect that gained over SIGNIFICANT_BIC in any of its
-rounds. Every figure of the report is the whole's; only the candidate list came from the
-excerpt, and the report says so in one sentence (`Restricted.sentence`).
+BUDGET_SAMPLES, of which those are at most MAX_SHARE, is first diagnosed on its first
+BUDGET_SAMPLES samples by the whole of `diagnose` (every effect searched). The whole
+recording is then diagnosed by the same rules with the search's candidates restricted to
+what that excerpt found worth fitting (`worth_fitting`): its named and partial effects, the
+effects accepted or carried in its selection, both of a tie, and every effect that gained
+over SIGNIFICANT_BIC in any of its rounds. Every figure of the report is the whole's; only
+the candidate list came from the excerpt, and the report says so in one sentence
+(`Restricted.sentence`).
 
 Where the excerpt cannot decide what to search (its verdict insufficient_excitation, the
 plain model unable to follow it so that nothing was searched, or a recording it cannot be
@@ -16,7 +17,7 @@ diagnosed on at all), the whole is searched as it would be without the excerpt. 
 finds nothing worth fitting, the whole's search has no candidates and its verdict is the
 plain model's, by the usual rules; the residual tests run on the whole, so physics that
 shows only after the excerpt leaves structure they report as unexplained, not as a name
-the excerpt did not test (docs/diagnose.md, "Long recordings").
+the excerpt did not test (docs/diagnose-design.md, "Long recordings").
 
 BUDGET_SAMPLES lies above every recording the project measures its answers on below the
 long one (the battery's 30 s at up to 1 kHz, the bench's 30 s at 100 Hz, the real rigs),
@@ -33,6 +34,9 @@ from hand_service.diagnose.search.forward_selection import SIGNIFICANT_BIC, Prog
 from hand_service.errors import UserError
 
 BUDGET_SAMPLES = 40_000  # a longer recording is searched over what its first this many samples found
+# and only where that excerpt is at most this share of it: the excerpt's own diagnosis costs
+# its share of the whole's, which the fewer candidates must win back
+MAX_SHARE = 0.4
 
 # one diagnosis of the samples `part` with the search over `names`
 Run = Callable[[slice, list[str]], Diagnosis]
@@ -78,10 +82,10 @@ def restricted(excerpt: Diagnosis, search: Sequence[str], asked: Sequence[str], 
 def searched_from_excerpt(run: Run, n_samples: int, rate_hz: float, search: list[str],
                           asked: Sequence[str], progress: Progress | None = None) -> Diagnosis:
     """`run` over the whole (`n_samples`), its search over `search` restricted to what the
-    leading excerpt found where the recording is longer than BUDGET_SAMPLES and the excerpt
-    `decides`; else over `search`, as without the excerpt."""
+    leading excerpt found where the excerpt (BUDGET_SAMPLES) is at most MAX_SHARE of the
+    recording and `decides`; else over `search`, as without the excerpt."""
     whole = slice(0, n_samples)
-    if n_samples <= BUDGET_SAMPLES:
+    if n_samples <= BUDGET_SAMPLES or MAX_SHARE * n_samples < BUDGET_SAMPLES:
         return run(whole, search)
     if progress:
         progress(f"a long recording: diagnosing its first {BUDGET_SAMPLES / rate_hz:.3g} s "
