@@ -102,6 +102,26 @@ def test_below_the_budget_nothing_changes(monkeypatch) -> None:
     assert not any("first" in w and "searched over" in w for w in result.warnings)
 
 
+def test_worth_fitting_takes_the_named_the_tied_and_what_gained() -> None:
+    """Named, partial, accepted, carried and both of a tie, and any round's candidate over
+    SIGNIFICANT_BIC; not a candidate that gained less."""
+    from types import SimpleNamespace as NS
+
+    from hand_service.diagnose.search.forward_selection import SIGNIFICANT_BIC
+
+    def c(name: str, delta_bic: float = 0.0) -> NS:
+        return NS(name=name, delta_bic=delta_bic)
+
+    rounds = [NS(candidates=[c("dead_time", 500.0), c("gravity", SIGNIFICANT_BIC + 1.0),
+                             c("cubic_stiffness", SIGNIFICANT_BIC)]),
+              NS(candidates=[c("creep", SIGNIFICANT_BIC + 5.0), c("hysteresis", -3.0)])]
+    selection = NS(accepted=[c("coulomb_friction")], carried=[c("dead_time")],
+                   ambiguous=(c("dead_time"), c("valve_lag")), rounds=rounds)
+    d = NS(effects=[c("coulomb_friction")], partial_effects=[c("contact")], selection=selection)
+    assert excerpt.worth_fitting(d) == {"coulomb_friction", "contact", "dead_time", "valve_lag",
+                                        "gravity", "creep"}
+
+
 def test_an_excerpt_past_its_share_is_not_taken(monkeypatch) -> None:
     """A recording only a little longer than the budget is searched whole: the excerpt's
     own diagnosis would cost more than the fewer candidates win back."""
