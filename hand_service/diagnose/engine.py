@@ -144,7 +144,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
         return again
 
     with threadpool_limits(limits=1, user_api="blas"), workers.using(jobs):  # a long one: excerpt.py
-        return excerpt.searched_from_excerpt(run, t_s.size, rate_hz, searched(also), also, progress)
+        return excerpt.searched_from_excerpt(run, len(t_s), rate_hz, searched(also), also, progress)
 
 
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
