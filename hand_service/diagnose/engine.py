@@ -126,9 +126,9 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     Jacobian's columns in fitting/output_error.py) keep the cores busy, and OpenBLAS, which
     threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
     and 1 kHz), would only make them wait."""
-    def run(part: slice, search: list[str]) -> Diagnosis:  # samples `part`, searched over `search`
+    def run(part: slice, search: list[str], graded: bool = True) -> Diagnosis:  # see excerpt.Run
         args = (t_s[part], pressure_kpa[part], angle_deg[part], rate_hz, progress,
-                None if missing is None else missing[part], input_hold, noise_model, search, also)
+                None if missing is None else missing[part], input_hold, noise_model, search, also, graded)
         result = _diagnose(model, *args)
         at_onset = contact_at_onset(model, result, search)
         if at_onset is None:
@@ -149,7 +149,8 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
 
 def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angle_deg: np.ndarray,
               rate_hz: float, progress: Progress | None, missing: np.ndarray | None, input_hold: str,
-              noise_model: str, search: list[str], asked: Sequence[str] = ()) -> Diagnosis:
+              noise_model: str, search: list[str], asked: Sequence[str] = (),
+              graded: bool = True) -> Diagnosis:
     started = time.perf_counter()
     warnings: list[str] = []
     problem = replace(build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold),
@@ -385,7 +386,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         left = said  # white innovations, yet structure the noise model took: graded `dominant`
         warnings.append(left)
     rival, names, ungated = None, [e.name for e in found], [s for s in search if not gated(problem, s)]
-    if verdict == "missing_physics" and not left:  # an on-request effect or a loop: the closer stands
+    if verdict == "missing_physics" and not left and graded:  # on-request effects, a loop: the closer stands
         tried = rival_check.rivals_to_try(ungated, [*model.effects, *names])
         on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma)
         rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma)

@@ -34,8 +34,8 @@ def _long(monkeypatch, hidden: dict[str, float | None], budget_s: float = BUDGET
     run_excerpt = excerpt.searched_from_excerpt
 
     def spying(run, n_samples, rate_hz, search, asked, progress=None):
-        def spied(part: slice, names: list[str]):
-            d = run(part, names)
+        def spied(part: slice, names: list[str], graded: bool):
+            d = run(part, names, graded)
             seen.append((part.stop, list(names), d))
             return d
         return run_excerpt(spied, n_samples, rate_hz, search, asked, progress)
@@ -91,7 +91,7 @@ def test_below_the_budget_nothing_changes(monkeypatch) -> None:
     run_excerpt = excerpt.searched_from_excerpt
 
     def counting(run, n_samples, rate_hz, search, asked, progress=None):
-        return run_excerpt(lambda part, names: calls.append(len(names)) or run(part, names),
+        return run_excerpt(lambda part, names, graded: calls.append(len(names)) or run(part, names, graded),
                            n_samples, rate_hz, search, asked, progress)
 
     monkeypatch.setattr(excerpt, "searched_from_excerpt", counting)
@@ -122,12 +122,35 @@ def test_worth_fitting_takes_the_named_the_tied_and_what_gained() -> None:
                                         "gravity", "creep"}
 
 
+def test_the_excerpt_ungraded_then_the_whole_graded_over_its_names(monkeypatch) -> None:
+    """The excerpt runs without the rivals that decide only the grade; the whole runs graded,
+    over what the excerpt found, in the search's order, and says so; the seconds are both's."""
+    from types import SimpleNamespace as NS
+
+    monkeypatch.setattr(excerpt, "BUDGET_SAMPLES", 400)
+    calls: list[tuple[int, list[str], bool]] = []
+
+    def run(part: slice, names: list[str], graded: bool) -> NS:
+        calls.append((part.stop, names, graded))
+        rounds = [NS(candidates=[NS(name="gravity", delta_bic=50.0), NS(name="dead_time", delta_bic=3.0)])]
+        selection = NS(accepted=[], carried=[], ambiguous=None, rounds=rounds)
+        return NS(verdict="unexplained", effects=[], partial_effects=[], selection=selection, warnings=[],
+                  seconds=1.0)
+
+    search = ["dead_time", "coulomb_friction", "gravity", "cubic_stiffness"]
+    result = excerpt.searched_from_excerpt(run, 1000, 100.0, search, ["cubic_stiffness"])
+    assert calls == [(400, search, False), (1000, ["gravity", "cubic_stiffness"], True)]
+    assert result.warnings == ["a long recording: searched over the effects that gained on the first "
+                               "4 s: gravity, cubic_stiffness"]
+    assert result.seconds == 2.0
+
+
 def test_an_excerpt_past_its_share_is_not_taken(monkeypatch) -> None:
     """A recording only a little longer than the budget is searched whole: the excerpt's
     own diagnosis would cost more than the fewer candidates win back."""
     monkeypatch.setattr(excerpt, "BUDGET_SAMPLES", int(0.5 * 3000))  # half of 30 s at 100 Hz
     names: list[list[str]] = []
-    result = excerpt.searched_from_excerpt(lambda part, search: names.append(search) or part.stop,
+    result = excerpt.searched_from_excerpt(lambda part, search, graded: names.append(search) or part.stop,
                                            3000, 100.0, ["gravity", "coulomb_friction"], ())
     assert names == [["gravity", "coulomb_friction"]] and result == 3000
 

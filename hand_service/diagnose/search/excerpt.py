@@ -38,8 +38,10 @@ BUDGET_SAMPLES = 40_000  # a longer recording is searched over what its first th
 # its share of the whole's, which the fewer candidates must win back
 MAX_SHARE = 0.4
 
-# one diagnosis of the samples `part` with the search over `names`
-Run = Callable[[slice, list[str]], Diagnosis]
+# one diagnosis of the samples `part` with the search over `names`; `graded` False: without the
+# rivals fitted in place of the named effects (rival_check.py, loop_rival.py), which decide
+# only the grade, not what an excerpt finds worth fitting
+Run = Callable[[slice, list[str], bool], Diagnosis]
 
 
 def worth_fitting(excerpt: Diagnosis) -> set[str]:
@@ -86,20 +88,20 @@ def searched_from_excerpt(run: Run, n_samples: int, rate_hz: float, search: list
     recording and `decides`; else over `search`, as without the excerpt."""
     whole = slice(0, n_samples)
     if n_samples <= BUDGET_SAMPLES or MAX_SHARE * n_samples < BUDGET_SAMPLES:
-        return run(whole, search)
+        return run(whole, search, True)
     if progress:
         progress(f"a long recording: diagnosing its first {BUDGET_SAMPLES / rate_hz:.3g} s "
                  "to choose the effects to search for")
     try:
-        excerpt = run(slice(0, BUDGET_SAMPLES), search)
+        excerpt = run(slice(0, BUDGET_SAMPLES), search, False)
     except UserError:
-        return run(whole, search)  # the excerpt alone cannot be diagnosed: no restriction
+        return run(whole, search, True)  # the excerpt alone cannot be diagnosed: no restriction
     if not decides(excerpt, search):
-        return run(whole, search)
+        return run(whole, search, True)
     chosen = restricted(excerpt, search, asked, rate_hz)
     if progress:
         progress(chosen.sentence())
-    result = run(whole, chosen.names)
+    result = run(whole, chosen.names, True)
     result.warnings.append(chosen.sentence())
     result.seconds += excerpt.seconds
     return result
