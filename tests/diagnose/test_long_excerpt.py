@@ -141,7 +141,7 @@ def test_the_excerpt_ungraded_then_the_whole_graded_over_its_names(monkeypatch) 
     result = excerpt.searched_from_excerpt(run, 1000, 100.0, search, ["cubic_stiffness"])
     assert calls == [(400, search, False), (1000, ["gravity", "cubic_stiffness"], True)]
     assert result.warnings == ["a long recording: searched over the effects that gained on the first "
-                               "4 s: gravity, cubic_stiffness"]
+                               "4 s: gravity (and cubic_stiffness, asked for)"]
     assert result.seconds == 2.0
 
 

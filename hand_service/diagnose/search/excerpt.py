@@ -68,17 +68,24 @@ class Restricted:
 
     names: list[str]  # in the search's own order
     excerpt_s: float
+    asked: tuple[str, ...] = ()  # of `names`, those asked for by name that did not gain there
 
     def sentence(self) -> str:
-        found = ", ".join(self.names) if self.names else "none, so only the plain model was fitted"
+        gained = [name for name in self.names if name not in self.asked]
+        found = ", ".join(gained) if gained else "none"
+        if self.asked:
+            found += f" (and {', '.join(self.asked)}, asked for)"
+        elif not gained:
+            found += ", so only the plain model was fitted"
         return (f"a long recording: searched over the effects that gained on the first "
                 f"{self.excerpt_s:.3g} s: {found}")
 
 
 def restricted(excerpt: Diagnosis, search: Sequence[str], asked: Sequence[str], rate_hz: float) -> Restricted:
     """The search's names the excerpt found worth fitting, and those asked for by name."""
-    worth = worth_fitting(excerpt) | set(asked)
-    return Restricted([name for name in search if name in worth], BUDGET_SAMPLES / rate_hz)
+    worth = worth_fitting(excerpt)
+    names = [name for name in search if name in worth or name in asked]
+    return Restricted(names, BUDGET_SAMPLES / rate_hz, tuple(name for name in names if name not in worth))
 
 
 def searched_from_excerpt(run: Run, n_samples: int, rate_hz: float, search: list[str],
@@ -87,7 +94,7 @@ def searched_from_excerpt(run: Run, n_samples: int, rate_hz: float, search: list
     leading excerpt found where the excerpt (BUDGET_SAMPLES) is at most MAX_SHARE of the
     recording and `decides`; else over `search`, as without the excerpt."""
     whole = slice(0, n_samples)
-    if n_samples <= BUDGET_SAMPLES or MAX_SHARE * n_samples < BUDGET_SAMPLES:
+    if MAX_SHARE * n_samples < BUDGET_SAMPLES:  # not long enough for the excerpt to pay
         return run(whole, search, True)
     if progress:
         progress(f"a long recording: diagnosing its first {BUDGET_SAMPLES / rate_hz:.3g} s "
