@@ -62,8 +62,8 @@ def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, st
     nonlinear refit on a noise-free copy cannot overcount so.
     And the recording parts them (recorded.py): the library's form at its best and the five
     at theirs, both fitted to the noise-free angle, scored on the recorded angle as diagnose
-    scores raw error; the form must follow it closer beyond the recording's own fluctuation
-    (the paired test at raw_difference.LEVEL): a stiffening's form closer than the five by a
+    scores raw error; the form must follow it closer beyond the fluctuation the sensor gives
+    the recording (at raw_difference.LEVEL): a stiffening's form closer than the five by a
     few per cent on the noise-free angle was no closer on the recording, the sensor's
     correlated noise hiding the gap (docs/results.md §12.68), and no tool held to the raw
     signal can name the form there."""
