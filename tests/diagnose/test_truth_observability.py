@@ -83,7 +83,7 @@ def test_a_stiffening_the_recording_does_not_part_from_the_eight_is_labelled_uno
     assert library_form.left_of(case, five) >= observability.OBSERVABLE_LEFT
     form = recorded.form_fit(case)
     assert library_form.left_of(case, form) < library_form.left_of(case, five)  # closer on the truth
-    on_record = recorded.parted(case, form, five)
+    on_record = recorded.parted(case, form, recorded.rival_fit(case, five))
     assert not on_record.parted
     assert on_record.statistic > -on_record.critical()
     assert not on_record.test.b_better  # nor by the paired test on the recording alone
@@ -94,10 +94,16 @@ def test_a_stiffening_the_recording_does_not_part_from_the_eight_is_labelled_uno
     # it, and every draw of the sensor parts them; the paired test on the recording alone,
     # whose batch means take the fits' one-stretch difference for fluctuation, does not
     ramp = cs.build(RAMP_CONTACT)
-    parting = recorded.parted(ramp, recorded.form_fit(ramp), library_form.eight_fit(ramp))
+    parting = _on_record(ramp)
     assert parting.parted and not parting.test.b_better, parting
     assert observability.observable(ramp, library_form.contact_form(ramp)) == (True, "")
     prbs = cs.build(PRBS)
-    apart = recorded.parted(prbs, recorded.form_fit(prbs), library_form.eight_fit(prbs))
+    apart = _on_record(prbs)
     assert apart.parted and apart.form_raw_deg < 0.8 * apart.five_raw_deg, apart
     assert observability.observable(prbs) == (True, "")
+
+
+def _on_record(case: cs.Case) -> recorded.Parting:
+    """The label's two fits on the case's recording, as observability.observable asks them."""
+    five = recorded.rival_fit(case, library_form.eight_fit(case))
+    return recorded.parted(case, recorded.form_fit(case), five)

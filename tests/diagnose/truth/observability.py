@@ -18,7 +18,7 @@ import numpy as np
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.distinct import left_over, library_torques
 from tests.diagnose.truth.library_form import ContactForm, contact_form, eight_fit, left_of
-from tests.diagnose.truth.recorded import form_fit, parted
+from tests.diagnose.truth.recorded import form_fit, parted, rival_fit
 
 # the least time past a contact's onset that shows it, and the least angle range that turns
 # a loop over (the on-request rule's 5°)
@@ -88,7 +88,7 @@ def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, st
                        f"{nonlinear:.2f} × the noise of it")
     if form is not None and form.gain < OBSERVABLE_LEFT:
         return False, f"the library's contact explains {form.gain:.2f} × the noise beyond a plain refit"
-    on_record = parted(case, form_fit(case, form), five)
+    on_record = parted(case, form_fit(case, form), rival_fit(case, five))
     if not on_record.parted:
         return False, on_record.sentence(effect)
     return True, ""
