@@ -24,6 +24,7 @@ import math
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -47,6 +48,8 @@ class ContactForm:
     damping_nms_per_rad: float
     left: float  # what the best library form leaves over the noise RMS
     plain_left: float  # what k, B and N alone leave, for comparison
+    # the best fit itself (its parameters and angle), for the recording's test (recorded.py)
+    fit: Any = dataclasses.field(default=None, compare=False, repr=False)
 
     @property
     def gain(self) -> float:
@@ -63,6 +66,15 @@ def contact_torque_nm(stiffness_nm_per_radn: float, onset_deg: float, exponent: 
     return stiffness_nm_per_radn * (max(theta_deg - onset_deg, 0.0) * DEG) ** exponent
 
 
+def case_model(case: cs.Case):
+    """The case's nominal model, as its files give it to diagnose."""
+    from hand_service.config.profile import load_model
+
+    with tempfile.TemporaryDirectory(prefix="library-form-") as scratch:
+        _, path = cs.write(case, Path(scratch))
+        return load_model(path)
+
+
 def _fitted_plain(case: cs.Case, held: bool = False):
     """The truth's noise-free angle as diagnose fits it (the sensor's offset and slow drift as
     nuisances): (the problem, k, B and N's parameters, their fit alone, the effects' scales).
@@ -71,15 +83,12 @@ def _fitted_plain(case: cs.Case, held: bool = False):
     (as observability.library_left holds them): free, an over-damped finger's k, B and N
     slide together along what the recording pins (their ratios), and an effect's bounds,
     absolute, widen with them."""
-    from hand_service.config.profile import load_model
     from hand_service.diagnose.fitting.output_error import fit
     from hand_service.diagnose.model.params import EffectScales, Param
     from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Prior, build_problem
     from hand_service.diagnose.residual.noise import nuisance_only
 
-    with tempfile.TemporaryDirectory(prefix="library-form-") as scratch:
-        _, path = cs.write(case, Path(scratch))
-        model = load_model(path)
+    model = case_model(case)
     traj, rate = case.trajectory, case.rate_hz
     t_s = np.arange(traj.theta_deg.size) / rate
     problem = dataclasses.replace(build_problem(model, t_s, traj.command_kpa, traj.theta_deg, rate),
@@ -97,34 +106,50 @@ def _fitted_plain(case: cs.Case, held: bool = False):
     return problem, plain, alone, scales
 
 
+def form_params(effect: str, plain: list, scales) -> tuple[list, list[str]]:
+    """k, B and N, the library's `effect` (its size) and its shape parameters diagnose fits:
+    (the parameters, the shape's members)."""
+    from hand_service.config import effects as fx
+    from hand_service.diagnose.model.params import Param
+
+    members = [q.name for q in fx.BY_NAME[effect].shape_parameters]
+    return [*plain, Param.effect(effect, scales), *(Param.shape(effect, m) for m in members)], members
+
+
+def left_of(case: cs.Case, fitted) -> float:
+    """What a fit to the noise-free angle leaves of it, over the sensor's noise RMS."""
+    return math.sqrt(fitted.rss_deg2 / fitted.n_fit) / case.sensor.noise_rms_deg
+
+
 def best_form(case: cs.Case, effect: str, size: float,
               shapes: list[dict[str, float]]) -> tuple[dict[str, float], float, float]:
     """The library's `effect` fitted by output error to the truth's noise-free angle with k,
     B and N, its size from `size` and its shape parameters (those diagnose fits) from each
     of `shapes`, the best kept: (its parameters, what it leaves over the noise RMS, what k,
     B and N alone leave)."""
+    values, left, plain_left, _ = _best_form_fit(case, effect, size, shapes)
+    return values, left, plain_left
+
+
+def _best_form_fit(case: cs.Case, effect: str, size: float, shapes: list[dict[str, float]]):
+    """best_form's figures and its best fit."""
     from hand_service.config import effects as fx
     from hand_service.diagnose.fitting.output_error import fit
-    from hand_service.diagnose.model.params import Param
 
     problem, plain, alone, scales = _fitted_plain(case)
-    spec = fx.BY_NAME[effect]
-    members = [q.name for q in spec.shape_parameters]
-    params = [*plain, Param.effect(effect, scales), *(Param.shape(effect, m) for m in members)]
+    params, members = form_params(effect, plain, scales)
     fits = [fit(problem, params, [*alone.values, size, *(shape[m] for m in members)], max_nfev=100)
             for shape in shapes]
     best = min(fits, key=lambda f: f.rss_deg2)
-    noise = case.sensor.noise_rms_deg
-    values = {spec.param: best.value(effect), **{m: best.value(effect, m) for m in members}}
-    return (values, math.sqrt(best.rss_deg2 / best.n_fit) / noise,
-            math.sqrt(alone.rss_deg2 / alone.n_fit) / noise)
+    values = {fx.BY_NAME[effect].param: best.value(effect), **{m: best.value(effect, m) for m in members}}
+    return values, left_of(case, best), left_of(case, alone), best
 
 
-def eight_left(case: cs.Case) -> float:
-    """What the truth's noise-free angle leaves over the noise RMS once the library's model
+def eight_fit(case: cs.Case):
+    """The fit behind eight_left: the library's model
     with k, B and N (held as library_left holds them: _fitted_plain's `held`) and the eight's
     effects of the finger's state together (EIGHT_STATE, in their fit ranges) is fitted to it
-    by output error: observability.library_left's question without its linearisation. Fitted
+    by output error (observability.library_left's question without its linearisation). Fitted
     from every effect at neutral, from the cubic spring's and gravity's best alone (each from
     STATE_STARTS) and from both."""
     from hand_service.config import effects as fx
@@ -143,15 +168,20 @@ def eight_left(case: cs.Case) -> float:
     params = [*plain, *(Param.effect(name, scales) for name in EIGHT_STATE)]
     fits = [fit(problem, params, [*alone.values, *(start[name] for name in EIGHT_STATE)], max_nfev=100)
             for start in starts]
-    best = min(fits, key=lambda f: f.rss_deg2)
-    return math.sqrt(best.rss_deg2 / best.n_fit) / case.sensor.noise_rms_deg
+    return min(fits, key=lambda f: f.rss_deg2)
+
+
+def eight_left(case: cs.Case) -> float:
+    """What the truth's noise-free angle leaves over the noise RMS once the library's model
+    with k, B and N and the eight's effects of the finger's state are fitted to it (eight_fit)."""
+    return left_of(case, eight_fit(case))
 
 
 def contact_form(case: cs.Case) -> ContactForm:
     """The library's contact at its best against the truth's contact case (see the module)."""
     onset = case.truth.contact_deg
-    values, left, plain_left = best_form(case, "contact", case.truth.contact_nm_per_rad15,
-                                         [{"onset_deg": onset + d, "exponent": n, "damping_nms_per_rad": 0.0}
-                                          for d, n in STARTS])
+    values, left, plain_left, best = _best_form_fit(
+        case, "contact", case.truth.contact_nm_per_rad15,
+        [{"onset_deg": onset + d, "exponent": n, "damping_nms_per_rad": 0.0} for d, n in STARTS])
     return ContactForm(values["stiffness_nm_per_radn"], values["onset_deg"], values["exponent"],
-                       values["damping_nms_per_rad"], left, plain_left)
+                       values["damping_nms_per_rad"], left, plain_left, best)

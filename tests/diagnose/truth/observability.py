@@ -17,7 +17,8 @@ import numpy as np
 
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.distinct import left_over, library_torques
-from tests.diagnose.truth.library_form import ContactForm, contact_form, eight_left
+from tests.diagnose.truth.library_form import ContactForm, contact_form, eight_fit, left_of
+from tests.diagnose.truth.recorded import form_fit, parted, rival_fit
 
 # the least time past a contact's onset that shows it, and the least angle range that turns
 # a loop over (the on-request rule's 5°)
@@ -58,7 +59,14 @@ def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, st
     fitted alone. library_left is linearised about the truth's plain finger, so k, B and N
     move in it only as far as a linear step takes them: a contact that a plain refit moving
     k by a third absorbs whole was counted observable by it (docs/results.md §12.31); the
-    nonlinear refit on a noise-free copy cannot overcount so."""
+    nonlinear refit on a noise-free copy cannot overcount so.
+    And the recording parts them (recorded.py): the library's form at its best and the five
+    at theirs, both fitted to the noise-free angle, scored on the recorded angle as diagnose
+    scores raw error; the form must follow it closer beyond the fluctuation the sensor gives
+    the recording (at raw_difference.LEVEL): a stiffening's form closer than the five by a
+    few per cent on the noise-free angle was no closer on the recording, the sensor's
+    correlated noise hiding the gap (docs/results.md §12.68), and no tool held to the raw
+    signal can name the form there."""
     effect = case.spec.effect
     if effect in cs.ON_REQUEST and not case.observable:
         return False, case.reason
@@ -73,12 +81,16 @@ def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, st
     if left < OBSERVABLE_LEFT:
         return False, (f"k, B, N, the sensor's offset and drift and the eight's state torques leave "
                        f"{left:.2f} × the noise of it")
-    nonlinear = eight_left(case)
+    five = eight_fit(case)
+    nonlinear = left_of(case, five)
     if nonlinear < OBSERVABLE_LEFT:
         return False, (f"k, B, N and the eight's state effects, fitted to the noise-free angle, leave "
                        f"{nonlinear:.2f} × the noise of it")
     if form is not None and form.gain < OBSERVABLE_LEFT:
         return False, f"the library's contact explains {form.gain:.2f} × the noise beyond a plain refit"
+    on_record = parted(case, form_fit(case, form), rival_fit(case, five))
+    if not on_record.parted:
+        return False, on_record.sentence(effect)
     return True, ""
 
 
