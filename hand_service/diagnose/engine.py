@@ -126,7 +126,7 @@ def diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, angl
     Jacobian's columns in fitting/output_error.py) keep the cores busy, and OpenBLAS, which
     threads every dot product past about 10 000 samples (the residual statistics at 500 Hz
     and 1 kHz), would only make them wait."""
-    def run(part: slice, search: list[str], graded: bool = True) -> Diagnosis:  # see excerpt.Run
+    def run(part: slice, search: list[str], graded: bool) -> Diagnosis:  # see excerpt.Run
         args = (t_s[part], pressure_kpa[part], angle_deg[part], rate_hz, progress,
                 None if missing is None else missing[part], input_hold, noise_model, search, also, graded)
         result = _diagnose(model, *args)

@@ -310,10 +310,8 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
     longest_first = sorted(names, key=lambda name: name not in WHOLE_GRID)
     screens = ordered_map(lambda name: screen(problem, base, name), longest_first)
     screens.sort(key=lambda s: (-s.predicted_bic, names.index(s.name)))
-    kept_out = screens
+    screened = screens
     screens = admitted(problem, screens, NAME_MARGIN_BIC)  # a stand-in only past the screen
-    let_in = {s.name for s in screens}
-    kept_out = [s for s in kept_out if s.name not in let_in]  # stand-ins the screen kept out
     chosen = [s for i, s in enumerate(screens) if fit_all or i < LATER_TOP]
     if not fit_all and not far_from_nominal(problem, base, PRIOR_EVIDENCE_FACTOR):
         # later rounds: an effect whose best point of the scan, k, B, N and the accepted
@@ -328,6 +326,8 @@ def run_round(problem: Problem, base: Fit, names: list[str], progress: Progress 
                              enumerate(chosen))
     candidates.sort(key=lambda c: -c.delta_bic)
     if fit_all:
+        let_in = {s.name for s in screens}
+        kept_out = [s for s in screened if s.name not in let_in]  # stand-ins the screen kept out
         candidates += beside_a_tie(problem, candidates, kept_out, NAME_MARGIN_BIC,
                                    lambda s: score(problem, base, s, sigma, True))
         candidates.sort(key=lambda c: -c.delta_bic)
