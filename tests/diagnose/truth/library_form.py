@@ -14,8 +14,9 @@ can explain the contact (below observability.OBSERVABLE_LEFT) or only part of it
 diagnose's "partial" is the truthful answer), and beside `plain_left` (k, B and N alone)
 how much of the contact the library's form can show at all (`gain`, observability.observable);
 its spring's torque at the deepest angle recorded is the size an estimate is scored against
-(its K alone, at another n, is not comparable). `eight_left` fits the eight's effects of the
-finger's state in the same way, for any effect beyond them: what none of them can draw."""
+(its K alone, at another n, is not comparable). `eight_fit` fits the eight's effects of the
+finger's state in the same way, for any effect beyond them: what none of them can draw
+(`left_of` it)."""
 
 from __future__ import annotations
 
@@ -146,10 +147,10 @@ def _best_form_fit(case: cs.Case, effect: str, size: float, shapes: list[dict[st
 
 
 def eight_fit(case: cs.Case):
-    """The fit behind eight_left: the library's model
-    with k, B and N (held as library_left holds them: _fitted_plain's `held`) and the eight's
-    effects of the finger's state together (EIGHT_STATE, in their fit ranges) is fitted to it
-    by output error (observability.library_left's question without its linearisation). Fitted
+    """The truth's noise-free angle fitted by output error with the library's model: k, B and
+    N (held as library_left holds them: _fitted_plain's `held`) and the eight's effects of the
+    finger's state together (EIGHT_STATE, in their fit ranges); what it leaves (`left_of`) is
+    observability.library_left's question without its linearisation. Fitted
     from every effect at neutral, from the cubic spring's and gravity's best alone (each from
     STATE_STARTS) and from both."""
     from hand_service.config import effects as fx
@@ -169,12 +170,6 @@ def eight_fit(case: cs.Case):
     fits = [fit(problem, params, [*alone.values, *(start[name] for name in EIGHT_STATE)], max_nfev=100)
             for start in starts]
     return min(fits, key=lambda f: f.rss_deg2)
-
-
-def eight_left(case: cs.Case) -> float:
-    """What the truth's noise-free angle leaves over the noise RMS once the library's model
-    with k, B and N and the eight's effects of the finger's state are fitted to it (eight_fit)."""
-    return left_of(case, eight_fit(case))
 
 
 def contact_form(case: cs.Case) -> ContactForm:

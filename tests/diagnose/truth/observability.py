@@ -49,7 +49,7 @@ def observable(case: cs.Case, form: ContactForm | None = None) -> tuple[bool, st
     rule, cases.exercised; the finger past the contact's onset for CONTACT_TIME_S; the angle
     moved over LOOP_RANGE_DEG for a loop), visibility 0.4 (the plain refit leaves 0.4 × the
     noise), and library_left ≥ OBSERVABLE_LEFT and its nonlinear refit on the noise-free angle
-    (library_form.eight_left) too: measured on the truth, apart from diagnose. Linearised
+    (library_form.eight_fit) too: measured on the truth, apart from diagnose. Linearised
     about the plain finger, library_left moves the eight's torques through it only as far as a
     linear step does: a pressure stiffening on a ringing slow sine that the eight's state
     effects refitted take to within 0.30 × the noise it counted observable at 0.68
