@@ -7,8 +7,9 @@ from dataclasses import dataclass
 
 import pytest
 
+from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.search import other_first
-from hand_service.diagnose.search.forward_selection import Round, Selection
+from hand_service.diagnose.search.forward_selection import Candidate, Round, Selection
 
 
 @dataclass
@@ -118,3 +119,82 @@ def test_gravity_and_a_dead_zone_behind_a_cubic_spring_picked_first(tmp_path):
     assert row["observable"]
     assert set(effects) <= set(row["named"])
     assert "cubic_stiffness" not in row["named"]
+
+
+@dataclass
+class PinnedFit:
+    """A set's final fit as earns_places reads it: each effect's size by its label."""
+    sizes: dict[str, float]
+
+    def value(self, label: str, member: str = "") -> float:
+        return self.sizes[label]
+
+
+def _member(name: str, fit: object) -> Candidate:
+    return Candidate(name, Param.effect(name), 0.9, 0.5, 0.0, fit, 500.0, 5.0, 0.2)
+
+
+def test_a_set_with_a_member_pinned_at_its_bound_does_not_earn_its_place(monkeypatch):
+    """Gravity at the end of its plausible range in the set's fit is stretched to mimic
+    something else (the gate's `at_bound`), however its refit beside the others lands; inside
+    the range, the refits decide."""
+    refits: list[str] = []
+
+    def beside(problem, base, name, lazy=False):
+        refits.append(name)
+        return _member(name, PinnedFit({name: 0.1}))
+
+    monkeypatch.setattr(other_first, "beside", beside)
+    monkeypatch.setattr(other_first, "without", lambda problem, final, name: final)
+    for gravity_nm, earns in ((Param.effect("gravity").lower, False), (-0.3, True)):
+        final = PinnedFit({"gravity": gravity_nm, "pressure_stiffening": 0.37})
+        members = [_member("gravity", PinnedFit({"gravity": -0.2})),
+                   _member("pressure_stiffening", final)]
+        with monkeypatch.context() as m:
+            m.setattr(Candidate, "significant", property(lambda c: True))
+            assert other_first.earns_places(None, Selection(accepted=members, final=final)) is earns
+    assert refits == ["gravity"]  # the pinned set is turned down before any refit
+
+
+@pytest.mark.thorough
+def test_a_damping_that_grows_with_pressure_is_not_named_complete_by_a_pinned_pair(tmp_path):
+    """Outside the library: the independent truth's damping that grows with the chamber
+    pressure, under FF+PID on the paper's cosine (over-damped, 200 Hz, seed 0). From gravity,
+    the other path found gravity and pressure stiffening following the recording to its
+    noise, `complete`, with gravity at the end of its range (−0.5 N·m): no effect pinned at a
+    bound is named, and no library name is graded `complete`."""
+    from hand_service.config import effects as fx
+    from hand_service.config.profile import load_model
+    from hand_service.diagnose.engine import diagnose
+    from hand_service.diagnose.recording.timebase import regular_grid
+    from hand_service.recording import read_recording
+    from tests.diagnose.truth import cases as cs
+
+    spec = cs.CaseSpec("pressure_damping", "ffpid_cosine", 0, "evident", family="overdamped", rate_hz=200.0)
+    rec_path, model_path = cs.write(cs.build(spec), tmp_path)
+    rec = read_recording(rec_path, None)
+    grid = regular_grid(rec.t_s, rec.pressure_kpa, rec.angle_deg, rec_path)
+    d = diagnose(load_model(model_path, None), grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz)
+    for e in d.effects:
+        for p in fx.BY_NAME[e.name].parameters:
+            if p.fitted and p.name in e.params:  # within the gate's 1e-6 of the span: pinned
+                margin = 1e-6 * (p.upper - p.lower)
+                assert p.lower + margin < e.params[p.name] < p.upper - margin, (e.name, e.params)
+    assert not (d.effects and d.grade == "complete"), (d.verdict, d.grade, d.warnings)
+
+
+@pytest.mark.parametrize("path_raw_deg, taken", [(0.276, True), (0.315, False)])
+def test_a_path_that_names_a_stand_in_must_follow_the_raw_angle_closer(monkeypatch, path_raw_deg, taken):
+    """The first path named a valve lag and gravity (0.319 deg from the raw angle); from the
+    stiffening, a path gains more on the innovations: it replaces the first only where it is
+    closer to the raw angle by the tie share (admission.kept's rule for a stand-in)."""
+    path = ["pressure_stiffening", "valve_lag"]
+    use_stand_ins(monkeypatch, {"pressure_stiffening": (path, 2824.0)}, 2726.0)
+    raws = {"first": 0.319, "path:pressure_stiffening+valve_lag": path_raw_deg}
+    monkeypatch.setattr(other_first, "set_raw_deg", lambda problem, final: raws[final])
+    monkeypatch.setattr(other_first, "gated", lambda problem, name: name == "pressure_stiffening")
+    round1 = {"valve_lag": 900.0, "pressure_stiffening": 880.0, "gravity": 700.0}
+    selection = first_path(["valve_lag", "gravity"], round1)
+    selection.final = "first"
+    found = other_first.search(None, "refit", selection, list(round1))
+    assert (found is not None) is taken

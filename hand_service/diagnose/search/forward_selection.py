@@ -89,10 +89,15 @@ class Candidate:
     def at_bound(self) -> bool:
         """Pinned at a plausible bound other than neutral: the effect is being stretched to
         mimic something else, so it is not evidence for itself."""
+        return self.at_bound_in(self.fit)
+
+    def at_bound_in(self, joint: Fit) -> bool:
+        """Its size pinned so in `joint`, a fit that holds it (a set's final fit, say)."""
         p = self.param
         span = p.upper - p.lower
         neutral = fx.BY_NAME[self.name].neutral
-        return any(abs(self.estimate - b) < 1e-6 * span and b != neutral for b in (p.lower, p.upper))
+        estimate = joint.value(p.label, p.member)
+        return any(abs(estimate - b) < 1e-6 * span and b != neutral for b in (p.lower, p.upper))
 
     @property
     def core_determined(self) -> bool:

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.search import set_search
+from hand_service.diagnose.search.admission import closer_on_raw, gated, raw_deg
 from hand_service.diagnose.search.forward_selection import (
     NAME_MARGIN_BIC,
     SIGNIFICANT_BIC,
@@ -76,11 +77,31 @@ def set_bic(problem: Problem, refit: Fit, final: Fit | None) -> float:
 
 def earns_places(problem: Problem, selection: Selection) -> bool:
     """Every accepted effect but the last (picked beside all the others) passes the gate
-    refitted beside the others."""
+    refitted beside the others, and none is pinned at a plausible bound in the set's own
+    fit (the gate's `at_bound`: stretched to mimic something else, it is no evidence for
+    itself, wherever its refit beside the others lands)."""
     final = selection.final
     assert final is not None
+    if any(c.at_bound_in(final) for c in selection.accepted):
+        return False
     return all(beside(problem, without(problem, final, c.name), c.name, lazy=True).significant
                for c in selection.accepted[:-1])
+
+
+def stand_ins_closer(problem: Problem, first: Selection, path: Selection) -> bool:
+    """A path that names a stand-in (admission.gated) the first path does not follows the raw
+    angle closer than the first path's model by the raw angle's tie share (admission.kept's
+    rule for a round): its gain on the innovations alone is not yet the physics."""
+    named = {c.name for c in first.accepted}
+    if first.final is None or path.final is None or not any(
+            gated(problem, c.name) and c.name not in named for c in path.accepted):
+        return True
+    return closer_on_raw(set_raw_deg(problem, path.final), set_raw_deg(problem, first.final))
+
+
+def set_raw_deg(problem: Problem, final: Fit) -> float:
+    """A path's final fit's RMS error on the raw angle (admission.raw_deg)."""
+    return raw_deg(problem, final.angle_deg)
 
 
 def search(problem: Problem, refit: Fit, selection: Selection, names: list[str],
@@ -108,6 +129,8 @@ def search(problem: Problem, refit: Fit, selection: Selection, names: list[str],
         if len(path.accepted) < 2 or not set_search.beats(problem, refit, path.accepted):
             continue
         if set_search.withdrawn(problem, path) or not earns_places(problem, path):
+            continue
+        if not stand_ins_closer(problem, selection, path):
             continue
         best = (gain, dataclasses.replace(path, rounds=[selection.rounds[0], *path.rounds[1:]]))
     if best is None:
