@@ -16,8 +16,8 @@ output-error least squares, tests the residual (whiteness, cross-correlation wit
 command, time windows), then fits each library effect the model does not already
 include (valve_lag, dead_time, coulomb_friction, cubic_stiffness, gravity,
 asymmetric_stiffness, quadratic_damping, pressure_deadzone, and those an installed package
-adds: docs/effects.md; contact, hysteresis, pressure_stiffening and creep behind a screen,
-fitted where it sets them apart from those eight; valve_vent_lag only with --search)
+adds: docs/effects.md; contact, hysteresis and creep behind a screen, fitted where it sets
+them apart from those eight; pressure_stiffening and valve_vent_lag only with --search)
 jointly with k, B and N.
 An effect is named only when the information criterion and held-out data both favour it
 and no other effect explains the same residual as well. A quarter of the data, in
@@ -56,8 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "independent samples (see docs/diagnose.md)")
     parser.add_argument("--search", action="append", default=[], metavar="EFFECT",
                         help="search for a library effect by name: one diagnose leaves out by "
-                             "default (valve_vent_lag), or one it searches behind its screen "
-                             "(contact, hysteresis, pressure_stiffening, creep), then fitted "
+                             "default (pressure_stiffening, valve_vent_lag), or one it searches "
+                             "behind its screen (contact, hysteresis, creep), then fitted "
                              "whatever the screen says, with its shape (a contact's onset, "
                              "exponent and damping, a loop's travel, creep's time; "
                              "docs/diagnose.md); repeatable")

@@ -156,13 +156,23 @@ def test_a_set_with_a_member_pinned_at_its_bound_does_not_earn_its_place(monkeyp
     assert refits == ["gravity"]  # the pinned set is turned down before any refit
 
 
+def stiffening_behind_the_screen(monkeypatch) -> None:
+    """diagnose's search with the stiffening (searched on request) behind the screen, as the
+    default search takes contact, hysteresis and creep: fitted only past its screen."""
+    from hand_service.diagnose import requested
+
+    monkeypatch.setattr("hand_service.diagnose.engine.searched",
+                        lambda also: [*requested.searched(also), "pressure_stiffening"])
+
+
 @pytest.mark.thorough
-def test_a_damping_that_grows_with_pressure_is_not_named_complete_by_a_pinned_pair(tmp_path):
+def test_a_damping_that_grows_with_pressure_is_not_named_complete_by_a_pinned_pair(tmp_path, monkeypatch):
     """Outside the library: the independent truth's damping that grows with the chamber
-    pressure, under FF+PID on the paper's cosine (over-damped, 200 Hz, seed 0). From gravity,
-    the other path found gravity and pressure stiffening following the recording to its
-    noise, `complete`, with gravity at the end of its range (−0.5 N·m): no effect pinned at a
-    bound is named, and no library name is graded `complete`."""
+    pressure, under FF+PID on the paper's cosine (over-damped, 200 Hz, seed 0), the stiffening
+    searched behind the screen. From gravity, the other path found gravity and pressure
+    stiffening following the recording to its noise, `complete`, with gravity at the end of
+    its range (−0.5 N·m): no effect pinned at a bound is named, and no library name is graded
+    `complete`."""
     from hand_service.config import effects as fx
     from hand_service.config.profile import load_model
     from hand_service.diagnose.engine import diagnose
@@ -170,6 +180,7 @@ def test_a_damping_that_grows_with_pressure_is_not_named_complete_by_a_pinned_pa
     from hand_service.recording import read_recording
     from tests.diagnose.truth import cases as cs
 
+    stiffening_behind_the_screen(monkeypatch)
     spec = cs.CaseSpec("pressure_damping", "ffpid_cosine", 0, "evident", family="overdamped", rate_hz=200.0)
     rec_path, model_path = cs.write(cs.build(spec), tmp_path)
     rec = read_recording(rec_path, None)

@@ -197,11 +197,15 @@ def test_default_names_the_loop_and_no_loop_rival_beside_it(tmp_path: Path) -> N
 
 
 def test_behind_the_screen_the_stiffening_is_named_first_where_it_beats_gravity_on_the_raw_angle(
-        tmp_path: Path) -> None:
-    """The same stiffened finger with the default search, the stiffening behind the screen
-    (kept only where its model follows the raw angle closer than the eight's:
-    search/admission.py): `pressure_stiffening` is named first, where the eight alone said
-    `gravity`."""
+        tmp_path: Path, monkeypatch) -> None:
+    """The same stiffened finger with the stiffening searched behind the screen (kept only where
+    its model follows the raw angle closer than the eight's: search/admission.py; searched so
+    by default it stood in for a contact, docs/results.md §12.57): `pressure_stiffening` is
+    named first, where the eight alone said `gravity`."""
+    from hand_service.diagnose import requested
+
+    monkeypatch.setattr("hand_service.diagnose.engine.searched",
+                        lambda also: [*requested.searched(also), "pressure_stiffening"])
     d = _diagnosed(*_stiffening_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert [e.name for e in d.effects][:1] == ["pressure_stiffening"], d.warnings

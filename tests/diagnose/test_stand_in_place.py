@@ -125,14 +125,28 @@ def test_no_pair_beyond_the_sets_room(monkeypatch):
 
 
 @pytest.mark.thorough
-def test_a_valve_lag_and_a_cubic_spring_are_named_not_a_stiffening_chamber(tmp_path):
-    """The measured case (the truth's combinations, multisine, seed 0, over-damped, 200 Hz):
-    the spring alone failed the first round's gate, the stiffening was kept, the lag found
-    beside it, and the pair graded `complete`. Asked again beside the lag, the spring takes
-    its place: both missing effects are named, the stiffening is not."""
+def test_a_valve_lag_and_a_cubic_spring_are_named_not_a_stiffening_chamber(tmp_path, monkeypatch):
+    """The measured case (the truth's combinations, multisine, seed 0, over-damped, 200 Hz),
+    the stiffening searched behind the screen (on request by default): the spring alone failed
+    the first round's gate, the stiffening was kept, the lag found beside it, and the pair
+    graded `complete`. Asked again beside the lag, the spring takes its place: both missing
+    effects are named, the stiffening is not."""
+    from hand_service.config.profile import load_model
+    from hand_service.diagnose.engine import diagnose
+    from hand_service.diagnose.recording.timebase import regular_grid
+    from hand_service.recording import read_recording
+    from tests.diagnose.test_other_first import stiffening_behind_the_screen
+    from tests.diagnose.truth import cases as cs
     from tests.diagnose.truth import combinations
 
-    row = combinations.run(("valve_lag", "cubic_stiffness"), "multisine", 0, tmp_path)
-    assert row["observable"]
-    assert {"valve_lag", "cubic_stiffness"} <= set(row["named"]), row
-    assert "pressure_stiffening" not in row["named"]
+    stiffening_behind_the_screen(monkeypatch)
+    case = combinations.build(("valve_lag", "cubic_stiffness"), "multisine", 0)
+    assert case is not None  # every single-effect case observable
+    rec_path, model_path = cs.write(case, tmp_path)
+    rec = read_recording(rec_path, None)
+    grid = regular_grid(rec.t_s, rec.pressure_kpa, rec.angle_deg, rec_path)
+    d = diagnose(load_model(model_path, None), grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz)
+    named = [e.name for e in d.effects]
+    assert {"valve_lag", "cubic_stiffness"} <= set(named), (named, d.warnings)
+    assert "pressure_stiffening" not in named
+    assert any(w.startswith("pressure_stiffening was named beside valve_lag") for w in d.warnings), d.warnings

@@ -1,6 +1,6 @@
-"""A rival before the grade `complete`: pressure stiffening and creep (searched behind the
-screen) not fitted by the search, fitted in place of the named ones, judged on the raw
-angle.
+"""A rival before the grade `complete`: pressure stiffening (searched on request) and creep
+(searched behind the screen) not fitted by the search, fitted in place of the named ones,
+judged on the raw angle.
 
 Behind the screen (search/admission.py) they are fitted only where their screen and the raw
 angle set them apart from the eight. Elsewhere a finger whose pressure stiffens it, or

@@ -62,8 +62,7 @@ LIBRARY = (
 OUT_OF_LIBRARY = ("hysteresis", "contact", "pressure_damping")
 CLEAN = "clean"
 ALL_EFFECTS = (*LIBRARY, CLEAN, *OUT_OF_LIBRARY)
-# library effects diagnose once searched only on request (`--search`), now behind the screen
-# by default: run asked for by name by on_request.py
+# library effects diagnose searches only on request (`--search`): run by on_request.py
 ON_REQUEST = ("pressure_stiffening", "creep")
 # the order that rotates each effect's family and rate (CaseSpec.resolved): a later effect
 # appended at its end moves no earlier case
