@@ -128,9 +128,9 @@ def search(problem: Problem, refit: Fit, selection: Selection, names: list[str],
             continue
         if len(path.accepted) < 2 or not set_search.beats(problem, refit, path.accepted):
             continue
-        if set_search.withdrawn(problem, path) or not earns_places(problem, path):
+        if not stand_ins_closer(problem, selection, path):  # before the refits below: one comparison
             continue
-        if not stand_ins_closer(problem, selection, path):
+        if set_search.withdrawn(problem, path) or not earns_places(problem, path):
             continue
         best = (gain, dataclasses.replace(path, rounds=[selection.rounds[0], *path.rounds[1:]]))
     if best is None:

@@ -74,6 +74,7 @@ def revisit(problem: Problem, selection: Selection, names: list[str],
         return None
     taken = {c.name for c in (*selection.accepted, *selection.carried)}
     library = [n for n in names if n not in taken and not fx.BY_NAME[n].admitted_by_screen]
+    own_deg = raw_deg(problem, final.angle_deg)
     for stand_in in (c for c in selection.accepted if gated(problem, c.name)):
         others = [c for c in selection.accepted if c is not stand_in]
         if progress:
@@ -82,10 +83,9 @@ def revisit(problem: Problem, selection: Selection, names: list[str],
         rest = without(problem, final, stand_in.name)
         candidates = sorted(ordered_map(partial(beside, problem, rest, lazy=True), library),
                             key=lambda c: -c.delta_bic)
-        own_deg = raw_deg(problem, final.angle_deg)
         passing = [c for c in candidates if c.significant]
-        rivals = [(raw_deg(problem, c.fit.angle_deg), c) for c in passing]
-        rivals = [(r, c) for r, c in rivals if not closer_on_raw(own_deg, r)]
+        rivals = [(r, c) for r, c in ((raw_deg(problem, c.fit.angle_deg), c) for c in passing)
+                  if not closer_on_raw(own_deg, r)]
         rounds = [*selection.rounds, Round(rest, candidates)]
         if rivals:
             drawn_deg, named = min(rivals, key=lambda rc: rc[0])
