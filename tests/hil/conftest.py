@@ -7,12 +7,23 @@ from pathlib import Path
 
 import pytest
 
+from hand_service.config.profile import load_profile
 from hand_service.firmware.rig import RIG_PROFILES, Rig
+from tests.hil.tolerant import SAMPLE_AGE_MAX_MS, tolerant_profile
 
 
 @pytest.fixture(params=sorted(RIG_PROFILES))
 def rig(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Rig]:
     with Rig(request.param, tmp_path) as bench_rig:
+        yield bench_rig
+
+
+@pytest.fixture(params=sorted(RIG_PROFILES))
+def tolerant_rig(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Rig]:
+    """A rig whose profile bounds the sample age at SAMPLE_AGE_MAX_MS (tests/hil/tolerant.py)."""
+    profile = load_profile(tolerant_profile(request.param, tmp_path))
+    assert profile.safety["sample_age_max_ms"] == SAMPLE_AGE_MAX_MS
+    with Rig(request.param, tmp_path, profile) as bench_rig:
         yield bench_rig
 
 

@@ -74,6 +74,14 @@ class Host:
 
 
 @pytest.fixture
+def rig(tolerant_rig: Rig) -> Rig:
+    """These tests attribute the board's faults; they do not test the sample-age bound
+    (tests/hil/tolerant.py): a late sample on a loaded machine latched before the injected
+    firmware fault."""
+    return tolerant_rig
+
+
+@pytest.fixture
 def host(rig: Rig) -> Iterator[Host]:
     bench = Host(rig)
     try:
