@@ -44,6 +44,7 @@ from hand_service.diagnose.report.verdict import (
     judge,
     plural,
     prior_share,
+    raw_tie_part,
     structure_left,
     trade_offs,
 )
@@ -364,6 +365,18 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         warnings.append(lost)
         verdict, notes = "unexplained", []
     warnings.extend(trade_offs(final, found))
+    late = ""  # white innovations, yet structure the noise model took: graded `dominant`
+    if verdict == "missing_physics" and not structure_left(final_white, final_cross) and (
+            late := noise_only.named_structure(problem, final, valid)):
+        # the innovations' evidence passed a noise model that took structure: the name must
+        # stand on the raw angle too, closer than the plain model beyond a tie
+        raw = raw_error.RawJudgement(errors.raw_deg["refit"], errors.raw_deg["augmented"],
+                                     errors.heldout_deg["nominal"], errors.heldout_deg["augmented"])
+        if raw.closer_than_tie():
+            warnings.append(late)
+        else:
+            warnings.append(raw_tie_part(found, late, raw.numbers()))
+            verdict, notes = "unexplained", []
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
         # a name is given only to what explains the mismatch: these do not, so they are
@@ -380,11 +393,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
             warnings.append(f"this recording cannot reveal {candidate.name}: it has no effect on "
                             "the simulated angle here (see the excitation advice in docs/diagnose.md)")
     left = (structure_left(final_white, final_cross) if found or partial else
-            structure_left(refit_white, refit_cross))
-    if verdict == "missing_physics" and not left and (
-            said := noise_only.named_structure(problem, final, valid)):
-        left = said  # white innovations, yet structure the noise model took: graded `dominant`
-        warnings.append(left)
+            structure_left(refit_white, refit_cross)) or late
     rival, names, ungated = None, [e.name for e in found], [s for s in search if not gated(problem, s)]
     if verdict == "missing_physics" and not left and graded:  # on-request effects, a loop: the closer stands
         tried = rival_check.rivals_to_try(ungated, [*model.effects, *names])

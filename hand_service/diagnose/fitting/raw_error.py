@@ -154,6 +154,11 @@ class RawJudgement:
     def follows(self) -> bool:
         return self.after_deg < self.before_deg and self.after_held_deg < self.nominal_held_deg
 
+    def closer_than_tie(self) -> bool:
+        """The augmented model follows the raw angle closer than the plain one by more than
+        TIE_SHARE of the plain one's error: the raw angle itself asks for the effect."""
+        return self.after_deg < (1.0 - TIE_SHARE) * self.before_deg
+
     def ties_at_noise(self, noise_deg: float) -> bool:
         """Both models follow the raw angle to the sensor's noise, the augmented one no worse
         (within TIE_SHARE), and it predicts the held-out samples better than the nominal: the

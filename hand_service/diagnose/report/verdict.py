@@ -68,6 +68,16 @@ def dominant(found: list[FoundEffect], explained: float) -> bool:
     return explained >= DOMINANT_SHARE and abs(std) <= DOMINANT_RELATIVE_STD * abs(value)
 
 
+def raw_tie_part(found: list[FoundEffect], left: str, raw_numbers: str) -> str:
+    """Why effects whose innovations came out white, over structure the noise model took
+    (`left`), are not named where the raw angle does not ask for them either."""
+    names = ", ".join(e.name for e in found)
+    one = len(found) == 1
+    return (f"{names} {plural(found, 'fit')} the innovations, but {left}; and on the raw angle the "
+            f"model with {'it' if one else 'them'} follows the recording within 2 % of the plain model "
+            f"({raw_numbers}): so {'it is' if one else 'they are'} not named (see partial_effects)")
+
+
 def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:
     """How much of the refitted plain model's mismatch the augmented model explains: the
     drop of the squared misfit over what lies above the noise floor (the variance a
