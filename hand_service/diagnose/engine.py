@@ -42,9 +42,9 @@ from hand_service.diagnose.report.verdict import (
     FoundEffect,
     explained_share,
     judge,
+    late_structure,
     plural,
     prior_share,
-    raw_tie_part,
     structure_left,
     trade_offs,
 )
@@ -60,11 +60,7 @@ from hand_service.diagnose.search import (
     set_members,
 )
 from hand_service.diagnose.search.admission import gated
-from hand_service.diagnose.search.forward_selection import (
-    SIGNIFICANT_BIC,
-    Progress,
-    Selection,
-)
+from hand_service.diagnose.search.forward_selection import SIGNIFICANT_BIC, Progress, Selection
 from hand_service.diagnose.search.late_stand_in import select_screened
 from hand_service.diagnose.search.prior_evidence import data_alone_bic
 
@@ -365,18 +361,12 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         warnings.append(lost)
         verdict, notes = "unexplained", []
     warnings.extend(trade_offs(final, found))
-    late = ""  # white innovations, yet structure the noise model took: graded `dominant`
+    late = ""  # white innovations, yet structure the noise model took: `dominant` if it stands
     if verdict == "missing_physics" and not structure_left(final_white, final_cross) and (
             late := noise_only.named_structure(problem, final, valid)):
-        # the innovations' evidence passed a noise model that took structure: the name must
-        # stand on the raw angle too, closer than the plain model beyond a tie
-        raw = raw_error.RawJudgement(errors.raw_deg["refit"], errors.raw_deg["augmented"],
-                                     errors.heldout_deg["nominal"], errors.heldout_deg["augmented"])
-        if raw.closer_than_tie():
-            warnings.append(late)
-        else:
-            warnings.append(raw_tie_part(found, late, raw.numbers()))
-            verdict, notes = "unexplained", []
+        stands, said = late_structure(found, late, raw_error.RawJudgement.named(errors))
+        warnings.append(said)
+        verdict, notes = (verdict, notes) if stands else ("unexplained", [])
     partial: list[FoundEffect] = []
     if verdict == "unexplained" and found:
         # a name is given only to what explains the mismatch: these do not, so they are

@@ -150,6 +150,12 @@ class RawJudgement:
         raw, held = errors.raw_deg, errors.heldout_deg
         return RawJudgement(raw["before"], raw["after"], held["nominal"], held["after"], refitted)
 
+    @staticmethod
+    def named(errors: RawErrors) -> RawJudgement:
+        """The judgement of the engine's figures (keys "refit" and "augmented")."""
+        raw, held = errors.raw_deg, errors.heldout_deg
+        return RawJudgement(raw["refit"], raw["augmented"], held["nominal"], held["augmented"])
+
     @property
     def follows(self) -> bool:
         return self.after_deg < self.before_deg and self.after_held_deg < self.nominal_held_deg

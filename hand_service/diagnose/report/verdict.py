@@ -10,6 +10,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit
+from hand_service.diagnose.fitting.raw_error import RawJudgement
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Problem
 from hand_service.diagnose.residual import noise, stats
@@ -68,14 +69,19 @@ def dominant(found: list[FoundEffect], explained: float) -> bool:
     return explained >= DOMINANT_SHARE and abs(std) <= DOMINANT_RELATIVE_STD * abs(value)
 
 
-def raw_tie_part(found: list[FoundEffect], left: str, raw_numbers: str) -> str:
-    """Why effects whose innovations came out white, over structure the noise model took
-    (`left`), are not named where the raw angle does not ask for them either."""
+def late_structure(found: list[FoundEffect], left: str, raw: RawJudgement) -> tuple[bool, str]:
+    """Structure the noise-only measures find (`left`) beside the named model's white
+    innovations: its evidence passed a noise model that took structure, so the names stand
+    (graded `dominant`) only where the raw angle asks for them too, closer than the plain
+    model beyond the raw tie. (Whether they stand, the sentence to print.)"""
+    if raw.closer_than_tie():
+        return True, left
     names = ", ".join(e.name for e in found)
     one = len(found) == 1
-    return (f"{names} {plural(found, 'fit')} the innovations, but {left}; and on the raw angle the "
-            f"model with {'it' if one else 'them'} follows the recording within 2 % of the plain model "
-            f"({raw_numbers}): so {'it is' if one else 'they are'} not named (see partial_effects)")
+    return False, (f"{names} {plural(found, 'fit')} the innovations, but {left}; and on the raw angle the "
+                   f"model with {'it' if one else 'them'} follows the recording within 2 % of the plain "
+                   f"model ({raw.numbers()}): so {'it is' if one else 'they are'} not named (see "
+                   "partial_effects)")
 
 
 def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:
