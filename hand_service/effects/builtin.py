@@ -136,9 +136,7 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
     DeadZone("pressure_deadzone", "no torque until the pressure passes a threshold",
              _one("threshold_kpa", "kPa", 0.0, 0.0, 100.0, 5.0),
              reference="a membrane's pre-tension", rtcore_field="pressure_deadzone_kpa"),
-    # searched on request (diagnose --search): it refines a lag diagnose already has; so is
-    # pressure_stiffening, which behind the screen named a damping that grows with pressure,
-    # concealed, `complete` (docs/results.md §12.73): the rival check fits it
+    # searched on request (diagnose --search): it refines a lag diagnose already has
     FieldEffect("valve_vent_lag", "the chamber vents with a lag of its own (valve_lag's then fills only)",
                 _one("tau_s", "s", 0.0, VALVE_VENT_TAU_S.lower, VALVE_VENT_TAU_S.upper, 0.1),
                 reference="a valve board whose exhaust is narrower than its supply",
@@ -163,6 +161,8 @@ BUILTIN: tuple[FieldEffect | FingerEffect, ...] = (
                           "(Polygerinos et al. 2015)",
                 rtcore_field="pressure_stiffening_gain",
                 more_fields=(("reference_kpa", "pressure_stiffening_ref_kpa"),),
+                # on request: behind the screen it named a damping that grows with pressure
+                # `complete` (docs/results.md §12.73); the rival check fits it
                 searched=False, admitted_by_screen=True),
     FieldEffect("creep", "a standard-linear-solid branch: β·k·(θ − x), T·x' = θ − x",
                 (Parameter("stiffness_ratio", "1", 0.0, 0.0, 5.0, 0.1),

@@ -202,10 +202,9 @@ def test_behind_the_screen_the_stiffening_is_named_first_where_it_beats_gravity_
     its model follows the raw angle closer than the eight's: search/admission.py; searched so
     by default it stood in for a contact, docs/results.md §12.57): `pressure_stiffening` is
     named first, where the eight alone said `gravity`."""
-    from hand_service.diagnose import requested
+    from tests.diagnose.test_other_first import stiffening_behind_the_screen
 
-    monkeypatch.setattr("hand_service.diagnose.engine.searched",
-                        lambda also: [*requested.searched(also), "pressure_stiffening"])
+    stiffening_behind_the_screen(monkeypatch)
     d = _diagnosed(*_stiffening_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert [e.name for e in d.effects][:1] == ["pressure_stiffening"], d.warnings

@@ -10,7 +10,7 @@ import numpy as np
 
 from hand_service.config import effects as fx
 from hand_service.diagnose.fitting.output_error import Fit
-from hand_service.diagnose.fitting.raw_error import RawJudgement
+from hand_service.diagnose.fitting.raw_error import TIE_SHARE, RawJudgement
 from hand_service.diagnose.model.params import Param
 from hand_service.diagnose.model.problem import PLAIN, PRIOR_RELATIVE_WIDTH, Problem
 from hand_service.diagnose.residual import noise, stats
@@ -78,10 +78,10 @@ def late_structure(found: list[FoundEffect], left: str, raw: RawJudgement) -> tu
         return True, left
     names = ", ".join(e.name for e in found)
     one = len(found) == 1
-    return False, (f"{names} {plural(found, 'fit')} the innovations, but {left}; and on the raw angle the "
-                   f"model with {'it' if one else 'them'} follows the recording within 2 % of the plain "
-                   f"model ({raw.numbers()}): so {'it is' if one else 'they are'} not named (see "
-                   "partial_effects)")
+    return False, (f"{names} {plural(found, 'fit')} the innovations, but {left}; and on the raw angle "
+                   f"the model with {'it' if one else 'them'} follows the recording within "
+                   f"{100 * TIE_SHARE:.0f} % of the plain model ({raw.numbers()}): so "
+                   f"{'it is' if one else 'they are'} not named (see partial_effects)")
 
 
 def explained_share(problem: Problem, refit: Fit, final: Fit) -> float:

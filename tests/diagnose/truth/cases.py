@@ -62,7 +62,8 @@ LIBRARY = (
 OUT_OF_LIBRARY = ("hysteresis", "contact", "pressure_damping")
 CLEAN = "clean"
 ALL_EFFECTS = (*LIBRARY, CLEAN, *OUT_OF_LIBRARY)
-# library effects diagnose searches only on request (`--search`): run by on_request.py
+# library effects beyond the eight that on_request.py runs asked for by name (`--search`):
+# diagnose searches the stiffening only so, creep behind the screen by default too
 ON_REQUEST = ("pressure_stiffening", "creep")
 # the order that rotates each effect's family and rate (CaseSpec.resolved): a later effect
 # appended at its end moves no earlier case
