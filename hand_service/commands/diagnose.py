@@ -182,7 +182,7 @@ def print_summary(result, screen: bool = True) -> None:
     out("RMS error (deg, a constant offset each, no drift): "
         + ", ".join(f"{name} raw {raw.get(name, float('nan')):.3f} held-out {rm[name]:.3f}"
                     for name in ("nominal", "refit", "augmented"))
-        + f"; noise {result.noise_deg:.3f}")
+        + f"; {result.noise_label} {result.noise_deg:.3f}")
     if j["windows"]:
         out("windows (s): " + ", ".join(f"{max(0.0, a):.2f} to {b:.2f}" for a, b in j["windows"]))
     for warning in j["warnings"]:

@@ -136,6 +136,9 @@ def test_physics_outside_the_eight_is_unexplained(monkeypatch: pytest.MonkeyPatc
     t_in_contact = c.t_s[c.angle_true_deg > 50.0]
     a, b, _ = d.windows[0]
     assert np.any((t_in_contact >= a - 0.5) & (t_in_contact <= b + 0.5))
+    # structure is left, and the noise model took some of it: its spread is not called the noise
+    assert d.structure_left
+    assert d.noise_label != "noise" and "structure is left" in d.noise_label
 
 
 def test_dry_friction_is_found_past_the_second_minimum() -> None:

@@ -50,6 +50,15 @@ class Diagnosis:
             return None
         return "dominant" if self.structure_left else "complete"
 
+    @property
+    def noise_label(self) -> str:
+        """What noise_deg is called where it is printed: the sensor's noise where the final
+        model's residual passed as noise; where structure is left, the noise model took some of
+        it, and its spread is not the sensor's noise (an outside probe's slew-limited chamber:
+        2.75 deg against a true 0.1)."""
+        return "the noise model's spread (structure is left: not all of it noise)" if self.structure_left \
+            else "noise"
+
     def refit_model(self, with_effects: bool = True) -> FingerModel:
         """The refitted model; with the found effects added to its `effects` block."""
         source = self.final if with_effects and self.effects else self.refit

@@ -95,7 +95,8 @@ def residual_figure(d: Diagnosis):
         ax.plot(p.t_s, residual, lw=0.4, color="#555555")
         local = np.sqrt(np.convolve(np.nan_to_num(residual) ** 2, np.ones(width) / width, mode="same"))
         ax.plot(p.t_s, local, lw=1.2, color="#d62728", label="RMS over 0.5 s")
-        ax.axhline(d.noise_deg, color="#2ca02c", lw=0.8, ls="--", label=f"noise {d.noise_deg:.2f} deg")
+        ax.axhline(d.noise_deg, color="#2ca02c", lw=0.8, ls="--",
+                   label=f"{d.noise_label} {d.noise_deg:.2f} deg")
         _shade(ax, d)
         ax.set_ylabel("residual (deg)")
         ax.set_title(label, fontsize=10)
@@ -173,7 +174,8 @@ def render(d: Diagnosis, recording_name: str) -> str:
     parts.append("<h2>Fit on the raw angle (a constant offset each, no drift)</h2>" + _table(
         ["model", "raw RMS error (deg)", "held-out RMS error (deg)"],
         [[k, f"{raw.get(k, float('nan')):.3f}", f"{v:.3f}"] for k, v in rm.items()]))
-    parts.append(f"<p>noise estimate {d.noise_deg:.3f} deg; {j['samples']['fit']} samples fitted, "
+    parts.append(f"<p>{html.escape(d.noise_label)} {d.noise_deg:.3f} deg; "
+                 f"{j['samples']['fit']} samples fitted, "
                  f"{j['samples']['held_out']} held out (interleaved blocks); {d.problem.rate_hz:g} Hz; "
                  f"diagnosed in {d.seconds:.1f} s.</p>")
     model = d.model
