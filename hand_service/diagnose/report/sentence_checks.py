@@ -13,7 +13,9 @@ recording and the refitted finger:
   refitted far from the nominal;
 - no value printed with an uncertainty larger than itself without saying it is unknown;
 - one subject, one verb ("cubic_stiffness reduces"); time windows printed as "a to b", no
-  "-0.00".
+  "-0.00";
+- "so it is named" or "so they are named" only where the verdict names an effect (a step of
+  the search says "kept", and "the checks that follow decide what is named").
 
 The summary and the HTML report print only what passes (`screened`); the tests run every
 fixture's sentences through `failures` unscreened, so that what the engine writes is held to
@@ -45,6 +47,7 @@ class Facts:
     period_s: float | None  # the command's period, where it repeats
     n_fit: int
     held_ratio: dict[str, float] = field(default_factory=dict)  # refit/nominal of the plain parameters
+    named: tuple[str, ...] = ()  # the effects the verdict names
 
 
 def facts_of(d: Diagnosis) -> Facts:
@@ -58,7 +61,7 @@ def facts_of(d: Diagnosis) -> Facts:
         if nominal != 0.0 and label in [q.label for q in source.params]:
             ratios[label] = source.value(label) / nominal
     return Facts(p.rate_hz, onset_delay_s(p.pressure_kpa, p.measured_deg, p.rate_hz), rings, own_hz,
-                 period_s(p.pressure_kpa, p.rate_hz), p.n_fit, ratios)
+                 period_s(p.pressure_kpa, p.rate_hz), p.n_fit, ratios, tuple(e.name for e in d.effects))
 
 
 def _delay(text: str, f: Facts) -> list[str]:
@@ -127,7 +130,13 @@ def _grammar(text: str, f: Facts) -> list[str]:
     return out
 
 
-CHECKS = (_delay, _resonance, _period, _held_near, _unknown, _grammar)
+def _named(text: str, f: Facts) -> list[str]:
+    if re.search(r"\bso (?:it is|they are) named\b", text) and not f.named:
+        return ["that effects are named, but the verdict names none"]
+    return []
+
+
+CHECKS = (_delay, _resonance, _period, _held_near, _unknown, _grammar, _named)
 
 
 def failures(text: str, facts: Facts) -> list[str]:

@@ -39,7 +39,8 @@ class Resolved:
     def sentence(self) -> str:
         return (f"{self.named} and {self.other} could not be told apart at first; with the effects found "
                 f"since in the model, {self.named} explains the residual better (ΔBIC {self.margin_bic:.0f} "
-                f"over {self.other}, each fitted beside them) and is significant beside them, so it is named")
+                f"over {self.other}, each fitted beside them) and is significant beside them, so it is kept "
+                "(the checks that follow decide what is named)")
 
 
 def revisit(problem: Problem, selection: Selection, progress: Progress | None = None) -> Resolved | None:
