@@ -50,6 +50,7 @@ from hand_service.diagnose.report.verdict import (
 )
 from hand_service.diagnose.requested import contact_at_onset, searched, shape_only
 from hand_service.diagnose.residual import noise, noise_only, stats
+from hand_service.diagnose.residual.offset_drift import drift_said
 from hand_service.diagnose.search import (
     excerpt,
     loop_rival,
@@ -312,6 +313,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         # alone would take smooth input-driven structure for correlated noise
         warnings.append(said)
         verdict, notes = "unexplained", []
+    warnings.extend(drift_said(verdict, problem, refit, (fitted, scored), sigma))  # residual/offset_drift.py
     if selection.ambiguous is not None:
         warnings.extend(posture_stability.posture_advice(selection.ambiguous, problem.measured_deg[fit_mask]))
     if verdict == "missing_physics":
