@@ -80,3 +80,19 @@ def test_a_right_model_follows(tmp_path: Path) -> None:
     assert result["verdict"] == "consistent", result["warnings"]
     assert not any("cannot follow" in w for w in result["warnings"])
     assert result["raw_rmse_deg"]["refit"] < 0.2
+
+
+def test_a_raw_refit_follows_only_beyond_the_recordings_fluctuation() -> None:
+    """Refitted on the raw angle, the augmented model nests the plain one: a lower raw error
+    is no evidence unless the plain model's squared errors are larger beyond fluctuation."""
+    from hand_service.diagnose.fitting.raw_difference import LossDifference
+    from hand_service.diagnose.fitting.raw_error import RawJudgement
+
+    within = LossDifference(0.00198, 0.006, 18, 164, 2952)  # t = 0.33: a drift taken for creep
+    beyond = LossDifference(0.45, 0.02, 40, 70, 2800)  # t = 22: the real EMPS rig's friction
+    lower = dict(before_deg=1.121, after_deg=1.120, nominal_held_deg=2.53, after_held_deg=1.24, refitted=True)
+    assert not RawJudgement(**lower, difference=within).follows
+    assert RawJudgement(**lower, difference=beyond).follows
+    assert RawJudgement(**lower).follows  # as fitted on the innovations: no test asked
+    said = RawJudgement(**lower, difference=within).sentence(["creep"])
+    assert "beyond the recording's fluctuation" in said and "t = 0.33 over 164 stretches" in said

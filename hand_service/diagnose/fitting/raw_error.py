@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hand_service.diagnose.fitting.output_error import Fit, fit
+from hand_service.diagnose.fitting.raw_difference import LEVEL, LossDifference, loss_difference
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.recording.response_onset import white_noise_deg
 from hand_service.diagnose.residual.noise import NoiseModel
@@ -144,6 +145,11 @@ class RawJudgement:
     nominal_held_deg: float
     after_held_deg: float
     refitted: bool = False
+    # refitted: the plain model's squared raw errors against the augmented one's
+    # (raw_difference.py, B the plain model); the raw refit adds a parameter to a nested model,
+    # which can only lower the fitting samples' error, so it follows only beyond the
+    # recording's fluctuation
+    difference: LossDifference | None = None
 
     @staticmethod
     def of(errors: RawErrors, refitted: bool = False) -> RawJudgement:
@@ -158,7 +164,8 @@ class RawJudgement:
 
     @property
     def follows(self) -> bool:
-        return self.after_deg < self.before_deg and self.after_held_deg < self.nominal_held_deg
+        return (self.after_deg < self.before_deg and self.after_held_deg < self.nominal_held_deg
+                and (self.difference is None or self.difference.b_worse))
 
     def closer_than_tie(self) -> bool:
         """The augmented model follows the raw angle closer than the plain one by more than
@@ -193,9 +200,14 @@ class RawJudgement:
                     f"the raw angle with a constant offset alone, it does ({self.numbers()})")
         how = "refitted on the raw angle with a constant offset alone" if self.refitted else "as fitted"
         verb = "fits" if len(names) == 1 else "fit"
+        d = self.difference
+        beyond = ("" if d is None or d.b_worse else
+                  f" beyond the recording's fluctuation (the squared errors differ by {d.mean_deg2:.3g} deg² "
+                  f"on average, t = {d.statistic:.2f} over {d.blocks} stretches against {d.critical:.2f} "
+                  f"at {100 * LEVEL:.0f} %)")
         return (f"{said} {verb} the innovations, yet the model with {them}, simulated from the recorded "
-                f"command alone ({how}), does not follow the recorded angle better ({self.numbers()}): "
-                "so no effect is named (see partial_effects)")
+                f"command alone ({how}), does not follow the recorded angle better{beyond} "
+                f"({self.numbers()}): so no effect is named (see partial_effects)")
 
 
 @dataclass(frozen=True)
@@ -228,6 +240,12 @@ def effects_follow(problem: Problem, nominal_angle_deg: np.ndarray, refit: Fit, 
     augmented = fit(raw_problem, final.params, final.values)
     named = {"nominal": nominal_angle_deg, "refit": plain.angle_deg, "augmented": augmented.angle_deg}
     errors = raw_errors(problem, fitting, held, named)
+    scored = fitting | held
+
+    def raw_misfit(angle_deg: np.ndarray) -> np.ndarray:  # in time order, an offset of its own
+        return problem.residual(angle_deg)[scored] - offset_of(problem, angle_deg, fitting)
+
+    difference = loss_difference(raw_misfit(augmented.angle_deg), raw_misfit(plain.angle_deg))
     again = RawJudgement(errors.raw_deg["refit"], errors.raw_deg["augmented"], errors.heldout_deg["nominal"],
-                         errors.heldout_deg["augmented"], refitted=True)
+                         errors.heldout_deg["augmented"], refitted=True, difference=difference)
     return first, RawRefit(plain, augmented, errors, again)
