@@ -51,8 +51,9 @@ class Stability:
     def sentence(self) -> str:
         return (f"{self.name} does not hold across the recording's postures: fitted on the lower half "
                 f"of the angles it is {self.low:.3g}, on the upper half {self.high:.3g} "
-                f"({self.z:.1f} standard errors apart), the mark of something that acts in part of "
-                "the range only (an object or a stop the finger meets), not of this form")
+                f"({self.z:.1f} standard errors apart): the torque the recording asks for varies over "
+                "the angle otherwise than this form does (as an object or a stop met in part of the range "
+                "would, or a torque of another form)")
 
 
 def long_run_ratio(residual: np.ndarray, rate_hz: float) -> float:
