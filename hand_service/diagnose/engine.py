@@ -391,9 +391,10 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
         tried = rival_check.rivals_to_try(ungated, [*model.effects, *names])
         on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma)
         rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma)
-    if rival is not None:  # a rival the search did not try follows the raw angle as well
-        left = rival.sentence()
-        warnings.append(left)
+    if rival is not None:  # a rival the search did not try follows the raw angle as well, or better
+        warnings.append(left := rival.sentence())
+        if rival.better:  # the named effects do not beat another effect on the raw angle
+            verdict, notes, partial, found = "unexplained", [], found + partial, []
     return Diagnosis(verdict, model, refit, final, problem, nominal_angle, found, win, rmse, warnings,
                      selection, sigma, {"refit": refit_white, "augmented": final_white}, xcorr,
                      time.perf_counter() - started, notes, partial, explained, left, outside, errors, rival)

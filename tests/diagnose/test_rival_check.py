@@ -79,6 +79,29 @@ def test_a_better_rival_stands_and_says_so() -> None:
     assert better.to_json()["better"] is True
 
 
+def test_a_better_rivals_sentence_says_nothing_is_named() -> None:
+    better, tie = _rival(0.28, z=-2.0), _rival(0.40, z=1.0)
+    assert "the recording favours it, so no effect is named" in better.sentence()
+    assert "the grade is not complete" not in better.sentence()
+    assert "no effect is named" not in tie.sentence()
+
+
+@pytest.mark.thorough
+def test_where_the_raw_angle_favours_the_rival_nothing_is_named(tmp_path: Path) -> None:
+    """The independent truth's chamber stiffening with pressure, PI steps through an
+    over-damped finger at 500 Hz, evident: the default search named `gravity` and graded it
+    `dominant` while the stiffening, fitted in its place, followed the raw angle better beyond
+    the recording's fluctuation. The named effect does not beat another library effect on
+    the raw signal, so nothing is named: `unexplained`, gravity reported apart."""
+    spec = cs.CaseSpec("pressure_stiffening", "pi_steps", 0, "evident", family="overdamped", rate_hz=500.0,
+                       strength=0.3)
+    d = _diagnosed(*cs.write(cs.build(spec), tmp_path))
+    assert d.rival is not None and d.rival.better, d.warnings
+    assert d.verdict == "unexplained" and d.effects == [], d.warnings
+    assert list(d.rival.named) == [e.name for e in d.partial_effects][:len(d.rival.named)]
+    assert _report_failures(d) == []
+
+
 def test_a_rival_the_raw_angle_finds_worse_does_not_stand() -> None:
     """Worse beyond the recording's fluctuation and outside the raw angle's tie (1.3 times
     the named model's error and the noise): the named model keeps `complete`."""

@@ -40,7 +40,8 @@ MAX_SHARE = 0.4
 
 # one diagnosis of the samples `part` with the search over `names`; `graded` False: without the
 # rivals fitted in place of the named effects (rival_check.py, loop_rival.py), which decide
-# only the grade, not what an excerpt finds worth fitting
+# only the grade and whether the names stand (a withdrawn name is partial), not what an excerpt
+# finds worth fitting
 Run = Callable[[slice, list[str], bool], Diagnosis]
 
 

@@ -21,8 +21,14 @@ follows the raw angle as well as the named model (a test on their squared raw er
 difference cannot find it worse: fitting/raw_difference.py), or better, or within the raw
 angle's tie even where the test finds it worse (within raw_error.TIE_SHARE of its RMS error,
 or both within raw_error.TIE_NOISE times the noise: Rival.tied), stands: the grade is
-then `dominant`, the rival said in `structure_left` and the JSON's `rival`. The names stay:
-the rival was not searched for, and the user can ask for it (`--search`).
+then `dominant`, the rival said in `structure_left` and the JSON's `rival`. Where it ties,
+the names stay: the rival was not searched for, and the user can ask for it (`--search`).
+Where the raw angle favours it (`Rival.better`), the named effects do not beat another
+effect on the raw signal, and nothing is named: the verdict is `unexplained`, the named
+effects go to `partial_effects` and the sentence says which effect to ask for. In the truth
+battery that was a chamber stiffening with pressure named `gravity` (`dominant`), and an
+outside probe's gain saturating with pressure named gravity and a cubic spring, where the
+stiffening followed the raw angle 27 % closer.
 """
 
 from __future__ import annotations
@@ -109,7 +115,8 @@ class Rival:
                 f"over {dm.blocks} stretches of {dm.block_samples} samples against {dm.critical:.2f} at "
                 f"{100.0 * LEVEL:.0f} %")
         if self.better:
-            how, tail = f"follows the recorded angle better than {model}", "the recording favours it"
+            how = f"follows the recorded angle better than {model}"
+            tail = "the recording favours it, so no effect is named (see partial_effects)"
         elif self.worse:
             close = (f"within {100.0 * TIE_SHARE:.0f} %" if self.within_share
                      else f"both within {TIE_NOISE:g} times the sensor's noise, {self.noise_deg:.3g} deg")
@@ -126,8 +133,8 @@ class Rival:
         return (f"{self.name} ({values}), {what}, fitted in place of {said}, {how}: raw "
                 f"RMS error {self.rival_raw_deg:.3g} against {self.named_raw_deg:.3g} deg, each simulated "
                 f"from the recorded command with a constant offset alone ({test}; ΔBIC "
-                f"{self.delta_bic:.0f} over the plain model); {tail}, so the grade is not complete "
-                f"({advice})")
+                f"{self.delta_bic:.0f} over the plain model); "
+                f"{tail if self.better else tail + ', so the grade is not complete'} ({advice})")
 
     def to_json(self) -> dict:
         dm = self.difference
