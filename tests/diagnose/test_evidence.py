@@ -49,7 +49,8 @@ def test_an_unidentifiable_value_is_said_so_never_plus_minus_inf(capsys) -> None
     model = SimpleNamespace(stiffness_nm_per_rad=0.57, damping_nms_per_rad=0.003,
                             pressure_gain_nm_per_kpa=0.009)
     refit = {"stiffness_nm_per_rad": 0.571, "damping_nms_per_rad": 0.0031, "pressure_gain_nm_per_kpa": 0.0091}
-    result = SimpleNamespace(model=model, effects=[], noise_deg=0.3, seconds=1.5, to_json=lambda: {
+    result = SimpleNamespace(model=model, effects=[], noise_deg=0.3, noise_label="noise", seconds=1.5,
+                             to_json=lambda: {
         "verdict": "insufficient_excitation", "refit": refit, "rmse_deg": dict.fromkeys(
             ("nominal", "refit", "augmented"), 0.4), "windows": [], "warnings": [],
         "refit_std": {"stiffness_nm_per_rad": np.inf, "damping_nms_per_rad": 1e-4}})
@@ -67,7 +68,8 @@ def test_a_window_from_the_start_prints_without_a_minus_zero(capsys) -> None:
     model = SimpleNamespace(stiffness_nm_per_rad=0.57, damping_nms_per_rad=0.003,
                             pressure_gain_nm_per_kpa=0.009)
     refit = {"stiffness_nm_per_rad": 0.42, "damping_nms_per_rad": 0.0031, "pressure_gain_nm_per_kpa": 0.0091}
-    result = SimpleNamespace(model=model, effects=[], noise_deg=0.3, seconds=1.5, to_json=lambda: {
+    result = SimpleNamespace(model=model, effects=[], noise_deg=0.3, noise_label="noise", seconds=1.5,
+                             to_json=lambda: {
         "verdict": "unexplained", "refit": refit,
         "rmse_deg": dict.fromkeys(("nominal", "refit", "augmented"), 0.4),
         "windows": [[-0.0, 0.44], [1.2, 1.5]], "warnings": [],
