@@ -60,10 +60,26 @@ def test_without_the_check_the_rate_test_still_refuses_the_lag(tmp_path: Path,
 
 
 @pytest.mark.thorough  # the checks shown load-bearing: in make test-thorough, with the rest
-def test_without_either_check_the_hysteresis_is_named_a_valve_lag(tmp_path: Path,
-                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+def test_without_either_check_the_loop_rival_leaves_the_lag_unnamed(tmp_path: Path,
+                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    """A third line: the Dahl loop fitted in place of the valve lag follows the raw angle
+    better beyond the recording's fluctuation (search/rival_check.py, `Rival.better`), so
+    nothing is named."""
     _eight_alone(monkeypatch)
     monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))
     monkeypatch.setattr(outside, "loop_check", lambda *args: None)
+    result = _diagnose(tmp_path)
+    assert result["verdict"] == "unexplained" and not result["effects"], result["verdict"]
+    assert [e["name"] for e in result["partial_effects"]] == ["valve_lag"]
+    assert result["rival"]["name"] == "hysteresis_loop" and result["rival"]["better"]
+
+
+@pytest.mark.thorough  # the checks shown load-bearing: in make test-thorough, with the rest
+def test_without_the_three_the_hysteresis_is_named_a_valve_lag(tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    _eight_alone(monkeypatch)
+    monkeypatch.setattr(engine, "data_alone_bic", lambda *args: float("inf"))
+    monkeypatch.setattr(outside, "loop_check", lambda *args: None)
+    monkeypatch.setattr(engine.loop_rival, "closer", lambda library, *args: library)
     result = _diagnose(tmp_path)
     assert [e["name"] for e in result["effects"]] == ["valve_lag"], result["verdict"]
