@@ -72,6 +72,13 @@ def raw_rms_deg(problem: Problem, angle_deg: np.ndarray, fitting: np.ndarray, sc
     return rms(problem, angle_deg, offset_of(problem, angle_deg, fitting), scored)
 
 
+def raw_misfit_deg(problem: Problem, angle_deg: np.ndarray, fitting: np.ndarray,
+                   scored: np.ndarray) -> np.ndarray:
+    """A model's raw error over `scored` in time order, with its own constant offset fitted on
+    `fitting` (offset_of)."""
+    return problem.residual(angle_deg)[scored] - offset_of(problem, angle_deg, fitting)
+
+
 def at_noise(raw_deg: float, noise_deg: float) -> bool:
     """A raw RMS error at the sensor's noise: within TIE_NOISE times it."""
     return raw_deg <= TIE_NOISE * noise_deg
@@ -241,11 +248,8 @@ def effects_follow(problem: Problem, nominal_angle_deg: np.ndarray, refit: Fit, 
     named = {"nominal": nominal_angle_deg, "refit": plain.angle_deg, "augmented": augmented.angle_deg}
     errors = raw_errors(problem, fitting, held, named)
     scored = fitting | held
-
-    def raw_misfit(angle_deg: np.ndarray) -> np.ndarray:  # in time order, an offset of its own
-        return problem.residual(angle_deg)[scored] - offset_of(problem, angle_deg, fitting)
-
-    difference = loss_difference(raw_misfit(augmented.angle_deg), raw_misfit(plain.angle_deg))
+    difference = loss_difference(raw_misfit_deg(problem, augmented.angle_deg, fitting, scored),
+                                 raw_misfit_deg(problem, plain.angle_deg, fitting, scored))
     again = RawJudgement(errors.raw_deg["refit"], errors.raw_deg["augmented"], errors.heldout_deg["nominal"],
                          errors.heldout_deg["augmented"], refitted=True, difference=difference)
     return first, RawRefit(plain, augmented, errors, again)

@@ -30,13 +30,13 @@ import numpy as np
 
 from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.fitting.raw_difference import loss_difference
-from hand_service.diagnose.fitting.raw_error import raw_rms_deg
+from hand_service.diagnose.fitting.raw_error import raw_misfit_deg, raw_rms_deg
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.outside_library.material_hysteresis import MIN_TRAVEL_SHARE, loop_finger
 from hand_service.diagnose.outside_library.rival_fit import rival_model
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.search.forward_selection import SIGNIFICANT_BIC
-from hand_service.diagnose.search.rival_check import Rival, raw_misfit_deg
+from hand_service.diagnose.search.rival_check import Rival
 from hand_service.diagnose.workers import ordered_map
 
 NAME = "hysteresis_loop"

@@ -45,7 +45,7 @@ from hand_service.diagnose.fitting.raw_error import (
     TIE_NOISE,
     TIE_SHARE,
     both_at_noise,
-    offset_of,
+    raw_misfit_deg,
     raw_rms_deg,
 )
 from hand_service.diagnose.model.problem import Problem
@@ -158,13 +158,6 @@ def estimate_of(candidate: Candidate) -> dict[str, float]:
     f, size = candidate.fit, fx.BY_NAME[candidate.name].param
     return {p.member or size: float(v) for p, v in zip(f.params, f.values, strict=True)
             if p.is_effect and p.label == candidate.name}
-
-
-def raw_misfit_deg(problem: Problem, angle_deg: np.ndarray, fitting: np.ndarray,
-                   scored: np.ndarray) -> np.ndarray:
-    """A model's raw error over `scored` in time order, with its own constant offset fitted on
-    `fitting` (raw_error.offset_of)."""
-    return problem.residual(angle_deg)[scored] - offset_of(problem, angle_deg, fitting)
 
 
 def fitted_rivals(problem: Problem, refit: Fit, final: Fit, named: Sequence[str], rivals: Sequence[str],
