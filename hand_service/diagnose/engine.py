@@ -154,8 +154,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     problem = replace(build_problem(model, t_s, pressure_kpa, angle_deg, rate_hz, missing, input_hold),
                       asked=frozenset(asked))  # fitted whatever their screen (search/admission.py)
     held, fit_mask = problem.held_mask, problem.fit_mask
-    fitted, scored_held = fit_mask.copy(), held.copy()  # the raw figures' samples (raw_error.py)
-    scored = fitted | scored_held
+    fitted, scored_held, scored = fit_mask.copy(), held.copy(), fit_mask | held  # raw_error.py's samples
     measured = problem.measured_deg
     if progress:
         progress("simulating the nominal model on the recorded command")
@@ -331,8 +330,8 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
                             "(see partial_effects)")
             verdict, notes = "unexplained", []
     # a named effect standing in for physics outside the library (outside_library/checks.py)
-    names = [e.name for e in found]
-    outside = outside_checks(problem, final, names) if verdict in NAMING and found else Outside()
+    names, masks = [e.name for e in found], (fitted, scored)
+    outside = outside_checks(problem, final, names, masks) if verdict in NAMING and found else Outside()
     if said := outside.sentences(names):
         warnings.extend(said)
         if verdict == "missing_physics":

@@ -13,16 +13,21 @@ from hand_service.cli import main
 OUTSIDE = Path(__file__).resolve().parent / "outside"
 
 
+def _diagnosed(tmp_path: Path, name: str) -> dict:
+    """`hand-service diagnose` of the recording `name` with its model, its JSON."""
+    out = tmp_path / "diagnose.json"
+    assert main(["diagnose", str(OUTSIDE / f"{name}.csv"), "--model", str(OUTSIDE / f"{name}.yaml"),
+                 "--json", str(out), "--quiet"]) == 0
+    return json.loads(out.read_text())
+
+
 @pytest.mark.thorough
 def test_a_spring_stiffening_faster_than_the_cube_on_a_one_way_ramp_is_named_a_cubic_spring(
         tmp_path: Path) -> None:
     """c·(sinh(aθ) − aθ) from 0° to 90°: the cubic spring and gravity beside it fit, gravity's
     halves disagree; the cubic alone holds across the postures and is named, gravity is
     reported apart."""
-    out = tmp_path / "diagnose.json"
-    assert main(["diagnose", str(OUTSIDE / "sinh_spring_ramp.csv"), "--model",
-                 str(OUTSIDE / "sinh_spring_ramp.yaml"), "--json", str(out), "--quiet"]) == 0
-    result = json.loads(out.read_text())
+    result = _diagnosed(tmp_path, "sinh_spring_ramp")
     named = [e["name"] for e in result["effects"]]
     assert named == ["cubic_stiffness"], (result["verdict"], result["warnings"])
     assert result["verdict"] == "missing_physics"
@@ -35,10 +40,7 @@ def test_a_stiff_object_met_past_45_degrees_is_named_a_contact_there(tmp_path: P
     """An object five times as stiff as the finger, met past 45° on steps: the default search
     (contact behind the screen, searched again from the residual's onset) names a contact
     within 2° of the object."""
-    out = tmp_path / "diagnose.json"
-    assert main(["diagnose", str(OUTSIDE / "stiff_contact_steps.csv"), "--model",
-                 str(OUTSIDE / "stiff_contact_steps.yaml"), "--json", str(out), "--quiet"]) == 0
-    result = json.loads(out.read_text())
+    result = _diagnosed(tmp_path, "stiff_contact_steps")
     assert [e["name"] for e in result["effects"]] == ["contact"], result["verdict"]
     assert abs(result["effects"][0]["params"]["onset_deg"] - 45.0) < 2.0
 
@@ -53,10 +55,7 @@ def test_a_stiff_object_met_past_45_degrees_is_located_not_named_gravity(tmp_pat
 
     monkeypatch.setattr("hand_service.diagnose.engine.searched", lambda also: [
         name for name in requested.searched(()) if not fx.BY_NAME[name].admitted_by_screen])
-    out = tmp_path / "diagnose.json"
-    assert main(["diagnose", str(OUTSIDE / "stiff_contact_steps.csv"), "--model",
-                 str(OUTSIDE / "stiff_contact_steps.yaml"), "--json", str(out), "--quiet"]) == 0
-    result = json.loads(out.read_text())
+    result = _diagnosed(tmp_path, "stiff_contact_steps")
     assert result["verdict"] == "unexplained" and result["effects"] == [], result["verdict"]
     onset = result["onset"]
     assert onset is not None and onset["compared"] == "fitted" and onset["side"] == "above"
@@ -68,12 +67,25 @@ def test_a_loop_in_the_angle_is_hysteresis_not_dry_friction(tmp_path: Path) -> N
     """A Bouc–Wen loop (±0.1 N·m, turning over within about 2.9° of travel) on a slow ramp:
     dry friction was named for it. The loop fitted in full in its place wins, and its travel
     is a loop's, not a friction's: outside the library, with the travel and the torque."""
-    out = tmp_path / "diagnose.json"
-    assert main(["diagnose", str(OUTSIDE / "boucwen_ramp.csv"), "--model", str(OUTSIDE / "boucwen_ramp.yaml"),
-                 "--json", str(out), "--quiet"]) == 0
-    result = json.loads(out.read_text())
+    result = _diagnosed(tmp_path, "boucwen_ramp")
     assert result["verdict"] == "unexplained" and result["effects"] == [], result["verdict"]
     loop = result["hysteresis"]
     assert loop is not None and loop["delta_bic"] > 10.0 and loop["memory_delta_bic"] > 10.0, loop
     assert 1.5 < loop["travel_deg"] < 6.0 and abs(loop["torque_nm"] / 0.1 - 1.0) < 0.3, loop
     assert any("hysteresis is outside the library" in w for w in result["warnings"])
+
+
+@pytest.mark.thorough
+def test_a_backlash_on_steps_is_a_play_before_the_sensor_not_dry_friction(tmp_path: Path) -> None:
+    """A play of 3° in all between the finger and its sensor, on steps: dry friction was named
+    for it, `dominant` (both leave the angle short of the spring's line, on the side it came
+    from). The play fitted in friction's place follows the raw angle three times closer, at
+    its true width: outside the library."""
+    result = _diagnosed(tmp_path, "backlash_steps")
+    assert result["verdict"] == "unexplained" and result["effects"] == [], result["verdict"]
+    assert "coulomb_friction" in [e["name"] for e in result["partial_effects"]]
+    play = result["play"]
+    assert play is not None and abs(play["half_width_deg"] - 1.5) < 0.15, play
+    assert play["raw_rmse_deg"] <= 0.5 * play["named_raw_rmse_deg"], play
+    assert any("backlash is outside the library" in w for w in result["warnings"])
+

@@ -27,6 +27,7 @@ PLAIN_BOUNDS = (0.05, 20.0)  # k, B and N, as factors of their fitted values
 
 
 Build = Callable[[SimFinger, np.ndarray], SimFinger]
+Sensed = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (simulated angle, extra) -> what the sensor reads
 
 
 @dataclass(frozen=True)
@@ -44,9 +45,10 @@ def fit_rival(problem: Problem, final: Fit, replaced: list[str], extra0: np.ndar
 
 
 def rival_model(problem: Problem, final: Fit, replaced: list[str], extra0: np.ndarray, lower: np.ndarray,
-                upper: np.ndarray, build: Build) -> Rival:
+                upper: np.ndarray, build: Build, sensed: Sensed | None = None) -> Rival:
     """`final` with the effects `replaced` at neutral, and `build(finger, extra)` adding the
-    rival's physics for its parameters `extra` (from extra0, within lower and upper). k, B
+    rival's physics for its parameters `extra` (from extra0, within lower and upper), or
+    `sensed(angle, extra)` putting it between the simulated angle and the sensor. k, B
     and N are held by the same prior as `final` was (the engine's, or the nominal's where
     the effect's fit needed it), so a comparison's gain is the data's alone. Returns the
     innovations' RSS on the fitting samples, the fitted `extra` and the rival's angle."""
@@ -61,8 +63,12 @@ def rival_model(problem: Problem, final: Fit, replaced: list[str], extra0: np.nd
     def finger(x: np.ndarray) -> SimFinger:
         return build(problem.finger(plain, x[:n_plain] * start, without), x[n_plain:])
 
+    def angle_of(x: np.ndarray) -> np.ndarray:
+        angle = problem.simulate(finger(x))
+        return angle if sensed is None else sensed(angle, x[n_plain:])
+
     def rows(x: np.ndarray) -> np.ndarray:
-        error = error_rows(problem, problem.simulate(finger(x)))
+        error = error_rows(problem, angle_of(x))
         return np.concatenate((error, prior_rows(x[:n_plain] * start))) if prior_rows.held else error
 
     x0 = np.concatenate((np.ones(n_plain), extra0))
@@ -71,5 +77,5 @@ def rival_model(problem: Problem, final: Fit, replaced: list[str], extra0: np.nd
     result = least_squares(rows, x0, bounds=(low, high), method="trf", x_scale="jac", diff_step=1e-6,
                            max_nfev=60, ftol=cost_tolerance(problem.n_fit), xtol=1e-7, gtol=1e-8,
                            **parallel_columns())
-    angle = problem.simulate(finger(result.x))
+    angle = angle_of(result.x)
     return Rival(problem.fit_rss(problem.innovations(angle)), result.x[n_plain:], angle)
