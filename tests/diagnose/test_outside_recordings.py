@@ -89,3 +89,16 @@ def test_a_backlash_on_steps_is_a_play_before_the_sensor_not_dry_friction(tmp_pa
     assert play["raw_rmse_deg"] <= 0.5 * play["named_raw_rmse_deg"], play
     assert any("backlash is outside the library" in w for w in result["warnings"])
 
+
+@pytest.mark.thorough
+def test_a_gain_saturating_with_pressure_is_not_named_gravity_and_a_cubic_spring(tmp_path: Path) -> None:
+    """N·p/(1 + p/1000 kPa) under a multisine: gravity and a cubic spring bend the static map
+    as the saturating gain does and were named, `dominant` (structure left). The stiffening
+    with pressure (on request), fitted in their place, follows the raw angle closer beyond
+    the recording's fluctuation: nothing is named."""
+    result = _diagnosed(tmp_path, "saturating_gain_multisine")
+    assert result["verdict"] == "unexplained" and result["effects"] == [], result["verdict"]
+    rival = result["rival"]
+    assert rival is not None and rival["name"] == "pressure_stiffening" and rival["better"], rival
+    assert rival["raw_rmse_deg"] < rival["named_raw_rmse_deg"]
+    assert "gravity" in [e["name"] for e in result["partial_effects"]]

@@ -119,6 +119,7 @@ FIXTURES = [("outside", "sinh_spring_ramp"),
             pytest.param("outside", "stiff_contact_steps", marks=pytest.mark.thorough),
             ("outside", "boucwen_ramp"), pytest.param("outside", "backlash_prbs", marks=pytest.mark.thorough),
             pytest.param("outside", "backlash_steps", marks=pytest.mark.thorough),
+            pytest.param("outside", "saturating_gain_multisine", marks=pytest.mark.thorough),
             pytest.param("real", "emps", marks=pytest.mark.thorough)]
 
 

@@ -8,7 +8,7 @@ reversal. Over a recording whose command jumps between levels, where the finger 
 rest from either side, a static map that bends (gravity's sine, a cubic spring) can take
 what the loop does, follow the recorded angle to its noise, and be graded `complete`
 (docs/results.md §12.36, §12.42). material_hysteresis.py puts a loop in dry friction's
-place only; here, where the verdict would be `complete`, beside the library's rivals
+place only; here, wherever the verdict would be `missing_physics`, beside the library's rivals
 (rival_check.py; of those that stand, the closer is said), the simulator's loop (Dahl's
 form, material_hysteresis.loop_finger) is fitted in place of all the named effects, k, B, N,
 its torque and its travel refitted by output error (rival_fit.rival_model), and judged as a
@@ -19,7 +19,8 @@ the named model by more would not be named had it been searched), hold a loop's 
 same loop with its travel held at material_hysteresis's floor, where it turns over as
 friction does, loses to it by more than SIGNIFICANT_BIC: a loop that is a library friction
 is no other physics than the friction), and the raw angle must not find it worse than the named
-model (raw_difference.py). Then the grade is `dominant`, and the loop is said.
+model (raw_difference.py). Then the grade is `dominant`, and the loop is said (where
+structure is left, only a loop the raw angle favours: rival_check.py's module doc).
 """
 
 from __future__ import annotations

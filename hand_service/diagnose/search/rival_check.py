@@ -10,7 +10,7 @@ where the imitation follows the recording to its noise the grade was `complete`
 (docs/results.md §12.36, §12.38). Fitting them ungated moves the wrong names rather than
 removing them (a stiffening stood in for a missing gravity).
 
-So, where the verdict would be `missing_physics` graded `complete`, each rival (RIVALS,
+So, wherever the verdict would be `missing_physics`, each rival (RIVALS,
 those of them not searched past the screen and not in the model) is fitted in place of the
 named effects, from the plain refit, as a first round fits a candidate
 (forward_selection.beside), on the innovations like the named model; both are then
@@ -28,7 +28,10 @@ effect on the raw signal, and nothing is named: the verdict is `unexplained`, th
 effects go to `partial_effects` and the sentence says which effect to ask for. In the truth
 battery that was a chamber stiffening with pressure named `gravity` (`dominant`), and an
 outside probe's gain saturating with pressure named gravity and a cubic spring, where the
-stiffening followed the raw angle 27 % closer.
+stiffening followed the raw angle 27 % closer. Where structure is left (the grade
+`dominant` already) a rival that stands changes nothing and goes unsaid; one the raw angle
+favours still leaves nothing named (the probe's second saturating gain: the stiffening
+33 % closer than gravity and a cubic spring, graded `dominant` for the structure left).
 """
 
 from __future__ import annotations
