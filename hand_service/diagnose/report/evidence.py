@@ -48,7 +48,8 @@ def _dead_time(c: Context) -> str:
 
 def _coulomb(c: Context) -> str:
     """What this recording shows of dry friction: how much of it the finger spent nearly
-    still (where friction holds it), and, only if it swung freely, the decay per cycle."""
+    still (where friction holds it), and, only if it swung freely, the decay per cycle the fitted
+    friction gives (the model's figure: a play or a material's loop would give another)."""
     still = np.abs(c.velocity_deg_per_s) < SLOW_DEG_PER_S
     band_deg = np.degrees(c.value / c.stiffness_nm_per_rad)
     text = (f"dry friction of about {c.value:.2g} N·m: the finger can rest anywhere within "
@@ -56,7 +57,8 @@ def _coulomb(c: Context) -> str:
             f"(under {SLOW_DEG_PER_S:g} deg/s) for {100 * still.mean():.0f} % of this recording")
     if free_swing_s(c) > 0.0:
         per_cycle_deg = np.degrees(4.0 * c.value / c.stiffness_nm_per_rad)
-        text += f"; its free swings lose about {per_cycle_deg:.2g} deg of amplitude per cycle (4·Tc/k)"
+        text += (f"; by the fitted friction its free swings would lose about {per_cycle_deg:.2g} deg of "
+                 "amplitude per cycle (4·Tc/k: the model's figure, not measured from the swings)")
     return text
 
 
