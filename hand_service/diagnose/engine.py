@@ -389,7 +389,7 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     if verdict == "missing_physics" and graded:  # on-request effects, a loop: the closer stands
         tried = rival_check.rivals_to_try(ungated, [*model.effects, *names])
         on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma)
-        rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma)
+        rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma, bool(left))
         rival = None if left and rival is not None and not rival.better else rival  # `dominant` already
     if rival is not None:  # a rival the search did not try follows the raw angle as well, or better
         warnings.append(left := rival.sentence())

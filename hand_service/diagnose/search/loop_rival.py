@@ -49,10 +49,11 @@ TORQUE_BOUNDS = (1e-3, 1e3)  # factors of the start
 
 
 def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str], fitting: np.ndarray,
-                  scored: np.ndarray, noise_deg: float) -> Rival | None:
+                  scored: np.ndarray, noise_deg: float, better_only: bool = False) -> Rival | None:
     """The loop fitted in place of the `named` effects of `final` (module doc): a Rival when
     it stands, else None. `refit` is the plain model, `noise_deg` the sensor's noise the fits
-    estimate."""
+    estimate. `better_only` (structure left: only a rival the raw angle favours counts) fits
+    the memory's loop only where the free loop follows the raw angle better."""
     span_deg = float(np.ptp(final.angle_deg[problem.fit_mask]))
     if not named or span_deg <= 0.0:
         return None
@@ -70,7 +71,16 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
                              lambda f, x: loop_finger(f, x[0] * torque0_nm, travel(x)))
         return fitted, travel(fitted.extra)
 
-    (loop, travel_deg), (friction, _) = ordered_map(one, [True, False])
+    named_err = raw_misfit_deg(problem, final.angle_deg, fitting, scored)
+    if better_only:
+        loop, travel_deg = one(True)
+        finite = bool(np.all(np.isfinite(loop.angle_deg)))
+        if not (finite and loss_difference(named_err, raw_misfit_deg(problem, loop.angle_deg, fitting,
+                                                                      scored)).b_better):
+            return None
+        friction = one(False)[0]
+    else:
+        (loop, travel_deg), (friction, _) = ordered_map(one, [True, False])
     if not np.all(np.isfinite(loop.angle_deg)):
         return None
     plain_rss = problem.fit_rss(problem.innovations(refit.angle_deg))
@@ -80,7 +90,6 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
     named_params = sum(p.is_effect for p in final.params)
     tie = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), loop.rss, problem.n_fit,
                           2 - named_params) > -SIGNIFICANT_BIC
-    named_err = raw_misfit_deg(problem, final.angle_deg, fitting, scored)
     estimate = {"torque_nm": float(loop.extra[0] * torque0_nm), "travel_deg": travel_deg}
     significant = gain > SIGNIFICANT_BIC and memory > SIGNIFICANT_BIC and tie
     rival = Rival(NAME, tuple(named), estimate, gain, significant,
@@ -92,11 +101,13 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
 
 
 def closer(library: Rival | None, problem: Problem, refit: Fit, final: Fit, named: Sequence[str],
-           fitting: np.ndarray, scored: np.ndarray, noise_deg: float) -> Rival | None:
+           fitting: np.ndarray, scored: np.ndarray, noise_deg: float,
+           better_only: bool = False) -> Rival | None:
     """Of the library's rival that stands (`library`, rival_check.strongest) and the loop in
     place of the `named` effects, the one that stands closer to the raw angle, or None. No
-    loop where `hysteresis` is named: the named model holds one already."""
+    loop where `hysteresis` is named: the named model holds one already. `better_only`:
+    loop_in_place's."""
     if "hysteresis" in named:
         return library
-    loop = loop_in_place(problem, refit, final, named, fitting, scored, noise_deg)
+    loop = loop_in_place(problem, refit, final, named, fitting, scored, noise_deg, better_only)
     return min((r for r in (library, loop) if r is not None), key=lambda r: r.rival_raw_deg, default=None)
