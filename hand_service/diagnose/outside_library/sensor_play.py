@@ -14,16 +14,22 @@ on steps was named dry friction, `dominant` (docs/results.md §12.75).
 
 Before dry friction is named, the play is fitted in its place: the final model without the
 friction (its other found effects held as fitted), k, B, N and h refitted by output error
-(rival_fit.rival_model), the play operator applied to the simulated angle (Krasnosel'skii
-and Pokrovskii, Systems with Hysteresis, 1989: y = min(max(y_prev, x − h), x + h), from
-the simulated start). h stands for the friction's torque: no parameter is charged. The play
-wins when it beats the named model on the innovations by more than SIGNIFICANT_BIC, and on
-the raw angle (each simulated from the recorded command, an offset each,
-fitting/raw_error.py) beyond the recording's fluctuation (fitting/raw_difference.py) and by
-RAW_SHARE of the named model's error or more. The last keeps the friction's name where the
-library's smooth friction trails a stick-slip one (a static torque above the kinetic, which
-holds the finger in a band much as a play does) by a little: on the independent truth's
-ramp the play came 16 % closer; on the probe's backlash, two thirds.
+from the screen's best width (rival_fit.rival_model), the play operator applied to the
+simulated angle (Krasnosel'skii and Pokrovskii, Systems with Hysteresis, 1989:
+y = min(max(y_prev, x − h), x + h), from the simulated start). h stands for the friction's
+torque: no parameter is charged. The play wins when it beats the named model on the
+innovations by more than SIGNIFICANT_BIC, and on the raw angle (each simulated from the
+recorded command, an offset each, fitting/raw_error.py) beyond the recording's fluctuation
+(fitting/raw_difference.py), its raw error at most RAW_SHARE of the named model's. The last
+keeps the friction's name where the library's smooth friction trails a stick-slip one (a
+static torque above the kinetic, which holds the finger in a band much as a play does) by a
+little: on the independent truth's ramp the play came 16 % closer; on the probe's backlash,
+two thirds.
+
+The fit is run only where a play helps at all: the play put on the named model's angle with
+the friction taken out (k, B and N as fitted with it), at the widths SCREEN_SHARES of the
+range, must fit the innovations better than the named model for one of them. A true
+friction's screen stays above the named model's; a backlash's falls to about half of it.
 """
 
 from __future__ import annotations
@@ -43,7 +49,7 @@ from hand_service.diagnose.workers import ordered_map
 SIGNIFICANT_BIC = 10.0
 FRICTION = "coulomb_friction"
 RAW_SHARE = 0.5  # the play's raw error at most this share of the named model's (module doc)
-WIDTH_SHARES = (0.005, 0.02, 0.08)  # h's starts, as shares of the simulated angle's range
+SCREEN_SHARES = tuple(np.geomspace(0.002, 0.2, 13))  # the screen's widths h, as shares of the range
 WIDTH_BOUNDS = (1e-4, 0.5)  # h's bounds, as shares of that range
 
 
@@ -107,10 +113,19 @@ def play_check(problem: Problem, final: Fit, found: list[str], fitting: np.ndarr
         return h0_deg, rival_model(problem, final, [FRICTION], np.zeros(1), lower, upper, lambda f, x: f,
                                    lambda angle, x: play(angle, h0_deg * float(np.exp(x[0]))))
 
-    h0_deg, rival = min(ordered_map(one, WIDTH_SHARES), key=lambda fitted: fitted[1].rss)
+    # the screen: the play as fitted (k, B, N the named model's), its width on a grid
+    without = problem.simulate(final.without(problem, [FRICTION]))
+    def as_fitted(share: float) -> float:
+        return problem.fit_rss(problem.innovations(play(without, share * span_deg)))
+
+    screened = ordered_map(as_fitted, SCREEN_SHARES)
+    named_rss = problem.fit_rss(problem.innovations(final.angle_deg))
+    if min(screened) >= named_rss:
+        return None  # a play does not help at all
+    h0_deg, rival = one(float(SCREEN_SHARES[int(np.argmin(screened))]))
     if not np.all(np.isfinite(rival.angle_deg)):
         return None
-    gain = stats.delta_bic(problem.fit_rss(problem.innovations(final.angle_deg)), rival.rss, problem.n_fit, 0)
+    gain = stats.delta_bic(named_rss, rival.rss, problem.n_fit, 0)
     named_raw = raw_rms_deg(problem, final.angle_deg, fitting, scored)
     play_raw = raw_rms_deg(problem, rival.angle_deg, fitting, scored)
     difference = loss_difference(raw_misfit_deg(problem, final.angle_deg, fitting, scored),
