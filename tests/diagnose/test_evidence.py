@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
 
 from hand_service.diagnose.fitting.raw_error import RawErrors
-from hand_service.diagnose.report.evidence import Context, _coulomb
+from hand_service.diagnose.report.evidence import Context, _coulomb, _hysteresis
 
 RATE_HZ = 100.0
 T = np.arange(int(10 * RATE_HZ)) / RATE_HZ
@@ -78,3 +79,18 @@ def test_a_window_from_the_start_prints_without_a_minus_zero(capsys) -> None:
     out = capsys.readouterr().out
     assert "windows (s): 0.00 to 0.44, 1.20 to 1.50" in out, out
     assert "± 15 (unknown: over 100 % of the value)" in out, out
+
+
+def test_a_loop_turning_within_a_hair_of_the_range_is_said_to_be_a_friction_too() -> None:
+    """Dahl's loop named on an over-damped finger whose dry friction sticks: turning within
+    0.64° of 78°, the sentence says it may be a friction, and how the library's fared."""
+    angle = np.linspace(0.0, 78.0, T.size)
+    context = _context(angle, np.zeros(T.size))
+    context.problem.measured_deg = angle
+    sticking = replace(context, value=0.0065, shape={"travel_deg": 0.64},
+                       round_bic={"hysteresis": 191.0, "coulomb_friction": -33.0})
+    text = _hysteresis(sticking)
+    assert "0.82 % of the 78 deg recorded" in text and "may be such a friction" in text, text
+    assert "gained ΔBIC -33 against the loop's 191" in text
+    material = _hysteresis(replace(sticking, shape={"travel_deg": 3.0}))
+    assert "friction" not in material and "3 deg of travel" in material, material

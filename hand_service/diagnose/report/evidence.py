@@ -7,7 +7,7 @@ and the statistics), so adding an effect to the library needs nothing in this fi
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -20,7 +20,8 @@ from hand_service.diagnose.recording.response_onset import delay_seen, onset_del
 @dataclass
 class Context:
     """What the sentences may quote: the problem, the augmented finger's simulated angle and
-    the found value of the effect."""
+    the found value of the effect, its fitted shape, and every candidate's ΔBIC in the
+    round it was named in."""
 
     problem: Problem
     angle_deg: np.ndarray
@@ -28,6 +29,8 @@ class Context:
     stiffness_nm_per_rad: float
     damping_nms_per_rad: float
     value: float
+    shape: dict[str, float] = field(default_factory=dict)
+    round_bic: dict[str, float] = field(default_factory=dict)
 
 
 def _valve_lag(c: Context) -> str:
@@ -63,6 +66,31 @@ def _coulomb(c: Context) -> str:
 
 
 SLOW_DEG_PER_S = 2.0  # the library's friction smoothing: below it, friction holds the finger
+# a loop turning within this share of the recorded range turns as a sticking friction does
+STICKING_TRAVEL_SHARE = 0.01
+
+
+def _hysteresis(c: Context) -> str:
+    """The loop's torque and travel; where the travel is a friction's (a hair of the range
+    recorded), that Dahl's form is a friction model too, and, where the round it was named
+    in measured it, how the library's smooth dry friction fared there."""
+    text = f"a torque of up to {c.value:.2g} N·m holds the finger back, a loop in the angle"
+    travel_deg = c.shape.get("travel_deg")
+    if travel_deg is None:
+        return text
+    text += f" that turns over within about {travel_deg:.2g} deg of travel after each turn"
+    span_deg = float(np.ptp(c.problem.measured_deg))
+    if not (span_deg > 0.0 and travel_deg <= STICKING_TRAVEL_SHARE * span_deg):
+        return text
+    text += (f"; turning within {100.0 * travel_deg / span_deg:.2g} % of the {span_deg:.0f} deg recorded, "
+             "it turns as a dry friction that sticks before it slides does (Dahl's form is a friction "
+             "model too), so it may be such a friction")
+    friction, own = c.round_bic.get("coulomb_friction"), c.round_bic.get("hysteresis")
+    if friction is not None and own is not None and friction < own:
+        text += (f"; the library's coulomb_friction, smooth below {SLOW_DEG_PER_S:g} deg/s so that a finger "
+                 f"it holds creeps, gained ΔBIC {friction:.0f} against the loop's {own:.0f} in the round "
+                 "the loop was named in")
+    return text
 
 
 def free_swing_s(c: Context) -> float:
@@ -128,7 +156,7 @@ def _deadzone(c: Context) -> str:
 SENTENCES: dict[str, Callable[[Context], str]] = {
     "valve_lag": _valve_lag, "dead_time": _dead_time, "coulomb_friction": _coulomb,
     "cubic_stiffness": _cubic, "gravity": _gravity, "asymmetric_stiffness": _asymmetric,
-    "quadratic_damping": _quadratic, "pressure_deadzone": _deadzone,
+    "quadratic_damping": _quadratic, "pressure_deadzone": _deadzone, "hysteresis": _hysteresis,
 }
 
 

@@ -32,11 +32,13 @@ def found_effect(problem: Problem, c: Candidate, selection: Selection,
     shape_std = {p.member: float(s) for p, s in zip(final.params, stds, strict=True)
                  if p.label == c.name and p.member}
     angle = final.angle_deg
+    named_in = next((r for r in selection.rounds if c in r.candidates), None)
     context = Context(problem, angle, velocity_deg_per_s(angle, problem.rate_hz),
-                      final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value)
+                      final.value("stiffness_nm_per_rad"), final.value("damping_nms_per_rad"), value, shape,
+                      {} if named_in is None else {x.name: float(x.delta_bic) for x in named_in.candidates})
     if without_with is None:
-        base = next(r.base.angle_deg for r in selection.rounds if c in r.candidates)
-        without_with = (base, c.fit.angle_deg)
+        assert named_in is not None
+        without_with = (named_in.base.angle_deg, c.fit.angle_deg)
     # without and with the effect, against the raw angle, a constant offset each
     errors = raw_error.raw_errors(problem, *scored, {"before": without_with[0], "after": without_with[1]})
     size = effect_size.derived_size(final, c.name)
