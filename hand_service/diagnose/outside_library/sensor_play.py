@@ -42,12 +42,11 @@ from hand_service.diagnose.fitting.output_error import Fit
 from hand_service.diagnose.fitting.raw_difference import LossDifference, loss_difference
 from hand_service.diagnose.fitting.raw_error import raw_misfit_deg, raw_rms_deg
 from hand_service.diagnose.model.problem import Problem
+from hand_service.diagnose.outside_library.material_hysteresis import FRICTION, SIGNIFICANT_BIC
 from hand_service.diagnose.outside_library.rival_fit import rival_model
 from hand_service.diagnose.residual import stats
 from hand_service.diagnose.workers import ordered_map
 
-SIGNIFICANT_BIC = 10.0
-FRICTION = "coulomb_friction"
 RAW_SHARE = 0.5  # the play's raw error at most this share of the named model's (module doc)
 SCREEN_SHARES = tuple(np.geomspace(0.002, 0.2, 13))  # the screen's widths h, as shares of the range
 WIDTH_BOUNDS = (1e-4, 0.5)  # h's bounds, as shares of that range
