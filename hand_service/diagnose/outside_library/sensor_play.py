@@ -45,7 +45,6 @@ from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.outside_library.material_hysteresis import FRICTION, SIGNIFICANT_BIC
 from hand_service.diagnose.outside_library.rival_fit import rival_model
 from hand_service.diagnose.residual import stats
-from hand_service.diagnose.workers import ordered_map
 
 RAW_SHARE = 0.5  # the play's raw error at most this share of the named model's (module doc)
 SCREEN_SHARES = tuple(np.geomspace(0.002, 0.2, 13))  # the screen's widths h, as shares of the range
@@ -105,23 +104,18 @@ def play_check(problem: Problem, final: Fit, found: list[str], fitting: np.ndarr
     if not span_deg > 0.0:
         return None
 
-    def one(share: float):
-        h0_deg = share * span_deg
-        lower = np.array([np.log(WIDTH_BOUNDS[0] / share)])
-        upper = np.array([np.log(WIDTH_BOUNDS[1] / share)])
-        return h0_deg, rival_model(problem, final, [FRICTION], np.zeros(1), lower, upper, lambda f, x: f,
-                                   lambda angle, x: play(angle, h0_deg * float(np.exp(x[0]))))
-
-    # the screen: the play as fitted (k, B, N the named model's), its width on a grid
+    # the screen: the play on the named model's angle without the friction (k, B, N as fitted)
     without = problem.simulate(final.without(problem, [FRICTION]))
-    def as_fitted(share: float) -> float:
-        return problem.fit_rss(problem.innovations(play(without, share * span_deg)))
-
-    screened = ordered_map(as_fitted, SCREEN_SHARES)
+    screened = [problem.fit_rss(problem.innovations(play(without, share * span_deg)))
+                for share in SCREEN_SHARES]
     named_rss = problem.fit_rss(problem.innovations(final.angle_deg))
     if min(screened) >= named_rss:
         return None  # a play does not help at all
-    h0_deg, rival = one(float(SCREEN_SHARES[int(np.argmin(screened))]))
+    share = float(SCREEN_SHARES[int(np.argmin(screened))])  # the fit's start; x: log(h / h0)
+    h0_deg = share * span_deg
+    rival = rival_model(problem, final, [FRICTION], np.zeros(1), np.log(np.array(WIDTH_BOUNDS[:1]) / share),
+                        np.log(np.array(WIDTH_BOUNDS[1:]) / share), lambda f, x: f,
+                        lambda angle, x: play(angle, h0_deg * float(np.exp(x[0]))))
     if not np.all(np.isfinite(rival.angle_deg)):
         return None
     gain = stats.delta_bic(named_rss, rival.rss, problem.n_fit, 0)

@@ -30,7 +30,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from hand_service.diagnose.fitting.output_error import Fit
-from hand_service.diagnose.fitting.raw_difference import loss_difference
+from hand_service.diagnose.fitting.raw_difference import LossDifference, loss_difference
 from hand_service.diagnose.fitting.raw_error import raw_misfit_deg, raw_rms_deg
 from hand_service.diagnose.model.problem import Problem
 from hand_service.diagnose.outside_library.material_hysteresis import MIN_TRAVEL_SHARE, loop_finger
@@ -72,17 +72,19 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
         return fitted, travel(fitted.extra)
 
     named_err = raw_misfit_deg(problem, final.angle_deg, fitting, scored)
-    if better_only:
+
+    def against_named(angle_deg: np.ndarray) -> LossDifference:
+        return loss_difference(named_err, raw_misfit_deg(problem, angle_deg, fitting, scored))
+
+    if better_only:  # the free loop first: the memory's only where it is better
         loop, travel_deg = one(True)
-        finite = bool(np.all(np.isfinite(loop.angle_deg)))
-        if not (finite and loss_difference(named_err, raw_misfit_deg(problem, loop.angle_deg, fitting,
-                                                                      scored)).b_better):
+        if not (np.all(np.isfinite(loop.angle_deg)) and against_named(loop.angle_deg).b_better):
             return None
         friction = one(False)[0]
     else:
         (loop, travel_deg), (friction, _) = ordered_map(one, [True, False])
-    if not np.all(np.isfinite(loop.angle_deg)):
-        return None
+        if not np.all(np.isfinite(loop.angle_deg)):
+            return None
     plain_rss = problem.fit_rss(problem.innovations(refit.angle_deg))
     gain = stats.delta_bic(plain_rss, loop.rss, problem.n_fit, 2)
     memory = stats.delta_bic(friction.rss, loop.rss, problem.n_fit, 1)
@@ -95,7 +97,7 @@ def loop_in_place(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
     rival = Rival(NAME, tuple(named), estimate, gain, significant,
                   raw_rms_deg(problem, loop.angle_deg, fitting, scored),
                   raw_rms_deg(problem, final.angle_deg, fitting, scored), noise_deg,
-                  loss_difference(named_err, raw_misfit_deg(problem, loop.angle_deg, fitting, scored)),
+                  against_named(loop.angle_deg),
                   loop=True)
     return rival if rival.stands else None
 
