@@ -388,9 +388,9 @@ def _diagnose(model: FingerModel, t_s: np.ndarray, pressure_kpa: np.ndarray, ang
     rival, names, ungated = None, [e.name for e in found], [s for s in search if not gated(problem, s)]
     if verdict == "missing_physics" and graded:  # on-request effects, a loop: the closer stands
         tried = rival_check.rivals_to_try(ungated, [*model.effects, *names])
-        on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma)
-        rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma, bool(left))
-        rival = None if left and rival is not None and not rival.better else rival  # `dominant` already
+        only = bool(left)  # structure left (`dominant` already): only a rival the raw angle favours
+        on_request = rival_check.strongest(problem, refit, final, names, tried, fitted, scored, sigma, only)
+        rival = loop_rival.closer(on_request, problem, refit, final, names, fitted, scored, sigma, only)
     if rival is not None:  # a rival the search did not try follows the raw angle as well, or better
         warnings.append(left := rival.sentence())
         if rival.better:  # the named effects do not beat another effect on the raw angle

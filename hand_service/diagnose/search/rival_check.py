@@ -183,10 +183,13 @@ def fitted_rivals(problem: Problem, refit: Fit, final: Fit, named: Sequence[str]
 
 
 def strongest(problem: Problem, refit: Fit, final: Fit, named: Sequence[str], rivals: Sequence[str],
-              fitting: np.ndarray, scored: np.ndarray, noise_deg: float) -> Rival | None:
-    """The rival that stands (Rival.stands) with the lowest raw error, or None."""
+              fitting: np.ndarray, scored: np.ndarray, noise_deg: float,
+              better_only: bool = False) -> Rival | None:
+    """The rival that stands (Rival.stands) with the lowest raw error, or None; with
+    `better_only` (structure left: the grade is `dominant` already), of those the raw angle
+    favours (Rival.better) only."""
     if not rivals:
         return None
     every = fitted_rivals(problem, refit, final, named, rivals, fitting, scored, noise_deg)
-    standing = [r for r in every if r.stands]
+    standing = [r for r in every if r.stands and (r.better or not better_only)]
     return min(standing, key=lambda r: r.rival_raw_deg, default=None)
