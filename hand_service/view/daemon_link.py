@@ -49,6 +49,7 @@ def brief_status(status: dict[str, Any]) -> dict[str, Any]:
     return {
         "state": status.get("state"), "t_s": status.get("t_s"), "rate_hz": status.get("rate_hz"),
         "deadline_misses": timing.get("deadline_misses", 0),
+        "skipped_deadlines": timing.get("skipped_deadlines", 0),
         "tick_us_p99": timing["tick_ns_p99"] / 1e3 if "tick_ns_p99" in timing else None,
         "faults_total": faults.get("total", 0), "faults": faults.get("counts", {}),
         "last_fault": None if last is None else {k: last.get(k) for k in ("cause", "finger", "detail", "t_s")

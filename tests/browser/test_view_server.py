@@ -83,10 +83,13 @@ def test_the_stream_needs_the_token_and_carries_the_rings_rows(tmp_path: Path) -
         steps = np.diff(t) / period_s
         assert np.allclose(steps, np.round(steps), atol=0.1) and (np.round(steps) >= 1).all(), \
             "a row repeated or out of order between frames"
-        # a gap is a tick the daemon itself skipped (it resumes on the schedule after a late
-        # wake-up on a loaded machine), never a row the view lost
-        skipped = int(np.sum(np.round(steps) - 1))
-        assert skipped == 0 or frames[-1]["status"]["deadline_misses"] > 0, "a row missing between frames"
+        # a gap is a deadline the daemon itself skipped (it resumes on the schedule after a late
+        # wake-up or a slow check on a loaded machine: not always a miss), never a row the view
+        # lost; the daemon's count, asked after the frames, covers every gap in them
+        gaps = int(np.sum(np.round(steps) - 1))
+        skipped_after = hand.status()["timing"]["skipped_deadlines"]
+        assert gaps <= skipped_after, "a row missing between frames"
+        assert 0 <= frames[-1]["status"]["skipped_deadlines"] <= skipped_after  # the page's figure
         last = frames[-1]
         assert last["status"]["recording"]["active"]
         assert list(last["signals"]["fingers"]) == FINGERS

@@ -153,6 +153,7 @@ function showStatus(st) {
   if (st.rate_hz) view.ratePeriodS = 1 / st.rate_hz;
   $("t").textContent = fixed(st.t_s, 1) + " s";
   $("misses").textContent = st.deadline_misses;
+  $("skipped").textContent = st.skipped_deadlines;
   $("tick").textContent = st.tick_us_p99 === null ? "-" : fixed(st.tick_us_p99, 0) + " us";
   const counts = Object.entries(st.faults || {}).map(([k, v]) => k + " x" + v).join(", ");
   $("faults").textContent = st.faults_total + (counts ? " (" + counts + ")" : "");
