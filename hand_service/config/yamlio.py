@@ -129,6 +129,9 @@ def load_yaml(path: str | Path) -> Any:
 
 def parse_yaml(text: str, path: str | Path) -> Any:
     """Parse YAML text as load_yaml does; `path` names it in errors. Every error is one line."""
+    if flow_too_deep(text):
+        raise UserError(f"{path}: not valid YAML: nested too deeply (more than {MAX_FLOW_DEPTH} "
+                        "levels of [ or {)")
     try:
         with warnings.catch_warnings():  # an anchor defined twice: the later one holds, as in YAML 1.1
             warnings.simplefilter("ignore", ReusedAnchorWarning)
@@ -149,6 +152,41 @@ def parse_yaml(text: str, path: str | Path) -> Any:
         raise UserError(f"{path}: not valid YAML: {_one_line(exc)}") from None
     except RecursionError:
         raise UserError(f"{path}: not valid YAML: nested too deeply") from None
+
+
+# Flow collections (`[`, `{`) nested deeper than this are refused before ruamel reads them: its
+# scanner's time grows with the square of the depth until the recursion limit stops it; no
+# profile or model needs more than a few levels.
+MAX_FLOW_DEPTH = 100
+
+
+def flow_too_deep(text: str) -> bool:
+    """Whether `[` and `{` outside quotes and comments (YAML's flow collections) nest deeper
+    than MAX_FLOW_DEPTH."""
+    if text.count("[") + text.count("{") <= MAX_FLOW_DEPTH:
+        return False
+    depth = 0
+    quote = ""
+    previous = "\n"
+    comment = False
+    for char in text:
+        if comment:
+            comment = char != "\n"
+        elif quote:
+            if char == quote:
+                quote = ""
+        elif char in "'\"" and previous in " \t\n[{,:-":  # a quoted scalar starts; "finger's" is plain
+            quote = char
+        elif char == "#" and previous in " \t\n":
+            comment = True
+        elif char in "[{":
+            depth += 1
+            if depth > MAX_FLOW_DEPTH:
+                return True
+        elif char in "]}":
+            depth = max(depth - 1, 0)
+        previous = char
+    return False
 
 
 def _load(text: str, path: str | Path) -> Any:
