@@ -70,7 +70,7 @@ bench: $(STAMP)
 	$(PY) -m pytest -q -m slow
 
 # the fault matrix (docs/safety.md) on all three links, and a minute of fault-free sweeping on
-# every demo profile (make test runs every kind once). Two sessions at a time: each is a host
+# every demo profile (make test runs one kind of each family). Two sessions at a time: each is a host
 # and a board in real time, mostly waiting, and a sweep must raise no false FAULT beside
 # another's load as beside make test's; `-rA` prints what each measured
 test-faults: $(STAMP)
