@@ -215,13 +215,13 @@ def test_a_contact_screened_out_of_the_first_round_is_named_alone(tmp_path) -> N
     3.3 times the noise): behind the screen a cubic spring was picked first and the contact
     beside it (ΔBIC 296, then 2 907: docs/results.md §12.52); asked again from the first
     round, the contact is named alone."""
-    from tests.diagnose.test_sentence_checks import _diagnosed
+    from tests.diagnose.checked import diagnosed
     from tests.diagnose.truth import cases as cs
 
     case = cs.build(cs.CaseSpec("contact", "vent_release", 0, "evident", family="stiff", rate_hz=1000.0,
                                 strength=5.0))
     assert case.visibility > 3.0, case.visibility
-    d = _diagnosed(*cs.write(case, tmp_path))
+    d = diagnosed(*cs.write(case, tmp_path))
     assert [e.name for e in d.effects] == ["contact"], d.warnings
 
 
@@ -231,11 +231,11 @@ def test_a_contact_behind_a_tie_of_the_eight_is_named(tmp_path) -> None:
     spring tie in the first round, the contact's screen below the cubic's; without the guard
     it never entered a round (`insufficient_excitation`, docs/results.md §12.60). Fitted
     beside the tie (`beside_a_tie`) it is named alone."""
-    from tests.diagnose.test_sentence_checks import _diagnosed
+    from tests.diagnose.checked import diagnosed
     from tests.diagnose.truth import cases as cs
 
     case = cs.build(cs.CaseSpec("contact", "pi_steps", 0, "evident"))
-    d = _diagnosed(*cs.write(case, tmp_path))
+    d = diagnosed(*cs.write(case, tmp_path))
     assert [e.name for e in d.effects] == ["contact"], d.warnings
     assert d.grade == "complete", d.warnings
 

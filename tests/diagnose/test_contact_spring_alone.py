@@ -38,10 +38,10 @@ def test_a_contact_whose_spring_a_cubic_took_is_judged_from_the_first_round(tmp_
     a cubic spring first; beside it the contact gained ten times its ΔBIC, its damper doing
     the work at each step's impact, and its spring alone did not carry itself, so nothing was
     named (docs/results.md §12.57, §12.60). Fitted from the first round, the contact is named."""
-    from tests.diagnose.test_sentence_checks import _diagnosed
+    from tests.diagnose.checked import diagnosed
 
     case = cs.build(cs.CaseSpec("contact", "steps", 0, "evident"))
     assert case.spec.id == "contact-steps-s0-evident-stiff-100hz"  # the case the truth makes
     assert case.visibility > 3.0, case.visibility
-    d = _diagnosed(*cs.write(case, tmp_path))
+    d = diagnosed(*cs.write(case, tmp_path))
     assert [e.name for e in d.effects][:1] == ["contact"], (d.verdict, d.warnings)

@@ -15,7 +15,7 @@ from scipy.signal import lfilter
 from hand_service.diagnose.fitting.raw_difference import LossDifference, loss_difference
 from hand_service.diagnose.report.sentence_checks import Facts, failures
 from hand_service.diagnose.search.rival_check import RIVALS, Rival, rivals_to_try
-from tests.diagnose.test_sentence_checks import _diagnosed, _report_failures
+from tests.diagnose.checked import diagnosed, report_failures
 from tests.diagnose.truth import cases as cs
 
 
@@ -95,11 +95,11 @@ def test_where_the_raw_angle_favours_the_rival_nothing_is_named(tmp_path: Path) 
     the raw signal, so nothing is named: `unexplained`, gravity reported apart."""
     spec = cs.CaseSpec("pressure_stiffening", "pi_steps", 0, "evident", family="overdamped", rate_hz=500.0,
                        strength=0.3)
-    d = _diagnosed(*cs.write(cs.build(spec), tmp_path))
+    d = diagnosed(*cs.write(cs.build(spec), tmp_path))
     assert d.rival is not None and d.rival.better, d.warnings
     assert d.verdict == "unexplained" and d.effects == [], d.warnings
     assert list(d.rival.named) == [e.name for e in d.partial_effects][:len(d.rival.named)]
-    assert _report_failures(d) == []
+    assert report_failures(d) == []
 
 
 def test_a_rival_the_raw_angle_finds_worse_does_not_stand() -> None:
@@ -175,7 +175,7 @@ def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path
     angle better: the grade is not `complete`, the rival is said, and every sentence passes
     the checks."""
     monkeypatch.setattr("hand_service.diagnose.engine.searched", _eight)
-    d = _diagnosed(*_stiffening_finger(tmp_path))
+    d = diagnosed(*_stiffening_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert d.grade == "dominant", d.warnings
     assert d.rival is not None and d.rival.name == "pressure_stiffening", d.warnings
@@ -183,7 +183,7 @@ def test_a_stiffening_finger_named_gravity_is_not_graded_complete(tmp_path: Path
     assert d.rival.named == tuple(e.name for e in d.effects)
     assert d.structure_left == d.rival.sentence() and d.rival.sentence() in d.warnings
     assert d.to_json()["rival"]["in_place_of"] == list(d.rival.named)
-    assert _report_failures(d) == []
+    assert report_failures(d) == []
 
 
 @pytest.mark.thorough
@@ -198,7 +198,7 @@ def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_comp
     cannot tell it from them: the grade is not `complete`, the loop is said as the library's
     hysteresis form, and every sentence passes the checks."""
     monkeypatch.setattr("hand_service.diagnose.engine.searched", _eight)
-    d = _diagnosed(*_hysteretic_finger(tmp_path))
+    d = diagnosed(*_hysteretic_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert [e.name for e in d.effects] == ["gravity", "cubic_stiffness"], d.warnings
     assert d.grade == "dominant", d.warnings
@@ -206,17 +206,17 @@ def test_a_hysteretic_finger_named_gravity_and_a_cubic_spring_is_not_graded_comp
     assert not d.rival.worse and d.rival.difference.n > 0
     assert d.to_json()["rival"]["loop"] is True
     assert "Dahl's form, the library's hysteresis" in d.structure_left
-    assert _report_failures(d) == []
+    assert report_failures(d) == []
 
 
 @pytest.mark.thorough  # the loop by default: make test keeps the outside recording's
 def test_default_names_the_loop_and_no_loop_rival_beside_it(tmp_path: Path) -> None:
     """The same finger under the default search: `hysteresis` is named, and no Dahl loop is
     fitted in its place as a rival (the named model holds one)."""
-    d = _diagnosed(*_hysteretic_finger(tmp_path))
+    d = diagnosed(*_hysteretic_finger(tmp_path))
     assert [e.name for e in d.effects] == ["hysteresis"], d.warnings
     assert d.rival is None or d.rival.name != "hysteresis_loop", d.warnings
-    assert _report_failures(d) == []
+    assert report_failures(d) == []
 
 
 def test_behind_the_screen_the_stiffening_is_named_first_where_it_beats_gravity_on_the_raw_angle(
@@ -228,6 +228,6 @@ def test_behind_the_screen_the_stiffening_is_named_first_where_it_beats_gravity_
     from tests.diagnose.test_other_first import stiffening_behind_the_screen
 
     stiffening_behind_the_screen(monkeypatch)
-    d = _diagnosed(*_stiffening_finger(tmp_path))
+    d = diagnosed(*_stiffening_finger(tmp_path))
     assert d.verdict == "missing_physics", d.warnings
     assert [e.name for e in d.effects][:1] == ["pressure_stiffening"], d.warnings

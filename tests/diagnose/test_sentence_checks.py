@@ -1,13 +1,12 @@
 """Every sentence diagnose prints is true of the recording
 (hand_service/diagnose/report/sentence_checks.py): the checks catch the false sentences real
-rigs got, and the fixtures' and a slice of the battery's reports pass them unscreened; (slow)
+rigs got, and the fixtures' (the outside recordings' in test_outside_recordings.py) and a
+slice of the battery's reports pass them unscreened; (slow)
 every real fixture's and every case of the full battery's report too."""
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import io
 import json
 import re
 from pathlib import Path
@@ -15,16 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hand_service.commands.diagnose import print_summary
 from hand_service.config.profile import load_model
 from hand_service.diagnose.engine import diagnose
 from hand_service.diagnose.recording.response_onset import onset_delay_s
 from hand_service.diagnose.recording.timebase import regular_grid
-from hand_service.diagnose.report.diagnosis import Diagnosis
 from hand_service.diagnose.report.evidence import uncertainty
-from hand_service.diagnose.report.html import evidence_rows
-from hand_service.diagnose.report.sentence_checks import Facts, evidence_row_failures, facts_of, failures
+from hand_service.diagnose.report.sentence_checks import Facts, failures
 from hand_service.recording import read_recording
+from tests.diagnose.checked import diagnosed, report_failures
 from tests.diagnose.real.table import FIXTURES as REAL_RIGS
 from tests.diagnose.truth import cases as cs
 from tests.diagnose.truth.battery import specs
@@ -96,30 +93,10 @@ def test_the_onset_is_measured_from_the_data() -> None:
     assert onset is not None and abs(onset - delay / rate) <= 2.0 / rate, onset
 
 
-def _diagnosed(recording: Path, model: Path, input_hold: str = "zoh") -> Diagnosis:
-    rec = read_recording(recording, None)
-    grid = regular_grid(rec.t_s, rec.pressure_kpa, rec.angle_deg, recording)
-    return diagnose(load_model(model, None), grid.t_s, grid.pressure_kpa, grid.angle_deg, grid.rate_hz,
-                    missing=grid.missing, input_hold=input_hold)
-
-
-def _report_failures(d: Diagnosis) -> list[str]:
-    facts = facts_of(d)
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        print_summary(d, screen=False)
-    texts = out.getvalue().splitlines() + d.notes + [e.evidence for e in d.partial_effects]
-    wrong = [f"{text[:80]}: {f}" for text in texts for f in failures(text, facts)]
-    return wrong + evidence_row_failures(d, evidence_rows(d))
-
-
-# the stiff contact (contact fitted by default there: the costliest), the backlash and the real
-# EMPS rig (make test diagnoses it in test_real_rigs.py) in test-thorough
-FIXTURES = [("outside", "sinh_spring_ramp"),
-            pytest.param("outside", "stiff_contact_steps", marks=pytest.mark.thorough),
-            ("outside", "boucwen_ramp"), pytest.param("outside", "backlash_prbs", marks=pytest.mark.thorough),
-            pytest.param("outside", "backlash_steps", marks=pytest.mark.thorough),
-            pytest.param("outside", "saturating_gain_multisine", marks=pytest.mark.thorough),
+# the outside recordings with a verdict to check run these checks in their own tests
+# (test_outside_recordings.py); the backlash on a PRBS and the real EMPS rig (make test
+# diagnoses it in test_real_rigs.py) in test-thorough
+FIXTURES = [pytest.param("outside", "backlash_prbs", marks=pytest.mark.thorough),
             pytest.param("real", "emps", marks=pytest.mark.thorough)]
 
 
@@ -130,7 +107,7 @@ def test_every_fixture_report_passes_the_checks(folder: str, name: str) -> None:
     hold = "zoh"
     if folder == "real":
         hold = json.loads((base / f"{name}_expected.json").read_text())["input_hold"]
-    assert _report_failures(_diagnosed(base / f"{name}.csv", model, hold)) == []
+    assert report_failures(diagnosed(base / f"{name}.csv", model, hold)) == []
 
 
 # the real rigs the cheap test above leaves out (Silverbox's 12 200 samples: its own test, below)
@@ -147,7 +124,7 @@ def test_every_real_rig_report_passes_the_checks(rig: str) -> None:
 def test_the_silverbox_report_passes_the_checks() -> None:
     base = HERE / "real"
     hold = json.loads((base / "silverbox_expected.json").read_text())["input_hold"]
-    assert _report_failures(_diagnosed(base / "silverbox.csv", base / "silverbox_model.yaml", hold)) == []
+    assert report_failures(diagnosed(base / "silverbox.csv", base / "silverbox_model.yaml", hold)) == []
 
 
 # the two costliest (a concealed lag at 200 Hz, dry friction at 500 Hz) in test-thorough
@@ -165,7 +142,7 @@ BATTERY_SLICE = [
 @pytest.mark.parametrize("spec", BATTERY_SLICE, ids=lambda s: s.id)
 def test_battery_reports_pass_the_checks(spec: cs.CaseSpec, tmp_path: Path) -> None:
     recording, model = cs.write(cs.build(spec), tmp_path)
-    assert _report_failures(_diagnosed(recording, model)) == []
+    assert report_failures(diagnosed(recording, model)) == []
 
 
 @pytest.mark.slow
@@ -180,7 +157,7 @@ def test_a_searched_contact_report_passes_the_checks_and_gives_its_spring_torque
     assert [e.name for e in d.effects][:1] == ["contact"]
     assert re.search(r"the spring's torque at the deepest angle reached \(\d+\.\d°\) = \S+ ± \S+ N·m",
                      d.effects[0].evidence), d.effects[0].evidence
-    assert _report_failures(d) == []
+    assert report_failures(d) == []
 
 
 @pytest.mark.slow

@@ -1,7 +1,9 @@
 """The battery labels a case of an effect beyond the eight observable by the rule
 on_request.py scores them by (tests/diagnose/truth/observability.py), not by its magnitude's
 name: an "evident" contact the calibration could not raise to its target is unobservable
-where the plain model and the eight's state torques take all but a fraction of the noise of it."""
+where the plain model and the eight's state torques take all but a fraction of the noise of it
+(test-thorough; make test keeps test_independent_battery.py's unexercised effects marked
+unobservable)."""
 
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ from tests.diagnose.truth import cases as cs
 SHALLOW = cs.CaseSpec("contact", "prbs", 0, "evident")
 
 
+@pytest.mark.thorough  # the labelling's fits, twice; make test keeps the marking of an unexercised effect
 def test_an_evident_contact_the_eight_take_is_labelled_unobservable(tmp_path: Path) -> None:
     """Labelled so when made; and a recording cached by a battery before the rule labelled it
     (its truth says observable, no labelled_by) is made again rather than scored by the old
