@@ -168,13 +168,16 @@ def flow_too_deep(text: str) -> bool:
     depth = 0
     quote = ""
     previous = "\n"
-    comment = False
+    comment = escaped = False
     for char in text:
         if comment:
             comment = char != "\n"
+        elif escaped:  # the character after a backslash in a double-quoted scalar
+            escaped = False
         elif quote:
             if char == quote:
                 quote = ""
+            escaped = quote == '"' and char == "\\"
         elif char in "'\"" and previous in " \t\n[{,:-":  # a quoted scalar starts; "finger's" is plain
             quote = char
         elif char == "#" and previous in " \t\n":

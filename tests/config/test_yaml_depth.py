@@ -31,6 +31,7 @@ def test_the_bound_itself_is_read() -> None:
 @pytest.mark.parametrize("text", [
     "description: '" + "[" * 300 + "'",                 # single-quoted
     'description: "' + "{" * 300 + '"',                 # double-quoted
+    'description: "a \\" quote ' + "[" * 300 + '"',       # an escaped quote inside
     "seed: 1   # " + "[" * 300,                         # a comment
     "name: finger's " + "x" * 3 + "\nnote: '" + "[" * 300 + "'",  # an apostrophe in a plain scalar
 ])
